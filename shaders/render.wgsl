@@ -1,0 +1,500 @@
+// synthcam renderer: compute passes over work lists built on the CPU.
+//
+// llvmpipe (lavapipe) runs every branch of a shader under a lane mask, so skipping work takes
+// separate dispatches: the CPU fills tiles that hold no edge (flat tiles); the coarse pass runs
+// one invocation per pixel of the other tiles and flags "hard" pixels; the fine pass runs one
+// invocation per hard pixel.
+//
+// Per pixel: the pixel centre (OpenCV convention: pixel (x, y) is centred at (x, y)) is mapped to
+// normalised distorted coordinates with K^-1, the Brown-Conrady distortion is inverted with Newton's
+// method (the GPU twin of camera::Distortion::undistort), and the local Jacobian d(xu)/d(q) of that
+// inverse gives every sub-sample of the pixel without another inversion. Shading is a box filter
+// over the pixel square:
+//   - chessboard: exact analytic coverage of the (locally affine) pixel footprint by the squares
+//     when at most one line per direction crosses it, else `samples^2` sub-samples;
+//   - dot grid: flat pixels take one sample, pixels near a disc or plate edge `samples^2`;
+//   - S-path: flat pixels one ray, pixels touching a dot's ball or the sphere outline `samples^2`
+//     exact rays (nearest hit among the sphere and the dots of the pixel's 16x16 tile).
+// Mirrors: src/scene/trace.rs (CPU, f64). Uniform layout: src/render/uniforms.rs `Params`.
+
+struct Params {
+    size: vec4<u32>,     // width, height, kind (0 chessboard, 1 dot grid, 2 s-path), samples per axis
+    tiles: vec4<u32>,    // tiles_x, tiles_y, dot style (0 bead, 1 disc), fine-pass work length
+    intr: vec4<f32>,     // fx, fy, cx, cy
+    intr2: vec4<f32>,    // skew, r2_max (undistorted r^2 beyond which the lens folds), has_distortion, 0
+    dist0: vec4<f32>,    // k1, k2, p1, p2
+    dist1: vec4<f32>,    // k3, 0, 0, 0
+    h0: vec4<f32>,       // rows of H: (X, Y, W) = H (xu, yu, 1), target plane from normalised coords
+    h1: vec4<f32>,
+    h2: vec4<f32>,
+    board: vec4<f32>,    // chessboard: nx, ny, square, margin | dot grid: n, edge, radius, margin
+    grey: vec4<f32>,     // dark, light, margin, background
+    sphere: vec4<f32>,   // s-path: sphere centre (camera frame), radius
+};
+
+@group(0) @binding(0) var<uniform> P: Params;
+// Output values, one per work item (coarse: 64 per tile of the work list; fine: one per pixel).
+@group(0) @binding(1) var<storage, read_write> out_vals: array<f32>;
+@group(0) @binding(2) var<storage, read> dots: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> tile_start: array<u32>;
+@group(0) @binding(4) var<storage, read> tile_items: array<u32>;
+// Work list: coarse pass, tile indices; fine pass, pixels packed as x | (y << 16).
+@group(0) @binding(5) var<storage, read> work: array<u32>;
+// Coarse pass: 1 where the pixel needs the fine pass.
+@group(0) @binding(6) var<storage, read_write> out_hard: array<u32>;
+
+// ---------------------------------------------------------------- exact-order arithmetic
+// The built-in dot/length/normalize are lowered differently by Mesa's SPIR-V (Vulkan) and GLSL (GL)
+// front ends, which changes the last bits and, after quantisation, a few pixels. Written out
+// left to right they compile identically, so Vulkan and GL renders are bit-identical.
+
+fn dot2(a: vec2<f32>, b: vec2<f32>) -> f32 { return a.x * b.x + a.y * b.y; }
+fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 { return a.x * b.x + a.y * b.y + a.z * b.z; }
+fn len2(a: vec2<f32>) -> f32 { return sqrt(dot2(a, a)); }
+fn len3(a: vec3<f32>) -> f32 { return sqrt(dot3(a, a)); }
+
+// ---------------------------------------------------------------- lens model
+
+fn distort(p: vec2<f32>) -> vec2<f32> {
+    let r2 = dot2(p, p);
+    let g = 1.0 + r2 * (P.dist0.x + r2 * (P.dist0.y + r2 * P.dist1.x));
+    let xy = p.x * p.y;
+    return vec2<f32>(
+        g * p.x + 2.0 * P.dist0.z * xy + P.dist0.w * (r2 + 2.0 * p.x * p.x),
+        g * p.y + P.dist0.z * (r2 + 2.0 * p.y * p.y) + 2.0 * P.dist0.w * xy);
+}
+
+// d(distort)/d(p), column-major: columns d/dx, d/dy.
+fn distort_jac(p: vec2<f32>) -> mat2x2<f32> {
+    let r2 = dot2(p, p);
+    let k1 = P.dist0.x; let k2 = P.dist0.y; let p1 = P.dist0.z; let p2 = P.dist0.w; let k3 = P.dist1.x;
+    let g = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    let dg = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2); // dg/d(r2)
+    let dxdx = g + 2.0 * p.x * p.x * dg + 2.0 * p1 * p.y + 6.0 * p2 * p.x;
+    let dxdy = 2.0 * p.x * p.y * dg + 2.0 * p1 * p.x + 2.0 * p2 * p.y;
+    let dydx = 2.0 * p.x * p.y * dg + 2.0 * p1 * p.x + 2.0 * p2 * p.y;
+    let dydy = g + 2.0 * p.y * p.y * dg + 6.0 * p1 * p.y + 2.0 * p2 * p.x;
+    return mat2x2<f32>(vec2<f32>(dxdx, dydx), vec2<f32>(dxdy, dydy));
+}
+
+fn inverse2(m: mat2x2<f32>) -> mat2x2<f32> {
+    let det = m[0].x * m[1].y - m[1].x * m[0].y;
+    return mat2x2<f32>(vec2<f32>(m[1].y, -m[0].y), vec2<f32>(-m[1].x, m[0].x)) * (1.0 / det);
+}
+
+struct Ray {
+    xu: vec2<f32>,        // undistorted normalised coordinates of the pixel centre
+    dxu_dq: mat2x2<f32>,  // d(xu)/d(pixel)
+    ok: bool,             // false beyond the fold of the lens model
+};
+
+fn pixel_ray(q: vec2<f32>) -> Ray {
+    var r: Ray;
+    let yd = (q.y - P.intr.w) / P.intr.y;
+    let xd = vec2<f32>((q.x - P.intr.z - P.intr2.x * yd) / P.intr.x, yd);
+    let kinv = mat2x2<f32>(vec2<f32>(1.0 / P.intr.x, 0.0), vec2<f32>(-P.intr2.x / (P.intr.x * P.intr.y), 1.0 / P.intr.y));
+    if (P.intr2.z == 0.0) {
+        r.xu = xd;
+        r.dxu_dq = kinv;
+        r.ok = true;
+        return r;
+    }
+    // First-order start, then Newton (quadratic convergence; 4 steps reach f32 precision).
+    let rd2 = dot2(xd, xd);
+    var xu = xd / (1.0 + rd2 * (P.dist0.x + rd2 * (P.dist0.y + rd2 * P.dist1.x)));
+    if (!(dot2(xu, xu) < P.intr2.y)) { xu = xd; }
+    for (var i = 0; i < 4; i = i + 1) {
+        let j = distort_jac(xu);
+        xu = xu - inverse2(j) * (distort(xu) - xd);
+    }
+    let j = distort_jac(xu);
+    let det = j[0].x * j[1].y - j[1].x * j[0].y;
+    let res = len2(distort(xu) - xd);
+    r.ok = det > 0.0 && dot2(xu, xu) < P.intr2.y && res < 1e-4 * (1.0 + sqrt(rd2));
+    // d(xd)/d(q) = K^-1 (2x2 part)
+    r.xu = xu;
+    r.dxu_dq = inverse2(j) * kinv;
+    return r;
+}
+
+// ---------------------------------------------------------------- planar targets
+
+fn chess_value(x: f32, y: f32) -> f32 {
+    let s = P.board.z; let m = P.board.w;
+    let w = P.board.x * s; let h = P.board.y * s;
+    if (x >= 0.0 && x < w && y >= 0.0 && y < h) {
+        let ij = i32(floor(x / s)) + i32(floor(y / s));
+        return select(P.grey.y, P.grey.x, (ij & 1) == 0);
+    }
+    if (x >= -m && x < w + m && y >= -m && y < h + m) { return P.grey.z; }
+    return P.grey.w;
+}
+
+fn grid_value(x: f32, y: f32) -> f32 {
+    let n = P.board.x; let hh = 0.5 * P.board.y; let rad = P.board.z; let outer = hh + P.board.w;
+    if (x < -outer || x >= outer || y < -outer || y >= outer) { return P.grey.w; }
+    let pitch = P.board.y / (n - 1.0);
+    let ix = clamp(round((x + hh) / pitch), 0.0, n - 1.0);
+    let iy = clamp(round((y + hh) / pitch), 0.0, n - 1.0);
+    let d = vec2<f32>(x + hh - pitch * ix, y + hh - pitch * iy);
+    return select(P.grey.y, P.grey.x, dot2(d, d) < rad * rad);
+}
+
+fn plane_value(b: vec2<f32>) -> f32 {
+    return select(grid_value(b.x, b.y), chess_value(b.x, b.y), P.size.z == 0u);
+}
+
+// Target-plane point of normalised coordinates xu; z < 0 when the ray misses (plane behind).
+fn plane_point(xu: vec2<f32>) -> vec3<f32> {
+    let hw = P.h2.x * xu.x + P.h2.y * xu.y + P.h2.z;
+    let hx = P.h0.x * xu.x + P.h0.y * xu.y + P.h0.z;
+    let hy = P.h1.x * xu.x + P.h1.y * xu.y + P.h1.z;
+    return vec3<f32>(hx / hw, hy / hw, hw);
+}
+
+// Box filter by brute force: samples^2 sub-samples, each mapped with the local inverse Jacobian
+// (no further inversion) and intersected exactly with the plane.
+// `n` may differ per lane (0 = skip): llvmpipe runs both sides of every `if` under a lane mask but
+// leaves a loop as soon as no lane is active, so rare expensive work lives in loops with per-lane
+// trip counts.
+fn plane_supersample(ray: Ray, n: u32) -> f32 {
+    let inv = 1.0 / f32(n);
+    var acc = 0.0;
+    for (var j = 0u; j < n; j = j + 1u) {
+        for (var i = 0u; i < n; i = i + 1u) {
+            let d = vec2<f32>((f32(i) + 0.5) * inv - 0.5, (f32(j) + 0.5) * inv - 0.5);
+            let pp = plane_point(ray.xu + ray.dxu_dq * d);
+            acc = acc + select(P.grey.w, plane_value(pp.xy), pp.z > 0.0);
+        }
+    }
+    return acc * inv * inv;
+}
+
+// Area of the unit pixel square [-0.5, 0.5]^2 where dot(n, d) >= c, in closed form: dot(n, d) over
+// the square is distributed as the sum of two uniform variables (a trapezoid), so the area is its
+// complementary CDF at c.
+fn halfplane_area(n: vec2<f32>, c: f32) -> f32 {
+    let a = max(abs(n.x), abs(n.y));
+    let b = min(abs(n.x), abs(n.y));
+    if (a <= 0.0) { return select(0.0, 1.0, c <= 0.0); }
+    let cc = abs(c);
+    var g = 0.0;
+    if (cc < 0.5 * (a - b)) {
+        g = 0.5 - cc / a;
+    } else if (cc < 0.5 * (a + b)) {
+        let d = 0.5 * (a + b) - cc;
+        g = d * d / (2.0 * a * b);
+    }
+    return select(1.0 - g, g, c >= 0.0);
+}
+
+// The line positions of the chessboard along one axis that fall in [lo, hi]: count and the first.
+struct Lines { count: u32, first: f32, };
+
+fn chess_lines(lo: f32, hi: f32, n_squares: f32) -> Lines {
+    var l: Lines;
+    let s = P.board.z; let m = P.board.w; let w = n_squares * s;
+    let j0 = max(ceil(lo / s), 0.0);
+    let j1 = min(floor(hi / s), n_squares);
+    l.count = u32(max(j1 - j0 + 1.0, 0.0));
+    l.first = j0 * s;
+    if (m > 0.0) {
+        if (-m >= lo && -m <= hi) { l.count = l.count + 1u; l.first = -m; }
+        if (w + m >= lo && w + m <= hi) { l.count = l.count + 1u; l.first = w + m; }
+    }
+    return l;
+}
+
+// d(board)/d(pixel) at the plane point pc of the pixel centre: the homography's Jacobian chained
+// with d(xu)/d(q). Columns: d(board)/d(qx), d(board)/d(qy).
+fn board_jacobian(pc: vec3<f32>, ray: Ray) -> mat2x2<f32> {
+    let dbdxu = mat2x2<f32>(
+        vec2<f32>(P.h0.x - pc.x * P.h2.x, P.h1.x - pc.y * P.h2.x) / pc.z,
+        vec2<f32>(P.h0.y - pc.x * P.h2.y, P.h1.y - pc.y * P.h2.y) / pc.z);
+    return dbdxu * ray.dxu_dq;
+}
+
+// x-interval of the pixel row at height y where dot(n, d) >= c, clipped to [-0.5, 0.5].
+fn row_interval(n: vec2<f32>, c: f32, y: f32) -> vec2<f32> {
+    let rhs = c - n.y * y;
+    let t = rhs / n.x;
+    let lo = select(select(-0.5, 0.5, rhs > 0.0), max(-0.5, t), n.x > 0.0);
+    let hi = select(0.5, min(0.5, t), n.x < 0.0);
+    return vec2<f32>(lo, hi);
+}
+
+// Rows per pixel for corner pixels: the area of each half-plane and of their intersection is the
+// sum of exact interval lengths over CORNER_ROWS rows (midpoint rule; exact except in the one or
+// two rows that hold a vertex, error < 1e-3 of the pixel area).
+const CORNER_ROWS: u32 = 64u;
+
+struct Coarse { value: f32, hard: bool, };
+
+// Chessboard, coarse: flat pixels and pixels crossed by one line (exact closed-form coverage);
+// corners, several lines or a large footprint are hard.
+fn chess_coarse(ray: Ray) -> Coarse {
+    var out: Coarse;
+    let pc = plane_point(ray.xu);
+    let a = board_jacobian(pc, ray);
+    let ex = 0.5 * (abs(a[0].x) + abs(a[1].x));
+    let ey = 0.5 * (abs(a[0].y) + abs(a[1].y));
+    let s = P.board.z;
+    let small = ex < 0.25 * s && ey < 0.25 * s;
+    let lx = chess_lines(pc.x - ex, pc.x + ex, P.board.x);
+    let ly = chess_lines(pc.y - ey, pc.y + ey, P.board.y);
+    let hasx = lx.count == 1u;
+    let row = select(vec2<f32>(a[0].y, a[1].y), vec2<f32>(a[0].x, a[1].x), hasx);
+    let c = select(ly.first - pc.y, lx.first - pc.x, hasx);
+    let area = halfplane_area(row, c);
+    // Representative board points on both sides, midway between the line and the footprint edge.
+    let e = select(ey, ex, hasx);
+    let l0 = select(ly.first, lx.first, hasx);
+    let cen = select(pc.y, pc.x, hasx);
+    let plus = 0.5 * (l0 + cen + e);
+    let minus = 0.5 * (l0 + cen - e);
+    let vp = select(chess_value(pc.x, plus), chess_value(plus, pc.y), hasx);
+    let vm = select(chess_value(pc.x, minus), chess_value(minus, pc.y), hasx);
+    let nlines = lx.count + ly.count;
+    let v = select(vp * area + vm * (1.0 - area), chess_value(pc.x, pc.y), nlines == 0u);
+    out.value = select(P.grey.w, v, pc.z > 0.0 && ray.ok);
+    out.hard = ray.ok && pc.z > 0.0 && (!small || nlines > 1u);
+    return out;
+}
+
+// Chessboard, fine: corners (one line per direction) by exact row integration, everything else
+// by samples^2 sub-samples.
+fn chess_fine(ray: Ray) -> f32 {
+    let pc = plane_point(ray.xu);
+    let a = board_jacobian(pc, ray);
+    let ex = 0.5 * (abs(a[0].x) + abs(a[1].x));
+    let ey = 0.5 * (abs(a[0].y) + abs(a[1].y));
+    let s = P.board.z;
+    let small = ex < 0.25 * s && ey < 0.25 * s;
+    let lx = chess_lines(pc.x - ex, pc.x + ex, P.board.x);
+    let ly = chess_lines(pc.y - ey, pc.y + ey, P.board.y);
+    let corner = small && lx.count == 1u && ly.count == 1u;
+    // Half-planes in pixel offsets d: board x(d) = pc.x + dot(row0, d) >= x0, likewise y.
+    let row0 = vec2<f32>(a[0].x, a[1].x);
+    let row1 = vec2<f32>(a[0].y, a[1].y);
+    let cx = lx.first - pc.x;
+    let cy = ly.first - pc.y;
+    let xp = 0.5 * (lx.first + pc.x + ex);
+    let xm = 0.5 * (lx.first + pc.x - ex);
+    let yp = 0.5 * (ly.first + pc.y + ey);
+    let ym = 0.5 * (ly.first + pc.y - ey);
+    let rows = select(0u, CORNER_ROWS, corner);
+    var sx = 0.0; var sy = 0.0; var sxy = 0.0;
+    for (var j = 0u; j < rows; j = j + 1u) {
+        let y = (f32(j) + 0.5) / f32(CORNER_ROWS) - 0.5;
+        let ix = row_interval(row0, cx, y);
+        let iy = row_interval(row1, cy, y);
+        sx = sx + max(ix.y - ix.x, 0.0);
+        sy = sy + max(iy.y - iy.x, 0.0);
+        sxy = sxy + max(min(ix.y, iy.y) - max(ix.x, iy.x), 0.0);
+    }
+    let inv_rows = 1.0 / f32(CORNER_ROWS);
+    let ax = sx * inv_rows; let ay = sy * inv_rows; let axy = sxy * inv_rows;
+    let v = chess_value(xp, yp) * axy + chess_value(xp, ym) * (ax - axy) + chess_value(xm, yp) * (ay - axy)
+        + chess_value(xm, ym) * (1.0 - ax - ay + axy);
+    let sup = plane_supersample(ray, select(P.size.w, 0u, corner));
+    return select(sup, v, corner);
+}
+
+// Dot grid, coarse: pixels near a disc or plate edge are hard.
+fn grid_coarse(ray: Ray) -> Coarse {
+    var out: Coarse;
+    let pc = plane_point(ray.xu);
+    let a = board_jacobian(pc, ray);
+    let ext = 0.75 * (len2(a[0]) + len2(a[1])) + 1e-7;
+    let n = P.board.x; let hh = 0.5 * P.board.y; let rad = P.board.z; let outer = hh + P.board.w;
+    let pitch = P.board.y / (n - 1.0);
+    let ix = clamp(round((pc.x + hh) / pitch), 0.0, n - 1.0);
+    let iy = clamp(round((pc.y + hh) / pitch), 0.0, n - 1.0);
+    let dd = len2(vec2<f32>(pc.x + hh - pitch * ix, pc.y + hh - pitch * iy));
+    let near_dot = abs(dd - rad) < ext;
+    let near_edge = abs(abs(pc.x) - outer) < ext || abs(abs(pc.y) - outer) < ext;
+    out.hard = ray.ok && pc.z > 0.0 && (near_dot || near_edge || ext > 0.25 * rad);
+    out.value = select(P.grey.w, grid_value(pc.x, pc.y), pc.z > 0.0 && ray.ok);
+    return out;
+}
+
+// ---------------------------------------------------------------- S-path
+
+// Smallest positive t with |t d - c| = r, or -1.
+fn hit_sphere(d: vec3<f32>, c: vec3<f32>, r: f32) -> f32 {
+    let a = dot3(d, d);
+    let b = dot3(d, c);
+    let cc = dot3(c, c) - r * r;
+    let disc = b * b - a * cc;
+    let sq = sqrt(max(disc, 0.0));
+    let t0 = (b - sq) / a;
+    let t1 = (b + sq) / a;
+    let t = select(select(-1.0, t1, t1 > 0.0), t0, t0 > 0.0);
+    return select(t, -1.0, disc < 0.0);
+}
+
+// Grey level seen along d (camera frame) with the dots k in [t_begin, t_end) of the tile list.
+fn spath_sample(d: vec3<f32>, t_begin: u32, t_end: u32) -> f32 {
+    let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
+    var best = 1e30;
+    var in_cap = false;
+    let h = d * ts;
+    for (var k = t_begin; k < t_end; k = k + 1u) {
+        let b = dots[tile_items[k]];
+        let t = hit_sphere(d, b.xyz, b.w);
+        best = select(best, t, t > 0.0 && t < best);
+        let dh = h - b.xyz;
+        in_cap = in_cap || dot3(dh, dh) < b.w * b.w;
+    }
+    let sphere_or_bg = select(P.grey.w, P.grey.y, ts > 0.0);
+    let bead = select(sphere_or_bg, P.grey.x, best < 1e30 && (ts <= 0.0 || best <= ts));
+    let disc = select(sphere_or_bg, P.grey.x, ts > 0.0 && in_cap);
+    return select(bead, disc, P.tiles.z == 1u);
+}
+
+// Does the cone of rays through the pixel (axis d, half-angle alpha >= the pixel's half-diagonal) reach the
+// outline of the ball (c, r)? `inside` also counts rays that pass through the ball.
+fn cone_near_ball(d: vec3<f32>, alpha: f32, c: vec3<f32>, r: f32, inside: bool) -> bool {
+    let n = (d / len3(d));
+    let along = dot3(n, c);
+    let dist = len3(c - n * along);
+    let slack = alpha * len3(c) + 1e-6 * r;
+    let near = select(abs(dist - r) < slack, dist < r + slack, inside);
+    return along > 0.0 && near;
+}
+
+// S-path, coarse: one ray per pixel. A pixel is hard when the cone of its rays reaches the outline
+// of the sphere or of a dot, or when its centre and corner rays disagree (the outline of the part
+// of a bead the sphere does not hide).
+
+// Signed distance (metres, at the sphere) of the ray through normalised point xu from the outline
+// of the sphere: negative inside.
+fn limb_distance(xu: vec2<f32>) -> f32 {
+    let d = vec3<f32>(xu, 1.0);
+    let n = d / len3(d);
+    let c = P.sphere.xyz;
+    return len3(c - n * dot3(n, c)) - P.sphere.w;
+}
+
+fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
+    var out: Coarse;
+    let d = vec3<f32>(ray.xu, 1.0);
+    // Half-diagonal of the pixel footprint, 10 % margin, as an angle.
+    let half_diag = 0.5 * max(len2(ray.dxu_dq[0] + ray.dxu_dq[1]), len2(ray.dxu_dq[0] - ray.dxu_dq[1]));
+    let alpha = 1.1 * half_diag / len3(d);
+    let t_begin = tile_start[tile];
+    let t_end = tile_start[tile + 1u];
+    let limb = cone_near_ball(d, alpha, P.sphere.xyz, P.sphere.w, false);
+    var complex = false;
+    var touches = false;
+    for (var k = t_begin; k < t_end; k = k + 1u) {
+        let b = dots[tile_items[k]];
+        complex = complex || cone_near_ball(d, alpha, b.xyz, b.w, false);
+        touches = touches || cone_near_ball(d, alpha, b.xyz, b.w, true);
+    }
+    out.value = spath_sample(d, t_begin, t_end);
+    // Inside a dot's ball: compare the corner rays with the centre ray (per-lane loop, skipped by
+    // lanes that touch no dot).
+    let n_probe = select(0u, 4u, touches && !complex);
+    for (var k = 0u; k < n_probe; k = k + 1u) {
+        let o = vec2<f32>(select(-0.5, 0.5, (k & 1u) == 1u), select(-0.5, 0.5, k >= 2u));
+        let v = spath_sample(vec3<f32>(ray.xu + ray.dxu_dq * o, 1.0), t_begin, t_end);
+        complex = complex || v != out.value;
+    }
+    // The sphere's outline alone (radius hundreds of pixels): closed-form coverage of the half-plane
+    // of its linearised distance function (central differences over the pixel).
+    let g0 = limb_distance(ray.xu);
+    let gx = limb_distance(ray.xu + 0.5 * ray.dxu_dq[0]) - limb_distance(ray.xu - 0.5 * ray.dxu_dq[0]);
+    let gy = limb_distance(ray.xu + 0.5 * ray.dxu_dq[1]) - limb_distance(ray.xu - 0.5 * ray.dxu_dq[1]);
+    let inside = halfplane_area(-vec2<f32>(gx, gy), g0);
+    let limb_only = limb && !touches && !complex;
+    out.value = select(out.value, P.grey.y * inside + P.grey.w * (1.0 - inside), limb_only);
+    out.hard = (complex || (limb && touches)) && ray.ok;
+    out.value = select(P.grey.w, out.value, ray.ok);
+    return out;
+}
+
+// S-path, fine: samples^2 exact rays over the pixel.
+fn spath_fine(ray: Ray, tile: u32) -> f32 {
+    let t_begin = tile_start[tile];
+    let t_end = tile_start[tile + 1u];
+    let n = P.size.w;
+    let inv = 1.0 / f32(n);
+    var acc = 0.0;
+    for (var j = 0u; j < n; j = j + 1u) {
+        for (var i = 0u; i < n; i = i + 1u) {
+            let o = vec2<f32>((f32(i) + 0.5) * inv - 0.5, (f32(j) + 0.5) * inv - 0.5);
+            acc = acc + spath_sample(vec3<f32>(ray.xu + ray.dxu_dq * o, 1.0), t_begin, t_end);
+        }
+    }
+    return acc * inv * inv;
+}
+
+// ---------------------------------------------------------------- entry points
+
+// Pixel and tile index of a coarse-pass invocation: tile work[workgroup] = tx | (ty << 16), 8 x 8 pixels.
+fn coarse_pixel(wg: vec3<u32>, lid: vec3<u32>) -> vec3<u32> {
+    let packed = work[wg.y * 65535u + wg.x];
+    let tx = packed & 0xffffu;
+    let ty = packed >> 16u;
+    return vec3<u32>(tx * 8u + lid.x, ty * 8u + lid.y, ty * P.tiles.x + tx);
+}
+
+fn coarse_slot(wg: vec3<u32>, lid: vec3<u32>) -> u32 {
+    return (wg.y * 65535u + wg.x) * 64u + lid.y * 8u + lid.x;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn cs_coarse_chessboard(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let px = coarse_pixel(wg, lid);
+    let c = chess_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))));
+    let slot = coarse_slot(wg, lid);
+    out_vals[slot] = c.value;
+    out_hard[slot] = select(0u, 1u, c.hard);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn cs_coarse_dot_grid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let px = coarse_pixel(wg, lid);
+    let c = grid_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))));
+    let slot = coarse_slot(wg, lid);
+    out_vals[slot] = c.value;
+    out_hard[slot] = select(0u, 1u, c.hard);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn cs_coarse_spath(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let px = coarse_pixel(wg, lid);
+    let c = spath_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), px.z);
+    let slot = coarse_slot(wg, lid);
+    out_vals[slot] = c.value;
+    out_hard[slot] = select(0u, 1u, c.hard);
+}
+
+// Fine passes: one invocation per hard pixel (the tail of the last workgroup repeats the last
+// pixel, so every lane does the same work and no lane is idle).
+fn fine_item(gid: vec3<u32>) -> vec3<u32> {
+    let i = min(gid.y * 65535u * 64u + gid.x, P.tiles.w - 1u);
+    let packed = work[i];
+    let x = packed & 0xffffu;
+    let y = packed >> 16u;
+    return vec3<u32>(x, y, (y >> 3u) * P.tiles.x + (x >> 3u));
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn cs_fine_chessboard(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let it = fine_item(gid);
+    out_vals[gid.y * 65535u * 64u + gid.x] = chess_fine(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))));
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn cs_fine_dot_grid(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let it = fine_item(gid);
+    out_vals[gid.y * 65535u * 64u + gid.x] = plane_supersample(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))), P.size.w);
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn cs_fine_spath(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let it = fine_item(gid);
+    out_vals[gid.y * 65535u * 64u + gid.x] = spath_fine(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))), it.z);
+}

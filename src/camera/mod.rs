@@ -1,0 +1,242 @@
+//! Pinhole camera with Brown–Conrady lens distortion: image size, intrinsics,
+//! distortion, forward projection, un-projection and analytic Jacobians.
+//!
+//! Reference: Brown 1966 "Decentering distortion of lenses"; Conrady 1919;
+//! OpenCV calib3d docs "Camera Calibration and 3D Reconstruction"; Bouguet,
+//! "Camera Calibration Toolbox for Matlab" (parameter naming of the course).
+//!
+//! # Conventions
+//! * Camera frame: x right, y down, z forward (optical axis).
+//! * Pixels (OpenCV): the centre of the top-left pixel is (0, 0), so an image
+//!   of `W x H` pixels spans `[-0.5, W - 0.5] x [-0.5, H - 0.5]`.
+//! * Distortion in OpenCV order `(k1, k2, p1, p2, k3)`. With normalised
+//!   undistorted coordinates `x = X/Z, y = Y/Z` and `r2 = x^2 + y^2`:
+//!   `g = 1 + k1 r2 + k2 r2^2 + k3 r2^3`,
+//!   `xd = g x + 2 p1 x y + p2 (r2 + 2 x^2)`,
+//!   `yd = g y + p1 (r2 + 2 y^2) + 2 p2 x y`.
+//! * Pixels: `u = fx xd + skew yd + cx`, `v = fy yd + cy`, i.e.
+//!   `K = [[fx, skew, cx], [0, fy, cy], [0, 0, 1]]` with `skew = K[0][1]` in
+//!   pixels (Zhang / Hartley–Zisserman; OpenCV itself has no skew term).
+//!
+//! # Mapping to the course's (Bouguet) parameters
+//! | course                    | here                      |
+//! |---------------------------|---------------------------|
+//! | `k1, k2, k5` (r^2, r^4, r^6 radial) | `k1, k2, k3`    |
+//! | `k3, k4` (tangential)     | `p1, p2`                  |
+//! | `alpha` (dimensionless skew, `alpha_c`) | `skew = alpha * fx` (so `K[0][1] = alpha fx`) |
+//! | `u0, v0`                  | `cx, cy`                  |
+//!
+//! The course writes `u = fx (xd + alpha yd) + u0`, which equals our
+//! `u = fx xd + skew yd + cx` with `skew = alpha fx`.
+//! The course camera ([`CameraModel::course_default`]) is 1280 x 1024 pixels,
+//! `fx = fy = 1500`, `cx = 640`, `cy = 512`, no distortion and no skew.
+
+pub mod distortion;
+pub mod intrinsics;
+pub mod project;
+
+pub use distortion::Distortion;
+pub use intrinsics::Intrinsics;
+pub use project::{Projection, INTRINSIC_NAMES};
+
+use nalgebra::Point2;
+
+/// Errors of the camera model.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum CameraError {
+    /// A model parameter is out of range (non-finite, non-positive focal
+    /// length, empty image, ...).
+    #[error("invalid camera parameter `{field}`: {reason}")]
+    InvalidParameter {
+        /// Name of the offending field, e.g. `"intrinsics.fx"`.
+        field: &'static str,
+        /// Human-readable explanation including the offending value.
+        reason: String,
+    },
+    /// The distortion model cannot be inverted at the requested point.
+    #[error("distortion model is not invertible here: {reason}")]
+    NotInvertible {
+        /// Why the inversion failed (no convergence, fold, ...).
+        reason: String,
+    },
+    /// The point lies on or behind the camera plane (z <= 0).
+    #[error("point is on or behind the camera plane (z <= 0)")]
+    BehindCamera,
+    /// An input value was NaN or infinite.
+    #[error("non-finite input: {what}")]
+    NonFinite {
+        /// Which input was non-finite.
+        what: &'static str,
+    },
+}
+
+/// Image size in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ImageSize {
+    /// Width in pixels (number of columns).
+    pub width: u32,
+    /// Height in pixels (number of rows).
+    pub height: u32,
+}
+
+impl ImageSize {
+    /// Whether the pixel position `q` lies inside the image, using OpenCV's
+    /// convention: the image covers `[-0.5, W - 0.5] x [-0.5, H - 0.5]`
+    /// (borders included). NaN coordinates are outside.
+    pub fn contains_px(&self, q: &Point2<f64>) -> bool {
+        let w = f64::from(self.width);
+        let h = f64::from(self.height);
+        q.x >= -0.5 && q.x <= w - 0.5 && q.y >= -0.5 && q.y <= h - 0.5
+    }
+}
+
+/// A complete camera: image size, intrinsics and lens distortion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraModel {
+    /// Image size in pixels.
+    pub size: ImageSize,
+    /// Pinhole intrinsics (focal lengths, principal point, skew).
+    pub intrinsics: Intrinsics,
+    /// Brown–Conrady distortion coefficients.
+    pub distortion: Distortion,
+}
+
+fn check_finite(field: &'static str, v: f64) -> Result<(), CameraError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(CameraError::InvalidParameter {
+            field,
+            reason: format!("must be finite, got {v}"),
+        })
+    }
+}
+
+impl CameraModel {
+    /// Checks that all parameters are finite, `fx, fy > 0` and the image is
+    /// non-empty. The error names the offending field.
+    pub fn validate(&self) -> Result<(), CameraError> {
+        if self.size.width == 0 {
+            return Err(CameraError::InvalidParameter {
+                field: "size.width",
+                reason: "must be > 0".into(),
+            });
+        }
+        if self.size.height == 0 {
+            return Err(CameraError::InvalidParameter {
+                field: "size.height",
+                reason: "must be > 0".into(),
+            });
+        }
+        let k = &self.intrinsics;
+        check_finite("intrinsics.fx", k.fx)?;
+        check_finite("intrinsics.fy", k.fy)?;
+        check_finite("intrinsics.cx", k.cx)?;
+        check_finite("intrinsics.cy", k.cy)?;
+        check_finite("intrinsics.skew", k.skew)?;
+        let d = &self.distortion;
+        check_finite("distortion.k1", d.k1)?;
+        check_finite("distortion.k2", d.k2)?;
+        check_finite("distortion.p1", d.p1)?;
+        check_finite("distortion.p2", d.p2)?;
+        check_finite("distortion.k3", d.k3)?;
+        if k.fx <= 0.0 {
+            return Err(CameraError::InvalidParameter {
+                field: "intrinsics.fx",
+                reason: format!("must be > 0, got {}", k.fx),
+            });
+        }
+        if k.fy <= 0.0 {
+            return Err(CameraError::InvalidParameter {
+                field: "intrinsics.fy",
+                reason: format!("must be > 0, got {}", k.fy),
+            });
+        }
+        Ok(())
+    }
+
+    /// The course camera: 1280 x 1024 pixels, `fx = fy = 1500`, `cx = 640`,
+    /// `cy = 512`, no distortion, no skew.
+    pub fn course_default() -> Self {
+        Self {
+            size: ImageSize {
+                width: 1280,
+                height: 1024,
+            },
+            intrinsics: Intrinsics {
+                fx: 1500.0,
+                fy: 1500.0,
+                cx: 640.0,
+                cy: 512.0,
+                skew: 0.0,
+            },
+            distortion: Distortion::default(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn contains_px_uses_half_pixel_border() {
+        let s = ImageSize {
+            width: 4,
+            height: 3,
+        };
+        assert!(s.contains_px(&Point2::new(-0.5, -0.5)));
+        assert!(s.contains_px(&Point2::new(3.5, 2.5)));
+        assert!(!s.contains_px(&Point2::new(-0.5001, 1.0)));
+        assert!(!s.contains_px(&Point2::new(3.5001, 1.0)));
+        assert!(!s.contains_px(&Point2::new(1.0, 2.5001)));
+        assert!(!s.contains_px(&Point2::new(f64::NAN, 1.0)));
+    }
+
+    #[test]
+    fn course_default_is_valid() {
+        let c = CameraModel::course_default();
+        assert_eq!(c.validate(), Ok(()));
+        assert_eq!(c.size.width, 1280);
+        assert_eq!(c.size.height, 1024);
+        assert!(c.distortion.is_zero());
+    }
+
+    #[test]
+    fn validate_names_the_field() {
+        let mut c = CameraModel::course_default();
+        c.intrinsics.fy = -1.0;
+        assert!(matches!(
+            c.validate(),
+            Err(CameraError::InvalidParameter {
+                field: "intrinsics.fy",
+                ..
+            })
+        ));
+        let mut c = CameraModel::course_default();
+        c.distortion.p2 = f64::NAN;
+        assert!(matches!(
+            c.validate(),
+            Err(CameraError::InvalidParameter {
+                field: "distortion.p2",
+                ..
+            })
+        ));
+        let mut c = CameraModel::course_default();
+        c.size.height = 0;
+        assert!(matches!(
+            c.validate(),
+            Err(CameraError::InvalidParameter {
+                field: "size.height",
+                ..
+            })
+        ));
+        let msg = CameraError::InvalidParameter {
+            field: "intrinsics.fx",
+            reason: "must be > 0, got 0".into(),
+        }
+        .to_string();
+        assert!(msg.contains("intrinsics.fx") && msg.contains("must be > 0"));
+    }
+}

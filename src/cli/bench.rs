@@ -1,0 +1,72 @@
+//! `synthcam bench`: median render + readback time of the embedded scenes, the figure the
+//! renderer's speed goals are stated in (first frames excluded: lavapipe compiles the shader then).
+
+use anyhow::Context;
+use synthcam::dataset::encode_png;
+use synthcam::render::finish;
+use synthcam::scene::file::parse_scene;
+
+/// Arguments of `bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Timed frames per scene.
+    #[arg(long, default_value_t = 30)]
+    pub frames: usize,
+    /// GPU backend: auto, vulkan or gl.
+    #[arg(long, default_value = "auto")]
+    pub backend: String,
+    /// Scene files to time instead of the embedded scenes.
+    pub scenes: Vec<std::path::PathBuf>,
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+/// Run the benchmark.
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let renderer = super::open_renderer(&args.backend)?;
+    println!("threads: LP_NUM_THREADS={}", std::env::var("LP_NUM_THREADS").unwrap_or_else(|_| "(default)".into()));
+    let mut list: Vec<(String, String)> = Vec::new();
+    for path in &args.scenes {
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        list.push((path.display().to_string(), text));
+    }
+    if list.is_empty() {
+        list = super::DEFAULT_SCENES.iter().map(|(n, t)| ((*n).to_string(), (*t).to_string())).collect();
+    }
+    for (name, text) in &list {
+        let scene = parse_scene(text).with_context(|| format!("scene {name}"))?;
+        for _ in 0..3 {
+            renderer.render_linear(&scene)?;
+        }
+        let mut render_ms = Vec::new();
+        let mut post_ms = Vec::new();
+        for _ in 0..args.frames.max(1) {
+            let t0 = std::time::Instant::now();
+            let linear = renderer.render_linear(&scene)?;
+            let t1 = std::time::Instant::now();
+            let img = finish(&scene, &linear);
+            let _png = encode_png(&img)?;
+            let t2 = std::time::Instant::now();
+            render_ms.push((t1 - t0).as_secs_f64() * 1e3);
+            post_ms.push((t2 - t1).as_secs_f64() * 1e3);
+        }
+        render_ms.sort_by(f64::total_cmp);
+        post_ms.sort_by(f64::total_cmp);
+        println!(
+            "{name:>14} {}x{}: render+readback median {:.1} ms (p10 {:.1}, p90 {:.1}); quantise+PNG median {:.1} ms; {} frames",
+            scene.camera.size.width,
+            scene.camera.size.height,
+            percentile(&render_ms, 0.5),
+            percentile(&render_ms, 0.1),
+            percentile(&render_ms, 0.9),
+            percentile(&post_ms, 0.5),
+            render_ms.len()
+        );
+    }
+    Ok(())
+}

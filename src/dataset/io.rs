@@ -1,0 +1,70 @@
+//! Atomic file output.
+
+use std::io::Write;
+use std::path::Path;
+
+use image::ImageEncoder;
+
+use super::DatasetError;
+use crate::render::GreyImage;
+use crate::scene::truth::TruthLabels;
+
+/// Encode a grey image as PNG in memory.
+///
+/// # Errors
+/// [`DatasetError::Encode`].
+pub fn encode_png(img: &GreyImage) -> Result<Vec<u8>, DatasetError> {
+    let mut out = Vec::new();
+    let enc = image::codecs::png::PngEncoder::new_with_quality(
+        &mut out,
+        image::codecs::png::CompressionType::Fast,
+        image::codecs::png::FilterType::Adaptive,
+    );
+    let res = match img {
+        GreyImage::U8(i) => enc.write_image(i.as_raw(), i.width(), i.height(), image::ExtendedColorType::L8),
+        GreyImage::U16(i) => {
+            let bytes: Vec<u8> = i.as_raw().iter().flat_map(|v| v.to_be_bytes()).collect();
+            enc.write_image(&bytes, i.width(), i.height(), image::ExtendedColorType::L16)
+        }
+    };
+    res.map_err(|e| DatasetError::Encode(e.to_string()))?;
+    Ok(out)
+}
+
+/// Write `bytes` to `path` through a temporary file in the same folder and a rename.
+///
+/// # Errors
+/// [`DatasetError::Write`]; the temporary file is removed on failure.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
+    let err = |source| DatasetError::Write { path: path.display().to_string(), source };
+    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(err(e));
+    }
+    Ok(())
+}
+
+/// Write `png_path` and the truth JSON beside it (same stem, `.json`). Both are encoded before
+/// anything is written.
+///
+/// # Errors
+/// Encoding or writing failed; nothing half-written is left.
+pub fn write_image_and_truth(png_path: &Path, img: &GreyImage, truth: &TruthLabels) -> Result<(), DatasetError> {
+    let png = encode_png(img)?;
+    let json = serde_json::to_vec_pretty(truth).map_err(|e| DatasetError::Json(e.to_string()))?;
+    write_atomic(png_path, &png)?;
+    let json_path = png_path.with_extension("json");
+    if let Err(e) = write_atomic(&json_path, &json) {
+        let _ = std::fs::remove_file(png_path);
+        return Err(e);
+    }
+    Ok(())
+}

@@ -1,0 +1,26 @@
+//! Everything that touches files: PNG and JSON output written atomically (temporary name, then
+//! rename), so a failed run never leaves a truncated image behind.
+
+pub mod io;
+
+pub use io::{encode_png, write_atomic, write_image_and_truth};
+
+/// File errors.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DatasetError {
+    /// A file could not be written.
+    #[error("cannot write {path}: {source}")]
+    Write {
+        /// The path.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// PNG encoding failed.
+    #[error("cannot encode PNG: {0}")]
+    Encode(String),
+    /// JSON serialisation failed.
+    #[error("cannot serialise JSON: {0}")]
+    Json(String),
+}

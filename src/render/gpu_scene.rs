@@ -1,0 +1,271 @@
+//! Scene to GPU inputs: the uniform block and, for the S-path, the dots (camera frame) and their
+//! 16x16-pixel tile lists. Pure CPU code, f64 to f32 at the last step.
+
+use nalgebra::{Isometry3, Matrix3, Point2, Vector3};
+use rayon::prelude::*;
+
+use crate::camera::CameraModel;
+
+use super::uniforms::Params;
+use super::RenderError;
+use crate::scene::trace::dot_bbox_px;
+use crate::scene::Scene;
+use crate::target::{DotStyle, Target};
+
+/// Tile edge, pixels. Fixed at 8: the shader's coarse pass runs one 8 x 8 workgroup per tile.
+pub const TILE_PX: u32 = 8;
+
+/// Everything the compute pass reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GpuScene {
+    /// Uniform block.
+    pub params: Params,
+    /// Dots: centre (camera frame, metres) and radius.
+    pub dots: Vec<[f32; 4]>,
+    /// Per tile, the start of its list in `tile_items` (`tiles + 1` entries).
+    pub tile_start: Vec<u32>,
+    /// Dot indices per tile.
+    pub tile_items: Vec<u32>,
+    /// Per tile, its grey level when the whole tile is one flat region, else -1.
+    pub tile_flat: Vec<f32>,
+}
+
+fn v3(m: &Matrix3<f64>, row: usize) -> [f32; 4] {
+    [m[(row, 0)] as f32, m[(row, 1)] as f32, m[(row, 2)] as f32, 0.0]
+}
+
+/// Build the GPU inputs of `scene`; `grid` must belong to `scene.camera`.
+///
+/// # Errors
+/// [`RenderError::Degenerate`] when the target plane contains the camera centre (seen edge-on).
+pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, RenderError> {
+    let cam = &scene.camera;
+    let (w, h) = (cam.size.width, cam.size.height);
+    let k = &cam.intrinsics;
+    let d = &cam.distortion;
+    let r2_max = d.max_monotonic_radius().map_or(1e30, |r| (r * r) as f32);
+    let tiles_x = w.div_ceil(TILE_PX);
+    let tiles_y = h.div_ceil(TILE_PX);
+    let mut p = Params {
+        size: [w, h, 0, scene.render.samples],
+        tiles: [tiles_x, tiles_y, 0, 0],
+        intr: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
+        intr2: [k.skew as f32, r2_max, if d.is_zero() { 0.0 } else { 1.0 }, 0.0],
+        dist0: [d.k1 as f32, d.k2 as f32, d.p1 as f32, d.p2 as f32],
+        dist1: [d.k3 as f32, 0.0, 0.0, 0.0],
+        ..Default::default()
+    };
+    let mut dots = Vec::new();
+    let mut tile_start = vec![0u32; (tiles_x * tiles_y + 1) as usize];
+    let mut tile_items = Vec::new();
+    match &scene.target {
+        Target::Chessboard(_) | Target::DotGrid(_) => {
+            let r = scene.cam_from_target.rotation.to_rotation_matrix();
+            let t = scene.cam_from_target.translation.vector;
+            let m = r.matrix();
+            let n_from_t = Matrix3::from_columns(&[m.column(0).into_owned(), m.column(1).into_owned(), t]);
+            let t_from_n = n_from_t
+                .try_inverse()
+                .ok_or_else(|| RenderError::Degenerate("the target plane passes through the camera centre".into()))?;
+            let scale = t_from_n.abs().max();
+            if !(scale > 0.0) || !scale.is_finite() {
+                return Err(RenderError::Degenerate("singular plane homography".into()));
+            }
+            // Keep the sign (W > 0 in front); scale only to stay well inside f32 range.
+            let hm = t_from_n / scale;
+            p.h0 = v3(&hm, 0);
+            p.h1 = v3(&hm, 1);
+            p.h2 = v3(&hm, 2);
+            match &scene.target {
+                Target::Chessboard(b) => {
+                    p.size[2] = 0;
+                    p.board = [b.squares[0] as f32, b.squares[1] as f32, b.square_m as f32, b.margin_m as f32];
+                    p.grey = [b.dark as f32, b.light as f32, b.margin as f32, b.background as f32];
+                }
+                Target::DotGrid(g) => {
+                    p.size[2] = 1;
+                    p.board = [g.n as f32, g.edge_m as f32, g.dot_radius_m as f32, g.margin_m as f32];
+                    p.grey = [g.dark as f32, g.light as f32, g.light as f32, g.background as f32];
+                }
+                Target::SPath(_) => {}
+            }
+        }
+        Target::SPath(s) => {
+            p.size[2] = 2;
+            p.tiles[2] = match s.style {
+                DotStyle::Bead => 0,
+                DotStyle::Disc => 1,
+            };
+            let c = scene.cam_from_target * s.path.sphere_center_m;
+            p.sphere = [c.x as f32, c.y as f32, c.z as f32, s.path.sphere_radius_m as f32];
+            p.grey = [s.dark as f32, s.light as f32, s.light as f32, s.background as f32];
+            let mut lists: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
+            for (i, pt) in s.path.points_m.iter().enumerate() {
+                let pc = scene.cam_from_target * pt;
+                dots.push([pc.x as f32, pc.y as f32, pc.z as f32, s.dot_radius(i) as f32]);
+                let Some(bb) = dot_bbox_px(scene, pt, s.dot_radius(i), 2.0) else { continue };
+                if bb[2] < -0.5 || bb[3] < -0.5 || bb[0] > f64::from(w) || bb[1] > f64::from(h) {
+                    continue;
+                }
+                let tx0 = (bb[0].max(0.0) / f64::from(TILE_PX)) as u32;
+                let ty0 = (bb[1].max(0.0) / f64::from(TILE_PX)) as u32;
+                let tx1 = ((bb[2].max(0.0) / f64::from(TILE_PX)) as u32).min(tiles_x - 1);
+                let ty1 = ((bb[3].max(0.0) / f64::from(TILE_PX)) as u32).min(tiles_y - 1);
+                for ty in ty0..=ty1 {
+                    for tx in tx0..=tx1 {
+                        lists[(ty * tiles_x + tx) as usize].push(i as u32);
+                    }
+                }
+            }
+            for (t, l) in lists.iter().enumerate() {
+                tile_start[t + 1] = tile_start[t] + l.len() as u32;
+                tile_items.extend_from_slice(l);
+            }
+        }
+    }
+    let tile_flat = classify_tiles(scene, grid, tiles_x, tiles_y, &tile_start);
+    // Storage buffers may not be empty.
+    if dots.is_empty() {
+        dots.push([0.0; 4]);
+    }
+    if tile_items.is_empty() {
+        tile_items.push(0);
+    }
+    Ok(GpuScene { params: p, dots, tile_start, tile_items, tile_flat })
+}
+
+/// Rays (camera frame, z = 1) through the corners of the tile grid, `(tiles_x + 1) x (tiles_y + 1)`,
+/// row-major; `None` where the distortion cannot be inverted. Depends only on the camera, so a
+/// renderer computes it once per camera (like an undistortion map).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TileCornerRays {
+    /// The camera the rays belong to.
+    pub camera: CameraModel,
+    rays: Vec<Option<Vector3<f64>>>,
+}
+
+impl TileCornerRays {
+    /// Unproject every tile corner of `camera`'s image.
+    pub fn new(camera: &CameraModel) -> Self {
+        let tx = camera.size.width.div_ceil(TILE_PX) + 1;
+        let ty = camera.size.height.div_ceil(TILE_PX) + 1;
+        let (w, h) = (f64::from(camera.size.width), f64::from(camera.size.height));
+        let rays = (0..tx * ty)
+            .into_par_iter()
+            .map(|k| {
+                let x = (f64::from((k % tx) * TILE_PX) - 0.5).min(w - 0.5);
+                let y = (f64::from((k / tx) * TILE_PX) - 0.5).min(h - 0.5);
+                camera.unproject(&Point2::new(x, y)).ok()
+            })
+            .collect();
+        Self { camera: *camera, rays }
+    }
+
+    /// The four corner rays of tile (tx, ty), or `None` if one is missing.
+    fn tile(&self, tx: u32, ty: u32) -> Option<[Vector3<f64>; 4]> {
+        let stride = self.camera.size.width.div_ceil(TILE_PX) + 1;
+        let at = |x: u32, y: u32| self.rays.get((y * stride + x) as usize).copied().flatten();
+        Some([at(tx, ty)?, at(tx + 1, ty)?, at(tx + 1, ty + 1)?, at(tx, ty + 1)?])
+    }
+}
+
+/// Bounding box `[xmin, ymin, xmax, ymax]` of the plane points seen along `rays`, grown by 10 % of
+/// its size to cover the bending of the tile's edges by the distortion (a straight pixel edge stays
+/// straight under the homography; the lens bends it by far less than 10 %); `None` if a ray misses the plane.
+fn plane_bbox(target_from_cam: &Isometry3<f64>, rays: &[Vector3<f64>]) -> Option<[f64; 4]> {
+    let o = target_from_cam.translation.vector;
+    let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+    for r in rays {
+        let d = target_from_cam.rotation * r;
+        let t = -o.z / d.z;
+        if !(t > 0.0) || !t.is_finite() {
+            return None;
+        }
+        let (x, y) = (o.x + t * d.x, o.y + t * d.y);
+        bb = [bb[0].min(x), bb[1].min(y), bb[2].max(x), bb[3].max(y)];
+    }
+    let gx = 0.1 * (bb[2] - bb[0]) + 1e-9;
+    let gy = 0.1 * (bb[3] - bb[1]) + 1e-9;
+    Some([bb[0] - gx, bb[1] - gy, bb[2] + gx, bb[3] + gy])
+}
+
+fn any_in(lines: &[f64], lo: f64, hi: f64) -> bool {
+    lines.iter().any(|l| *l >= lo && *l <= hi)
+}
+
+/// Grey level of each tile that is provably one flat region (no edge of the target inside), else
+/// -1. Flat tiles skip all per-pixel work on the GPU. Conservative: a tile is flat only when the
+/// region bounded by its outline's image holds no discontinuity of the target.
+fn classify_tiles(scene: &Scene, grid: &TileCornerRays, tiles_x: u32, tiles_y: u32, tile_start: &[u32]) -> Vec<f32> {
+    let target_from_cam = scene.cam_from_target.inverse();
+    let mut out = vec![-1.0f32; (tiles_x * tiles_y) as usize];
+    let sphere_px = match &scene.target {
+        Target::SPath(s) => {
+            let c = scene.cam_from_target * s.path.sphere_center_m;
+            let f = scene.camera.intrinsics.fx.min(scene.camera.intrinsics.fy);
+            f * s.path.sphere_radius_m / c.coords.norm()
+        }
+        _ => 0.0,
+    };
+    for ty in 0..tiles_y {
+        for tx in 0..tiles_x {
+            let idx = (ty * tiles_x + tx) as usize;
+            let Some(rays) = grid.tile(tx, ty) else { continue };
+            let flat = match &scene.target {
+                Target::Chessboard(b) => plane_bbox(&target_from_cam, &rays).and_then(|bb| {
+                    let s = b.square_m;
+                    let m = b.margin_m;
+                    let mut xl: Vec<f64> = (0..=b.squares[0]).map(|j| f64::from(j) * s).collect();
+                    let mut yl: Vec<f64> = (0..=b.squares[1]).map(|i| f64::from(i) * s).collect();
+                    xl.extend([-m, f64::from(b.squares[0]) * s + m]);
+                    yl.extend([-m, f64::from(b.squares[1]) * s + m]);
+                    (!any_in(&xl, bb[0], bb[2]) && !any_in(&yl, bb[1], bb[3]))
+                        .then(|| b.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
+                }),
+                Target::DotGrid(g) => plane_bbox(&target_from_cam, &rays).and_then(|bb| {
+                    let outer = 0.5 * g.edge_m + g.margin_m;
+                    if any_in(&[-outer, outer], bb[0], bb[2]) || any_in(&[-outer, outer], bb[1], bb[3]) {
+                        return None;
+                    }
+                    let r = g.dot_radius_m;
+                    let near = g.dot_centres_m().iter().any(|c| {
+                        let dx = (bb[0] - c.x).max(c.x - bb[2]).max(0.0);
+                        let dy = (bb[1] - c.y).max(c.y - bb[3]).max(0.0);
+                        dx * dx + dy * dy <= r * r
+                    });
+                    (!near).then(|| g.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
+                }),
+                Target::SPath(s) => {
+                    if tile_start[idx + 1] > tile_start[idx] {
+                        None
+                    } else {
+                        let c = scene.cam_from_target * s.path.sphere_center_m;
+                        let r = s.path.sphere_radius_m;
+                        // Two pixels of angle at the sphere's distance.
+                        let margin = 2.0 * c.coords.norm() / scene.camera.intrinsics.fx.min(scene.camera.intrinsics.fy);
+                        let dist = |d: &Vector3<f64>| {
+                            let n = d.normalize();
+                            (c.coords - n * n.dot(&c.coords)).norm()
+                        };
+                        // The sphere's outline is convex and, when it is over 100 px in radius, cannot
+                        // reach more than 16^2 / 800 px between two tile corners: corners all inside
+                        // (or all outside) by 2 px make the tile flat.
+                        if c.z <= r || sphere_px < 100.0 {
+                            None
+                        } else if rays.iter().all(|d| dist(d) < r - margin) {
+                            Some(s.light)
+                        } else if rays.iter().all(|d| dist(d) > r + margin && d.dot(&c.coords) > 0.0) {
+                            Some(s.background)
+                        } else {
+                            None
+                        }
+                    }
+                }
+            };
+            if let Some(v) = flat {
+                out[idx] = v as f32;
+            }
+        }
+    }
+    out
+}

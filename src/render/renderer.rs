@@ -1,0 +1,295 @@
+//! The compute pipelines and their orchestration.
+//!
+//! llvmpipe runs every branch of a shader under a lane mask, so work is skipped by not dispatching
+//! it: the CPU fills the tiles that hold no edge (see [`super::gpu_scene`]); the *coarse* pass runs
+//! one 8 x 8 workgroup per remaining tile and flags the pixels that need more than one ray or one
+//! closed-form coverage; the *fine* pass runs one invocation per flagged pixel. Values come back
+//! in work-list order and the CPU scatters them into the image.
+
+use std::sync::{Arc, Mutex};
+
+use super::context::GpuContext;
+use super::gpu_scene::{gpu_scene, GpuScene, TileCornerRays, TILE_PX};
+use super::RenderError;
+use crate::scene::Scene;
+
+const SHADER: &str = include_str!("../../shaders/render.wgsl");
+/// Entry points: coarse then fine, per target kind (chessboard, dot grid, S-path).
+const ENTRY_POINTS: [[&str; 2]; 3] =
+    [["cs_coarse_chessboard", "cs_fine_chessboard"], ["cs_coarse_dot_grid", "cs_fine_dot_grid"], ["cs_coarse_spath", "cs_fine_spath"]];
+/// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
+const MAX_GROUPS_X: u64 = 65535;
+
+/// A storage buffer reused between frames, grown when too small.
+#[derive(Debug, Default)]
+struct Slot {
+    buffer: Option<wgpu::Buffer>,
+}
+
+impl Slot {
+    fn get(&mut self, device: &wgpu::Device, label: &str, size: u64, usage: wgpu::BufferUsages) -> &wgpu::Buffer {
+        let size = size.max(16).next_multiple_of(16);
+        if self.buffer.as_ref().is_none_or(|b| b.size() < size) {
+            self.buffer = Some(device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false }));
+        }
+        self.buffer.get_or_insert_with(|| unreachable_buffer(device))
+    }
+}
+
+fn unreachable_buffer(device: &wgpu::Device) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor { label: None, size: 16, usage: wgpu::BufferUsages::STORAGE, mapped_at_creation: false })
+}
+
+/// Buffers kept between frames.
+#[derive(Debug, Default)]
+struct Buffers {
+    dots: Slot,
+    tile_start: Slot,
+    tile_items: Slot,
+    work: Slot,
+    vals: Slot,
+    hard: Slot,
+    staging_vals: Slot,
+    staging_hard: Slot,
+}
+
+/// A GPU renderer bound to one device. Safe to share between threads (frames are serialised).
+#[derive(Debug)]
+pub struct Renderer {
+    ctx: GpuContext,
+    pipelines: Vec<[wgpu::ComputePipeline; 2]>,
+    layout: wgpu::BindGroupLayout,
+    uniform: wgpu::Buffer,
+    buffers: Mutex<Buffers>,
+    corner_rays: Mutex<Option<Arc<TileCornerRays>>>,
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
+/// Workgroup counts covering `groups` along x then y.
+fn grid(groups: u64) -> (u32, u32) {
+    let groups = groups.max(1);
+    (groups.min(MAX_GROUPS_X) as u32, groups.div_ceil(MAX_GROUPS_X) as u32)
+}
+
+const STORAGE_DST: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
+const STORAGE_SRC: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_SRC);
+const READBACK: wgpu::BufferUsages = wgpu::BufferUsages::MAP_READ.union(wgpu::BufferUsages::COPY_DST);
+
+impl Renderer {
+    /// Compile the shader and build the pipelines on `ctx`.
+    pub fn new(ctx: GpuContext) -> Self {
+        let device = &ctx.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("render.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("synthcam"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+                    count: None,
+                },
+                storage_entry(1, false),
+                storage_entry(2, true),
+                storage_entry(3, true),
+                storage_entry(4, true),
+                storage_entry(5, true),
+                storage_entry(6, false),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("synthcam"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipelines = ENTRY_POINTS
+            .iter()
+            .map(|pair| {
+                pair.map(|entry| {
+                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(entry),
+                        layout: Some(&pipeline_layout),
+                        module: &module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    })
+                })
+            })
+            .collect();
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("params"),
+            size: std::mem::size_of::<super::uniforms::Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self { ctx, pipelines, layout, uniform, buffers: Mutex::new(Buffers::default()), corner_rays: Mutex::new(None) }
+    }
+
+    /// The device this renderer runs on.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    fn corner_rays(&self, scene: &Scene) -> Result<Arc<TileCornerRays>, RenderError> {
+        let mut cache = self.corner_rays.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
+        Ok(match cache.as_ref() {
+            Some(g) if g.camera == scene.camera => g.clone(),
+            _ => {
+                let g = Arc::new(TileCornerRays::new(&scene.camera));
+                *cache = Some(g.clone());
+                g
+            }
+        })
+    }
+
+    /// One compute pass over `items` work items, then read back `vals` (f32) and, for coarse
+    /// passes, the hard flags (u32).
+    fn run_pass(&self, bufs: &mut Buffers, gs: &GpuScene, kind: usize, fine: bool, work: &[u32]) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        let mut params = gs.params;
+        params.tiles[3] = work.len() as u32;
+        let (groups, outputs) = if fine {
+            let g = (work.len() as u64).div_ceil(64);
+            (g, g * 64)
+        } else {
+            (work.len() as u64, work.len() as u64 * 64)
+        };
+        let out_bytes = outputs * 4;
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
+        let dots = bufs.dots.get(device, "dots", (gs.dots.len() * 16) as u64, STORAGE_DST);
+        queue.write_buffer(dots, 0, bytemuck::cast_slice(&gs.dots));
+        let tile_start = bufs.tile_start.get(device, "tile_start", (gs.tile_start.len() * 4) as u64, STORAGE_DST);
+        queue.write_buffer(tile_start, 0, bytemuck::cast_slice(&gs.tile_start));
+        let tile_items = bufs.tile_items.get(device, "tile_items", (gs.tile_items.len() * 4) as u64, STORAGE_DST);
+        queue.write_buffer(tile_items, 0, bytemuck::cast_slice(&gs.tile_items));
+        let work_buf = bufs.work.get(device, "work", (work.len() * 4) as u64, STORAGE_DST);
+        queue.write_buffer(work_buf, 0, bytemuck::cast_slice(work));
+        let vals = bufs.vals.get(device, "vals", out_bytes, STORAGE_SRC);
+        let hard = bufs.hard.get(device, "hard", out_bytes, STORAGE_SRC);
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("synthcam"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: vals.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: dots.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: tile_start.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: tile_items.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: work_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: hard.as_entire_binding() },
+            ],
+        });
+        let staging_vals = bufs.staging_vals.get(device, "staging_vals", out_bytes, READBACK);
+        let staging_hard = bufs.staging_hard.get(device, "staging_hard", out_bytes, READBACK);
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(if fine { "fine" } else { "coarse" }), timestamp_writes: None });
+            pass.set_pipeline(&self.pipelines[kind][usize::from(fine)]);
+            pass.set_bind_group(0, &bind, &[]);
+            let (gx, gy) = grid(groups);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        enc.copy_buffer_to_buffer(vals, 0, staging_vals, 0, out_bytes);
+        if !fine {
+            enc.copy_buffer_to_buffer(hard, 0, staging_hard, 0, out_bytes);
+        }
+        queue.submit([enc.finish()]);
+        let n = if fine { work.len() } else { outputs as usize };
+        let mut slices = vec![staging_vals.slice(..out_bytes)];
+        if !fine {
+            slices.push(staging_hard.slice(..out_bytes));
+        }
+        let (tx, rx) = std::sync::mpsc::channel();
+        for s in &slices {
+            let tx = tx.clone();
+            s.map_async(wgpu::MapMode::Read, move |r| {
+                let _ = tx.send(r);
+            });
+        }
+        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Device(e.to_string()))?;
+        for _ in &slices {
+            rx.recv().map_err(|e| RenderError::Device(e.to_string()))?.map_err(|e| RenderError::Device(e.to_string()))?;
+        }
+        let read = |s: &wgpu::BufferSlice<'_>| -> Result<Vec<u8>, RenderError> {
+            let view = s.get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
+            Ok(view[..n * 4].to_vec())
+        };
+        let v: Vec<f32> = bytemuck::pod_collect_to_vec(&read(&slices[0])?);
+        let h: Vec<u32> = if fine { Vec::new() } else { bytemuck::pod_collect_to_vec(&read(&slices[1])?) };
+        drop(slices);
+        staging_vals.unmap();
+        if !fine {
+            staging_hard.unmap();
+        }
+        Ok((v, h))
+    }
+
+    /// Render the geometry of `scene` (no blur, no noise): grey levels as f32, row-major.
+    ///
+    /// # Errors
+    /// Invalid scene, degenerate view, or a device failure.
+    pub fn render_linear(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
+        scene.validate()?;
+        let grid_rays = self.corner_rays(scene)?;
+        let gs: GpuScene = gpu_scene(scene, &grid_rays)?;
+        let (w, h) = (scene.camera.size.width, scene.camera.size.height);
+        let (tiles_x, _) = (gs.params.tiles[0], gs.params.tiles[1]);
+        let mut img = vec![0.0f32; w as usize * h as usize];
+        let mut work = Vec::new();
+        for (t, v) in gs.tile_flat.iter().enumerate() {
+            let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
+            if *v >= 0.0 {
+                for y in ty * TILE_PX..((ty + 1) * TILE_PX).min(h) {
+                    let row = y as usize * w as usize;
+                    img[row + (tx * TILE_PX) as usize..row + ((tx + 1) * TILE_PX).min(w) as usize].fill(*v);
+                }
+            } else {
+                work.push(tx | (ty << 16));
+            }
+        }
+        if work.is_empty() {
+            return Ok(img);
+        }
+        let kind = gs.params.size[2].min(2) as usize;
+        let mut bufs = self.buffers.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
+        let (vals, hard) = self.run_pass(&mut bufs, &gs, kind, false, &work)?;
+        let mut fine_work = Vec::new();
+        for (k, packed) in work.iter().enumerate() {
+            let (tx, ty) = (packed & 0xffff, packed >> 16);
+            for ly in 0..TILE_PX {
+                for lx in 0..TILE_PX {
+                    let (x, y) = (tx * TILE_PX + lx, ty * TILE_PX + ly);
+                    if x >= w || y >= h {
+                        continue;
+                    }
+                    let slot = k * 64 + (ly * TILE_PX + lx) as usize;
+                    img[y as usize * w as usize + x as usize] = vals[slot];
+                    if hard[slot] != 0 {
+                        fine_work.push(x | (y << 16));
+                    }
+                }
+            }
+        }
+        log::debug!("{} coarse tiles, {} fine pixels", work.len(), fine_work.len());
+        if !fine_work.is_empty() {
+            let (vals, _) = self.run_pass(&mut bufs, &gs, kind, true, &fine_work)?;
+            for (packed, v) in fine_work.iter().zip(vals) {
+                img[(packed >> 16) as usize * w as usize + (packed & 0xffff) as usize] = v;
+            }
+        }
+        Ok(img)
+    }
+}

@@ -1,0 +1,41 @@
+//! `#[repr(C)]` uniform structs mirroring the WGSL structs of `shaders/render.wgsl`.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Mirrors WGSL `Params` in `shaders/render.wgsl` (all fields are 16-byte vectors).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, Default, PartialEq)]
+pub struct Params {
+    /// width, height, kind (0 chessboard, 1 dot grid, 2 s-path), samples per axis.
+    pub size: [u32; 4],
+    /// tiles_x, tiles_y, dot style (0 bead, 1 disc), fine-pass work length.
+    pub tiles: [u32; 4],
+    /// fx, fy, cx, cy.
+    pub intr: [f32; 4],
+    /// skew, r2_max, 0, 0.
+    pub intr2: [f32; 4],
+    /// k1, k2, p1, p2.
+    pub dist0: [f32; 4],
+    /// k3, 0, 0, 0.
+    pub dist1: [f32; 4],
+    /// Homography row 0 (target plane from normalised coordinates).
+    pub h0: [f32; 4],
+    /// Homography row 1.
+    pub h1: [f32; 4],
+    /// Homography row 2.
+    pub h2: [f32; 4],
+    /// Chessboard: nx, ny, square, margin; dot grid: n, edge, radius, margin.
+    pub board: [f32; 4],
+    /// dark, light, margin, background grey levels.
+    pub grey: [f32; 4],
+    /// S-path sphere centre (camera frame) and radius.
+    pub sphere: [f32; 4],
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn params_is_12_vec4() {
+        assert_eq!(std::mem::size_of::<super::Params>(), 12 * 16);
+    }
+}

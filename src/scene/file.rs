@@ -1,0 +1,368 @@
+//! Scene files: TOML (or JSON) text into a validated [`Scene`].
+//!
+//! ```toml
+//! [camera]
+//! width = 1280
+//! height = 1024
+//! fx = 1500.0
+//! fy = 1500.0
+//! cx = 640.0
+//! cy = 512.0
+//! skew = 0.0                 # K[0][1], pixels
+//! dist = [-0.25, 0.0, 0.0, 0.0, 0.0]   # OpenCV order k1, k2, p1, p2, k3
+//!
+//! [target]
+//! kind = "chessboard"        # or "dot-grid", "s-path"
+//! squares = [9, 7]
+//! square_m = 0.03
+//!
+//! [pose]                     # cam_from_target: x_cam = R x_target + t_m
+//! R = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # or rvec = [rx, ry, rz] (radians, Rodrigues)
+//! t_m = [-0.1, -0.1, 0.8]
+//!
+//! [render]
+//! samples = 16               # sub-samples per axis where brute force is needed
+//! noise_sigma = 0.0          # grey levels
+//! blur_sigma_px = 0.0
+//! seed = 0
+//! ```
+//!
+//! Unknown fields are errors (a typo must not silently fall back to a default).
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use serde::Deserialize;
+
+use super::{RenderSettings, Scene, SceneError};
+use crate::camera::{CameraModel, Distortion, ImageSize, Intrinsics};
+use crate::math::so3::rotation_from_rvec;
+use crate::target::{Chessboard, DotGrid, DotStyle, SPathDots, Target};
+
+/// `[camera]` table.
+#[derive(Debug, Clone, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Focal length along x, pixels.
+    pub fx: f64,
+    /// Focal length along y, pixels.
+    pub fy: f64,
+    /// Principal point x, pixels (OpenCV convention).
+    pub cx: f64,
+    /// Principal point y, pixels.
+    pub cy: f64,
+    /// K[0][1], pixels.
+    #[serde(default)]
+    pub skew: f64,
+    /// k1, k2, p1, p2, k3.
+    #[serde(default)]
+    pub dist: [f64; 5],
+}
+
+impl CameraSpec {
+    /// The camera model this table describes (not yet validated).
+    pub fn to_model(&self) -> CameraModel {
+        CameraModel {
+            size: ImageSize { width: self.width, height: self.height },
+            intrinsics: Intrinsics { fx: self.fx, fy: self.fy, cx: self.cx, cy: self.cy, skew: self.skew },
+            distortion: Distortion::from_array(self.dist),
+        }
+    }
+
+    /// The table describing `camera`.
+    pub fn from_model(camera: &CameraModel) -> Self {
+        let k = &camera.intrinsics;
+        Self {
+            width: camera.size.width,
+            height: camera.size.height,
+            fx: k.fx,
+            fy: k.fy,
+            cx: k.cx,
+            cy: k.cy,
+            skew: k.skew,
+            dist: camera.distortion.to_array(),
+        }
+    }
+}
+
+/// `[target]` table.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum TargetSpec {
+    /// A chessboard.
+    Chessboard {
+        /// Squares along x and y.
+        squares: [u32; 2],
+        /// Square edge, metres.
+        square_m: f64,
+        /// Border width, metres (default: half a square).
+        margin_m: Option<f64>,
+        /// Dark grey level.
+        dark: Option<f64>,
+        /// Light grey level.
+        light: Option<f64>,
+        /// Margin grey level (default: light).
+        margin: Option<f64>,
+        /// Background grey level.
+        background: Option<f64>,
+    },
+    /// The course dot grid.
+    DotGrid {
+        /// Dots per side.
+        n: u32,
+        /// Outer dot-centre span, metres (default 0.4).
+        edge_m: Option<f64>,
+        /// Disc radius, metres (default: pitch / 5).
+        dot_radius_m: Option<f64>,
+        /// Plate border beyond the outer centres, metres (default: pitch / 2).
+        margin_m: Option<f64>,
+        /// Dark grey level.
+        dark: Option<f64>,
+        /// Light grey level.
+        light: Option<f64>,
+        /// Background grey level.
+        background: Option<f64>,
+    },
+    /// The S-path dot target.
+    SPath {
+        /// "bead" (default) or "disc".
+        style: Option<DotStyle>,
+        /// Dot radius, metres.
+        dot_radius_m: Option<f64>,
+        /// First dot radius, metres.
+        start_dot_radius_m: Option<f64>,
+        /// Dark grey level.
+        dark: Option<f64>,
+        /// Sphere grey level.
+        light: Option<f64>,
+        /// Background grey level.
+        background: Option<f64>,
+    },
+}
+
+impl TargetSpec {
+    /// The target this table describes (not yet validated).
+    pub fn to_target(&self) -> Target {
+        match *self {
+            TargetSpec::Chessboard { squares, square_m, margin_m, dark, light, margin, background } => {
+                let d = Chessboard::default();
+                let light = light.unwrap_or(d.light);
+                Target::Chessboard(Chessboard {
+                    squares,
+                    square_m,
+                    margin_m: margin_m.unwrap_or(0.5 * square_m),
+                    dark: dark.unwrap_or(d.dark),
+                    light,
+                    margin: margin.unwrap_or(light),
+                    background: background.unwrap_or(d.background),
+                })
+            }
+            TargetSpec::DotGrid { n, edge_m, dot_radius_m, margin_m, dark, light, background } => {
+                let d = DotGrid::default();
+                let edge_m = edge_m.unwrap_or(d.edge_m);
+                let pitch = if n >= 2 { edge_m / f64::from(n - 1) } else { edge_m };
+                Target::DotGrid(DotGrid {
+                    n,
+                    edge_m,
+                    dot_radius_m: dot_radius_m.unwrap_or(0.2 * pitch),
+                    margin_m: margin_m.unwrap_or(0.5 * pitch),
+                    dark: dark.unwrap_or(d.dark),
+                    light: light.unwrap_or(d.light),
+                    background: background.unwrap_or(d.background),
+                })
+            }
+            TargetSpec::SPath { style, dot_radius_m, start_dot_radius_m, dark, light, background } => {
+                let d = SPathDots::default();
+                Target::SPath(SPathDots {
+                    style: style.unwrap_or(d.style),
+                    dot_radius_m: dot_radius_m.unwrap_or(d.dot_radius_m),
+                    start_dot_radius_m: start_dot_radius_m.unwrap_or(d.start_dot_radius_m),
+                    dark: dark.unwrap_or(d.dark),
+                    light: light.unwrap_or(d.light),
+                    background: background.unwrap_or(d.background),
+                    ..d
+                })
+            }
+        }
+    }
+}
+
+/// `[pose]` table: `cam_from_target`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseSpec {
+    /// Rotation matrix, rows.
+    #[serde(rename = "R")]
+    pub r: Option<[[f64; 3]; 3]>,
+    /// Rotation vector (Rodrigues), radians.
+    pub rvec: Option<[f64; 3]>,
+    /// Translation, metres.
+    pub t_m: [f64; 3],
+}
+
+impl PoseSpec {
+    /// The rigid transform this table describes.
+    ///
+    /// # Errors
+    /// Neither or both of `R` and `rvec`, a non-finite number, or an `R` that is not a rotation.
+    pub fn to_isometry(&self) -> Result<Isometry3<f64>, SceneError> {
+        let invalid = |field: &str, reason: String| SceneError::InvalidField { field: field.into(), reason };
+        if self.t_m.iter().any(|v| !v.is_finite()) {
+            return Err(invalid("pose.t_m", format!("must be finite, got {:?}", self.t_m)));
+        }
+        let rot = match (&self.r, &self.rvec) {
+            (Some(r), None) => {
+                let m = Matrix3::from_fn(|i, j| r[i][j]);
+                if m.iter().any(|v| !v.is_finite()) {
+                    return Err(invalid("pose.R", "must be finite".into()));
+                }
+                let orth = (m.transpose() * m - Matrix3::identity()).abs().max();
+                if orth > 1e-6 || m.determinant() < 0.0 {
+                    return Err(invalid("pose.R", format!("is not a rotation (|R^T R - I|max = {orth:.2e}, det = {:.6})", m.determinant())));
+                }
+                Rotation3::from_matrix_unchecked(m)
+            }
+            (None, Some(v)) => {
+                if v.iter().any(|x| !x.is_finite()) {
+                    return Err(invalid("pose.rvec", format!("must be finite, got {v:?}")));
+                }
+                rotation_from_rvec(&Vector3::from(*v))
+            }
+            (None, None) => return Err(invalid("pose", "needs `R` or `rvec`".into())),
+            (Some(_), Some(_)) => return Err(invalid("pose", "give `R` or `rvec`, not both".into())),
+        };
+        Ok(Isometry3::from_parts(Translation3::from(Vector3::from(self.t_m)), UnitQuaternion::from_rotation_matrix(&rot)))
+    }
+}
+
+/// `[render]` table.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSpec {
+    /// Sub-samples per axis (default 16).
+    pub samples: Option<u32>,
+    /// Gaussian noise sigma, grey levels.
+    pub noise_sigma: Option<f64>,
+    /// Gaussian blur sigma, pixels.
+    pub blur_sigma_px: Option<f64>,
+    /// Noise seed.
+    pub seed: Option<u64>,
+    /// 8 or 16.
+    pub bit_depth: Option<u8>,
+}
+
+impl RenderSpec {
+    /// Settings with defaults filled in.
+    pub fn to_settings(&self) -> RenderSettings {
+        let d = RenderSettings::default();
+        RenderSettings {
+            samples: self.samples.unwrap_or(d.samples),
+            noise_sigma: self.noise_sigma.unwrap_or(d.noise_sigma),
+            blur_sigma_px: self.blur_sigma_px.unwrap_or(d.blur_sigma_px),
+            seed: self.seed.unwrap_or(d.seed),
+            bit_depth: self.bit_depth.unwrap_or(d.bit_depth),
+        }
+    }
+}
+
+/// A whole scene file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// `[camera]`.
+    pub camera: CameraSpec,
+    /// `[target]`.
+    pub target: TargetSpec,
+    /// `[pose]`.
+    pub pose: PoseSpec,
+    /// `[render]` (optional).
+    #[serde(default)]
+    pub render: RenderSpec,
+}
+
+impl SceneSpec {
+    /// Build and validate the scene.
+    ///
+    /// # Errors
+    /// Any invalid field (named), or a target behind the camera.
+    pub fn to_scene(&self) -> Result<Scene, SceneError> {
+        let scene = Scene {
+            camera: self.camera.to_model(),
+            target: self.target.to_target(),
+            cam_from_target: self.pose.to_isometry()?,
+            render: self.render.to_settings(),
+        };
+        scene.validate()?;
+        Ok(scene)
+    }
+}
+
+/// Parse scene text: JSON when it starts with `{`, TOML otherwise; then validate.
+///
+/// # Errors
+/// [`SceneError::Parse`] with the parser's message (which names missing or unknown fields), or a
+/// validation error.
+pub fn parse_scene(text: &str) -> Result<Scene, SceneError> {
+    let spec: SceneSpec = if text.trim_start().starts_with('{') {
+        serde_json::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?
+    } else {
+        toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?
+    };
+    spec.to_scene()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+[camera]
+width = 64
+height = 48
+fx = 60.0
+fy = 60.0
+cx = 31.5
+cy = 23.5
+dist = [-0.1, 0.0, 0.0, 0.0, 0.0]
+[target]
+kind = "chessboard"
+squares = [5, 4]
+square_m = 0.02
+[pose]
+rvec = [0.1, 0.0, 0.0]
+t_m = [-0.05, -0.04, 0.3]
+"#;
+
+    #[test]
+    fn parses_good_scene() {
+        let s = parse_scene(GOOD).unwrap();
+        assert_eq!(s.camera.size.width, 64);
+        assert!(matches!(s.target, Target::Chessboard(_)));
+    }
+
+    #[test]
+    fn missing_field_is_named() {
+        let e = parse_scene(&GOOD.replace("fx = 60.0\n", "")).unwrap_err().to_string();
+        assert!(e.contains("fx"), "{e}");
+    }
+
+    #[test]
+    fn nan_is_rejected_with_field() {
+        let e = parse_scene(&GOOD.replace("fy = 60.0", "fy = nan")).unwrap_err().to_string();
+        assert!(e.contains("fy"), "{e}");
+    }
+
+    #[test]
+    fn zero_size_and_unknown_kind_and_behind() {
+        let e = parse_scene(&GOOD.replace("width = 64", "width = 0")).unwrap_err().to_string();
+        assert!(e.contains("width"), "{e}");
+        let e = parse_scene(&GOOD.replace("\"chessboard\"", "\"hexboard\"")).unwrap_err().to_string();
+        assert!(e.contains("hexboard"), "{e}");
+        let e = parse_scene(&GOOD.replace("0.3]", "-0.3]")).unwrap_err();
+        assert!(matches!(e, SceneError::TargetBehindCamera { .. }), "{e}");
+        let e = parse_scene(&GOOD.replace("square_m = 0.02", "square_m = -0.02")).unwrap_err().to_string();
+        assert!(e.contains("square_m"), "{e}");
+    }
+}

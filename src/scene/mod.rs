@@ -1,0 +1,123 @@
+//! A pure description of one image to render: camera, target, pose and render settings.
+//!
+//! No wgpu and no file I/O here: [`file`] parses scene text (TOML or JSON) that the CLI has read,
+//! [`trace`] is the exact CPU ray caster (the twin of `shaders/render.wgsl`), [`reference`] the
+//! brute-force supersampling CPU renderer used to check the GPU, and [`truth`] the labels written next
+//! to every image.
+
+pub mod file;
+pub mod reference;
+pub mod trace;
+pub mod truth;
+
+use nalgebra::Isometry3;
+
+use crate::camera::{CameraError, CameraModel};
+use crate::target::{Target, TargetError};
+
+/// Settings of the image formation after the geometry: anti-aliasing, blur, noise, bit depth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderSettings {
+    /// Sub-samples per axis for pixels that need brute-force supersampling (edges of dots, beads,
+    /// the sphere outline, and chessboard pixels crossed by more than one line per direction).
+    /// Chessboard edges crossed by at most one line per direction use exact analytic coverage.
+    pub samples: u32,
+    /// Standard deviation of additive Gaussian noise, grey levels (0 = none).
+    pub noise_sigma: f64,
+    /// Standard deviation of the Gaussian point-spread function, pixels (0 = none).
+    pub blur_sigma_px: f64,
+    /// Seed of the noise generator; the same seed gives the same image.
+    pub seed: u64,
+    /// Output bit depth, 8 or 16.
+    pub bit_depth: u8,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self { samples: 16, noise_sigma: 0.0, blur_sigma_px: 0.0, seed: 0, bit_depth: 8 }
+    }
+}
+
+/// Errors raised by scene parsing and validation.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SceneError {
+    /// The scene text does not parse, or a field is missing or of the wrong type.
+    #[error("scene file does not parse: {0}")]
+    Parse(String),
+    /// A field has an invalid value.
+    #[error("scene field `{field}` is invalid: {reason}")]
+    InvalidField {
+        /// Dotted path of the field, e.g. `camera.fx`.
+        field: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The camera is invalid.
+    #[error("[camera]: {0}")]
+    Camera(#[from] CameraError),
+    /// The target is invalid.
+    #[error("[target]: {0}")]
+    Target(#[from] TargetError),
+    /// The pose puts the target behind the camera.
+    #[error("[pose]: the target is behind the camera (mean depth of its features {mean_depth_m:.4} m <= 0)")]
+    TargetBehindCamera {
+        /// Mean z of the feature points in the camera frame.
+        mean_depth_m: f64,
+    },
+}
+
+/// One image to render.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// The camera model (intrinsics, distortion, image size).
+    pub camera: CameraModel,
+    /// The target and its appearance.
+    pub target: Target,
+    /// Rigid transform mapping target coordinates into camera coordinates.
+    pub cam_from_target: Isometry3<f64>,
+    /// Anti-aliasing, blur, noise and output settings.
+    pub render: RenderSettings,
+}
+
+impl Scene {
+    /// Validate the whole scene.
+    ///
+    /// # Errors
+    /// The first invalid field, or [`SceneError::TargetBehindCamera`].
+    pub fn validate(&self) -> Result<(), SceneError> {
+        self.camera.validate()?;
+        let (w, h) = (self.camera.size.width, self.camera.size.height);
+        if w > 16384 || h > 16384 {
+            return Err(SceneError::InvalidField { field: "camera.width/height".into(), reason: format!("{w}x{h} exceeds 16384") });
+        }
+        self.target.validate()?;
+        let r = self.cam_from_target.rotation.to_rotation_matrix();
+        let t = self.cam_from_target.translation.vector;
+        if r.matrix().iter().chain(t.iter()).any(|v| !v.is_finite()) {
+            return Err(SceneError::InvalidField { field: "pose".into(), reason: "contains a non-finite number".into() });
+        }
+        let rs = &self.render;
+        if rs.samples == 0 || rs.samples > 64 {
+            return Err(SceneError::InvalidField { field: "render.samples".into(), reason: format!("must be in 1..=64, got {}", rs.samples) });
+        }
+        if !rs.noise_sigma.is_finite() || rs.noise_sigma < 0.0 {
+            return Err(SceneError::InvalidField { field: "render.noise_sigma".into(), reason: format!("must be finite and >= 0, got {}", rs.noise_sigma) });
+        }
+        if !rs.blur_sigma_px.is_finite() || rs.blur_sigma_px < 0.0 || rs.blur_sigma_px > 50.0 {
+            return Err(SceneError::InvalidField {
+                field: "render.blur_sigma_px".into(),
+                reason: format!("must be in [0, 50], got {}", rs.blur_sigma_px),
+            });
+        }
+        if rs.bit_depth != 8 && rs.bit_depth != 16 {
+            return Err(SceneError::InvalidField { field: "render.bit_depth".into(), reason: format!("must be 8 or 16, got {}", rs.bit_depth) });
+        }
+        let pts = self.target.feature_points_m();
+        let mean_depth_m = pts.iter().map(|p| (self.cam_from_target * p).z).sum::<f64>() / pts.len().max(1) as f64;
+        if !(mean_depth_m > 0.0) {
+            return Err(SceneError::TargetBehindCamera { mean_depth_m });
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,216 @@
+//! Truth labels written next to every image.
+//!
+//! For every feature: its point in the target frame, its projected pixel (CPU camera model, the
+//! same one the shader mirrors), whether it is in front of the camera and inside the image, and for
+//! dots the expected centroid and area of the rendered blob.
+//!
+//! **Blob centroid.** Under perspective and distortion the image of a dot's centre is not the
+//! centroid of the dot's image (the bias is up to ~0.2 px). The rendered blob is the set of image
+//! points whose ray sees this dot first (occlusion by the sphere and by other beads included), clipped
+//! to the image. Its area centroid is computed by exact ray casting ([`Tracer`]): every pixel of the
+//! dot's conservative bounding box is probed at a 3 x 3 grid of points; pixels whose probes all see
+//! the dot count as whole pixels (centroid at the pixel centre), pixels whose probes disagree are
+//! integrated with `CENTROID_SUBSAMPLES^2` exact samples (a sliver thinner than half a pixel
+//! that no probe touches is missed; such slivers are below any detector's reach). This is the centroid of the box-filtered
+//! rendered blob, i.e. the intensity-weighted centroid of `(surround - I)` over the blob.
+
+use nalgebra::Point2;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::file::CameraSpec;
+use super::trace::{dot_bbox_px, Tracer};
+use super::{RenderSettings, Scene};
+use crate::math::so3::rvec_from_rotation;
+use crate::target::{FeatureKind, Target};
+
+/// Sub-samples per axis in the boundary pixels of a blob (the renderer's default is the same 16).
+pub const CENTROID_SUBSAMPLES: u32 = 16;
+
+/// Pose as written to JSON.
+#[derive(Debug, Clone, Serialize)]
+pub struct PoseLabel {
+    /// Rotation matrix rows of `cam_from_target`.
+    #[serde(rename = "R")]
+    pub r: [[f64; 3]; 3],
+    /// Rodrigues vector of the same rotation, radians.
+    pub rvec: [f64; 3],
+    /// Translation, metres.
+    pub t_m: [f64; 3],
+}
+
+/// Truth of one feature.
+#[derive(Debug, Clone, Serialize)]
+pub struct FeatureLabel {
+    /// Index in the target's documented order.
+    pub id: usize,
+    /// Point in the target frame, metres.
+    pub point_target_m: [f64; 3],
+    /// Projection through the full camera model, pixels (OpenCV convention).
+    pub pixel_px: [f64; 2],
+    /// Depth in the camera frame, metres.
+    pub depth_m: f64,
+    /// In front of the camera.
+    pub in_front: bool,
+    /// Projected pixel inside the image.
+    pub in_image: bool,
+    /// In front, inside the image and (for dots) at least partly unoccluded.
+    pub visible: bool,
+    /// Dots: centroid of the rendered blob, pixels; `None` when nothing of it is rendered.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub centroid_px: Option<[f64; 2]>,
+    /// Dots: area of the rendered blob, pixels^2.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub area_px: Option<f64>,
+}
+
+/// Truth file contents.
+#[derive(Debug, Clone, Serialize)]
+pub struct TruthLabels {
+    /// Format version.
+    pub version: u32,
+    /// Pixel convention in words.
+    pub pixel_convention: &'static str,
+    /// Camera.
+    pub camera: CameraSpec,
+    /// `cam_from_target`.
+    pub cam_from_target: PoseLabel,
+    /// Target kind ("chessboard", "dot-grid", "s-path").
+    pub target_kind: &'static str,
+    /// "corner" or "dot".
+    pub feature_kind: FeatureKind,
+    /// Chessboard inner corners `[cols, rows]` or dot-grid `[n, n]`; S-path `[101, 1]`.
+    pub grid: [u32; 2],
+    /// Render settings.
+    pub render: RenderLabel,
+    /// Features in the target's order.
+    pub features: Vec<FeatureLabel>,
+}
+
+/// Render settings as written to JSON.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderLabel {
+    /// Sub-samples per axis for brute-force pixels.
+    pub samples: u32,
+    /// Noise sigma, grey levels.
+    pub noise_sigma: f64,
+    /// Blur sigma, pixels.
+    pub blur_sigma_px: f64,
+    /// Seed.
+    pub seed: u64,
+    /// Bit depth.
+    pub bit_depth: u8,
+}
+
+impl From<RenderSettings> for RenderLabel {
+    fn from(r: RenderSettings) -> Self {
+        Self { samples: r.samples, noise_sigma: r.noise_sigma, blur_sigma_px: r.blur_sigma_px, seed: r.seed, bit_depth: r.bit_depth }
+    }
+}
+
+/// Area and centroid of the rendered blob of dot `id` (see module docs).
+pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4]) -> Option<(f64, [f64; 2])> {
+    let size = tracer.scene().camera.size;
+    let x0 = bbox[0].floor().max(0.0) as i64;
+    let y0 = bbox[1].floor().max(0.0) as i64;
+    let x1 = (bbox[2].ceil() as i64).min(i64::from(size.width) - 1);
+    let y1 = (bbox[3].ceil() as i64).min(i64::from(size.height) - 1);
+    let sees = |u: f64, v: f64| tracer.trace_px(&Point2::new(u, v)).feature == Some(id);
+    let (mut area, mut su, mut sv) = (0.0, 0.0, 0.0);
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let (xf, yf) = (x as f64, y as f64);
+            let mut hits = 0;
+            for j in [-0.5, 0.0, 0.5] {
+                for i in [-0.5, 0.0, 0.5] {
+                    hits += usize::from(sees(xf + i, yf + j));
+                }
+            }
+            if hits == 9 {
+                area += 1.0;
+                su += xf;
+                sv += yf;
+            } else if hits > 0 {
+                let n = CENTROID_SUBSAMPLES;
+                let w = 1.0 / f64::from(n * n);
+                for j in 0..n {
+                    for i in 0..n {
+                        let u = xf - 0.5 + (f64::from(i) + 0.5) / f64::from(n);
+                        let v = yf - 0.5 + (f64::from(j) + 0.5) / f64::from(n);
+                        if sees(u, v) {
+                            area += w;
+                            su += w * u;
+                            sv += w * v;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (area > 0.0).then(|| (area, [su / area, sv / area]))
+}
+
+/// Compute the truth labels of `scene`.
+pub fn truth_labels(scene: &Scene) -> TruthLabels {
+    let tracer = Tracer::new(scene);
+    let pts = scene.target.feature_points_m();
+    let kind = scene.target.feature_kind();
+    let radius = |i: usize| match &scene.target {
+        Target::DotGrid(g) => g.dot_radius_m,
+        Target::SPath(s) => s.dot_radius(i),
+        Target::Chessboard(_) => 0.0,
+    };
+    let features = pts
+        .par_iter()
+        .enumerate()
+        .map(|(id, p)| {
+            let p_cam = scene.cam_from_target * p;
+            let proj = scene.camera.project(&p_cam);
+            let mut label = FeatureLabel {
+                id,
+                point_target_m: [p.x, p.y, p.z],
+                pixel_px: [proj.pixel_px.x, proj.pixel_px.y],
+                depth_m: p_cam.z,
+                in_front: proj.in_front,
+                in_image: proj.in_image,
+                visible: proj.visible(),
+                centroid_px: None,
+                area_px: None,
+            };
+            if kind == FeatureKind::Dot {
+                let blob = dot_bbox_px(scene, p, radius(id), 1.5).and_then(|bb| blob_centroid(&tracer, id, bb));
+                if let Some((area, c)) = blob {
+                    label.area_px = Some(area);
+                    label.centroid_px = Some(c);
+                } else {
+                    label.visible = false;
+                }
+            }
+            label
+        })
+        .collect();
+    let rot = scene.cam_from_target.rotation.to_rotation_matrix();
+    let m = rot.matrix();
+    let rvec = rvec_from_rotation(&rot);
+    let t = scene.cam_from_target.translation.vector;
+    let grid = match &scene.target {
+        Target::Chessboard(b) => b.inner_corner_count(),
+        Target::DotGrid(g) => [g.n, g.n],
+        Target::SPath(s) => [s.path.points_m.len() as u32, 1],
+    };
+    TruthLabels {
+        version: 1,
+        pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0), u right, v down",
+        camera: CameraSpec::from_model(&scene.camera),
+        cam_from_target: PoseLabel {
+            r: [[m[(0, 0)], m[(0, 1)], m[(0, 2)]], [m[(1, 0)], m[(1, 1)], m[(1, 2)]], [m[(2, 0)], m[(2, 1)], m[(2, 2)]]],
+            rvec: [rvec.x, rvec.y, rvec.z],
+            t_m: [t.x, t.y, t.z],
+        },
+        target_kind: scene.target.kind_name(),
+        feature_kind: kind,
+        grid,
+        render: scene.render.into(),
+        features,
+    }
+}

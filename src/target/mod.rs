@@ -1,0 +1,135 @@
+//! Calibration targets, each defined in its own frame, in metres.
+//!
+//! - [`Chessboard`]: planar checkerboard, origin at the outer top-left corner of the checker area.
+//! - [`DotGrid`]: the course's N x N planar grid of filled discs (course-scenario 1.2, 3.3).
+//! - [`SPathDots`]: the course's 101-point S on a sphere (course-scenario 1.4, 3.4), each point a dark
+//!   dot (a bead, or a disc painted on the sphere) on a light sphere.
+//!
+//! Intensities are grey levels in [0, 255] (linear, before noise and quantisation).
+//! The plane colour functions here are the CPU twins of the ones in `shaders/render.wgsl`.
+
+pub mod chessboard;
+pub mod dot_grid;
+pub mod s_path;
+pub mod s_path_dots;
+
+pub use chessboard::Chessboard;
+pub use dot_grid::DotGrid;
+pub use s_path::{course_s_path, SPath};
+pub use s_path_dots::{DotStyle, SPathDots};
+
+use nalgebra::Point3;
+
+/// Errors raised when a target definition is invalid.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum TargetError {
+    /// A field has a value that makes the target meaningless.
+    #[error("target field `{field}` is invalid: {reason}")]
+    InvalidField {
+        /// Name of the offending field, as in the scene file.
+        field: &'static str,
+        /// What is wrong with it.
+        reason: String,
+    },
+}
+
+/// Check that `value` is finite and strictly positive, naming `field` otherwise.
+pub(crate) fn require_positive(field: &'static str, value: f64) -> Result<(), TargetError> {
+    if !value.is_finite() || value <= 0.0 {
+        return Err(TargetError::InvalidField { field, reason: format!("must be a finite number > 0, got {value}") });
+    }
+    Ok(())
+}
+
+/// Check that a grey level is finite and within [0, 255].
+pub(crate) fn require_grey(field: &'static str, value: f64) -> Result<(), TargetError> {
+    if !value.is_finite() || !(0.0..=255.0).contains(&value) {
+        return Err(TargetError::InvalidField { field, reason: format!("must be a grey level in [0, 255], got {value}") });
+    }
+    Ok(())
+}
+
+/// Any target synthcam can render.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Target {
+    /// Planar checkerboard.
+    Chessboard(Chessboard),
+    /// Planar dot grid.
+    DotGrid(DotGrid),
+    /// The 3-D S-path dot target.
+    SPath(SPathDots),
+}
+
+/// Which kind of feature a target labels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FeatureKind {
+    /// Inner chessboard corner (a saddle point).
+    Corner,
+    /// Centre of a dot (disc or bead).
+    Dot,
+}
+
+impl Target {
+    /// Validate every field.
+    ///
+    /// # Errors
+    /// [`TargetError::InvalidField`] naming the first bad field.
+    pub fn validate(&self) -> Result<(), TargetError> {
+        match self {
+            Target::Chessboard(b) => b.validate(),
+            Target::DotGrid(g) => g.validate(),
+            Target::SPath(s) => s.validate(),
+        }
+    }
+
+    /// The labelled feature points in the target frame (metres), in the target's documented order.
+    pub fn feature_points_m(&self) -> Vec<Point3<f64>> {
+        match self {
+            Target::Chessboard(b) => b.inner_corners_m(),
+            Target::DotGrid(g) => g.dot_centres_m(),
+            Target::SPath(s) => s.path.points_m.clone(),
+        }
+    }
+
+    /// The kind of feature the target labels.
+    pub fn feature_kind(&self) -> FeatureKind {
+        match self {
+            Target::Chessboard(_) => FeatureKind::Corner,
+            _ => FeatureKind::Dot,
+        }
+    }
+
+    /// Short name used in scene files ("chessboard", "dot-grid", "s-path").
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Target::Chessboard(_) => "chessboard",
+            Target::DotGrid(_) => "dot-grid",
+            Target::SPath(_) => "s-path",
+        }
+    }
+
+    /// Whether the target is planar (lies in z = 0 of its frame).
+    pub fn is_planar(&self) -> bool {
+        !matches!(self, Target::SPath(_))
+    }
+
+    /// Grey level of the empty background (what rays that miss the target see).
+    pub fn background(&self) -> f64 {
+        match self {
+            Target::Chessboard(b) => b.background,
+            Target::DotGrid(g) => g.background,
+            Target::SPath(s) => s.background,
+        }
+    }
+
+    /// Grey level at a point (x, y) of the plane z = 0 for planar targets; `None` for the S-path.
+    pub fn plane_intensity(&self, x: f64, y: f64) -> Option<f64> {
+        match self {
+            Target::Chessboard(b) => Some(b.intensity_at(x, y)),
+            Target::DotGrid(g) => Some(g.intensity_at(x, y)),
+            Target::SPath(_) => None,
+        }
+    }
+}

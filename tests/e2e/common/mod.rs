@@ -1,0 +1,60 @@
+//! Shared helpers: one renderer per test binary, scene builders, image statistics.
+
+use std::sync::OnceLock;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use synthcam::camera::{CameraModel, Distortion, ImageSize, Intrinsics};
+use synthcam::render::{GpuContext, Renderer};
+use synthcam::scene::{RenderSettings, Scene};
+use synthcam::target::{Chessboard, Target};
+
+/// The shared renderer. Panics (fails the test loudly) when no adapter exists: CI installs lavapipe.
+pub fn renderer() -> &'static Renderer {
+    static R: OnceLock<Renderer> = OnceLock::new();
+    R.get_or_init(|| {
+        let ctx = GpuContext::new_headless().expect("no GPU adapter: install mesa-vulkan-drivers libvulkan1 (lavapipe)");
+        eprintln!("adapter: {}", ctx.describe());
+        Renderer::new(ctx)
+    })
+}
+
+/// A chessboard of `squares` squares of `square_m`, rotated `tilt_deg` about its x axis, its centre
+/// `distance_m` in front of the camera (plus an offset in the image plane).
+pub fn chessboard_scene(camera: CameraModel, squares: [u32; 2], square_m: f64, tilt_deg: f64, distance_m: f64, offset_m: [f64; 2]) -> Scene {
+    let board = Chessboard { squares, square_m, margin_m: 0.5 * square_m, ..Default::default() };
+    let rot = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), tilt_deg.to_radians());
+    let centre = Vector3::new(0.5 * square_m * f64::from(squares[0]), 0.5 * square_m * f64::from(squares[1]), 0.0);
+    let t = Vector3::new(offset_m[0], offset_m[1], distance_m) - rot * centre;
+    Scene {
+        camera,
+        target: Target::Chessboard(board),
+        cam_from_target: Isometry3::from_parts(Translation3::from(t), rot),
+        render: RenderSettings::default(),
+    }
+}
+
+/// A camera of the given size and focal length, principal point at the centre, with distortion.
+pub fn camera(width: u32, height: u32, f: f64, dist: [f64; 5]) -> CameraModel {
+    CameraModel {
+        size: ImageSize { width, height },
+        intrinsics: Intrinsics { fx: f, fy: f, cx: 0.5 * f64::from(width) - 0.5, cy: 0.5 * f64::from(height) - 0.5, skew: 0.0 },
+        distortion: Distortion::from_array(dist),
+    }
+}
+
+/// Sorted absolute differences, for mean and percentiles.
+pub fn abs_diffs(a: &[f32], b: &[f64]) -> Vec<f64> {
+    let mut d: Vec<f64> = a.iter().zip(b).map(|(x, y)| (f64::from(*x) - y).abs()).collect();
+    d.sort_by(f64::total_cmp);
+    d
+}
+
+/// Percentile of sorted values.
+pub fn percentile(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+/// Path of the synthcam binary built for these tests.
+pub fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_synthcam")
+}

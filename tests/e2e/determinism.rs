@@ -1,0 +1,75 @@
+//! Same scene and seed give bit-identical PNGs: across runs, across LP_NUM_THREADS, and between
+//! the Vulkan and GL backends.
+
+use std::process::Command;
+
+use synthcam::dataset::encode_png;
+use synthcam::render::{finish, BackendChoice, GpuContext, Renderer};
+use synthcam::scene::file::parse_scene;
+
+use crate::common::{bin, renderer};
+
+fn scenes() -> Vec<(&'static str, synthcam::scene::Scene)> {
+    let mut board = parse_scene(include_str!("../../assets/scenes/chessboard_k1.toml")).expect("scene");
+    board.render.noise_sigma = 2.0;
+    board.render.blur_sigma_px = 0.7;
+    board.render.seed = 42;
+    let spath = parse_scene(include_str!("../../assets/scenes/course_s_path.toml")).expect("scene");
+    vec![("chessboard", board), ("s-path", spath)]
+}
+
+#[test]
+fn same_seed_same_bytes_across_runs() {
+    for (name, scene) in scenes() {
+        let a = encode_png(&renderer().render(&scene).expect("render")).expect("png");
+        let b = encode_png(&renderer().render(&scene).expect("render")).expect("png");
+        assert!(a == b, "{name}: two renders differ");
+        let mut other = scene.clone();
+        other.render.seed += 1;
+        let c = encode_png(&renderer().render(&other).expect("render")).expect("png");
+        if scene.render.noise_sigma > 0.0 {
+            assert!(a != c, "{name}: a different seed must give different noise");
+        }
+    }
+}
+
+#[test]
+fn vulkan_and_gl_give_identical_bytes() {
+    let gl = match GpuContext::with_backend(BackendChoice::Gl) {
+        Ok(ctx) => Renderer::new(ctx),
+        Err(e) => panic!("GL backend (llvmpipe) unavailable: {e}"),
+    };
+    for (name, scene) in scenes() {
+        let a = renderer().render_linear(&scene).expect("vulkan");
+        let b = gl.render_linear(&scene).expect("gl");
+        let pa = encode_png(&finish(&scene, &a)).expect("png");
+        let pb = encode_png(&finish(&scene, &b)).expect("png");
+        let differing = a.iter().zip(&b).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
+        let maxdiff = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+        if let Some(i) = a.iter().zip(&b).position(|(x, y)| (x - y).abs() == maxdiff) {
+            eprintln!("{name}: max float diff {maxdiff} at pixel ({}, {}): {} vs {}", i % scene.camera.size.width as usize, i / scene.camera.size.width as usize, a[i], b[i]);
+        }
+        eprintln!("{name}: {} of {} float pixels differ between {} and {}", differing, a.len(), renderer().context().describe(), gl.context().describe());
+        assert!(pa == pb, "{name}: Vulkan and GL PNGs differ");
+    }
+}
+
+#[test]
+fn lp_num_threads_does_not_change_the_png() {
+    let dir = std::env::temp_dir().join(format!("synthcam-det-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let mut outputs = Vec::new();
+    for threads in ["1", "2", "0"] {
+        let out = dir.join(format!("t{threads}.png"));
+        let status = Command::new(bin())
+            .args(["render", concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/chessboard_k1.toml"), "-o"])
+            .arg(&out)
+            .env("LP_NUM_THREADS", threads)
+            .output()
+            .expect("run synthcam");
+        assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+        outputs.push(std::fs::read(&out).expect("png"));
+    }
+    assert!(outputs.windows(2).all(|w| w[0] == w[1]), "PNG bytes depend on LP_NUM_THREADS");
+    let _ = std::fs::remove_dir_all(&dir);
+}

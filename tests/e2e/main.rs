@@ -1,0 +1,9 @@
+//! End-to-end tests, built as one binary: `cargo test --release --test e2e`.
+
+mod architecture;
+mod bad_input;
+mod common;
+mod determinism;
+mod fidelity;
+mod golden;
+mod truth;
