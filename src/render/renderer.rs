@@ -14,9 +14,14 @@ use super::RenderError;
 use crate::scene::Scene;
 
 const SHADER: &str = include_str!("../../shaders/render.wgsl");
-/// Entry points: coarse then fine, per target kind (chessboard, dot grid, S-path).
-const ENTRY_POINTS: [[&str; 2]; 3] =
-    [["cs_coarse_chessboard", "cs_fine_chessboard"], ["cs_coarse_dot_grid", "cs_fine_dot_grid"], ["cs_coarse_spath", "cs_fine_spath"]];
+/// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
+/// S-path tiles without dots.
+const ENTRY_POINTS: [[&str; 2]; 4] = [
+    ["cs_coarse_chessboard", "cs_fine_chessboard"],
+    ["cs_coarse_dot_grid", "cs_fine_dot_grid"],
+    ["cs_coarse_spath", "cs_fine_spath"],
+    ["cs_coarse_spath_limb", "cs_fine_spath"],
+];
 /// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
 const MAX_GROUPS_X: u64 = 65535;
 
@@ -157,6 +162,7 @@ impl Renderer {
     /// One compute pass over `items` work items, then read back `vals` (f32) and, for coarse
     /// passes, the hard flags (u32).
     fn run_pass(&self, bufs: &mut Buffers, gs: &GpuScene, kind: usize, fine: bool, work: &[u32]) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
+        let t0 = std::time::Instant::now();
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         let mut params = gs.params;
@@ -234,6 +240,7 @@ impl Renderer {
         if !fine {
             staging_hard.unmap();
         }
+        log::debug!("pass kind {kind} fine {fine}: {} items in {:.2} ms", work.len(), t0.elapsed().as_secs_f64() * 1e3);
         Ok((v, h))
     }
 
@@ -248,7 +255,9 @@ impl Renderer {
         let (w, h) = (scene.camera.size.width, scene.camera.size.height);
         let (tiles_x, _) = (gs.params.tiles[0], gs.params.tiles[1]);
         let mut img = vec![0.0f32; w as usize * h as usize];
-        let mut work = Vec::new();
+        let kind = gs.params.size[2].min(2) as usize;
+        // Work lists per pass kind: S-path tiles without dots get the cheaper limb-only pass.
+        let mut work: [Vec<u32>; 4] = Default::default();
         for (t, v) in gs.tile_flat.iter().enumerate() {
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             if *v >= 0.0 {
@@ -257,33 +266,36 @@ impl Renderer {
                     img[row + (tx * TILE_PX) as usize..row + ((tx + 1) * TILE_PX).min(w) as usize].fill(*v);
                 }
             } else {
-                work.push(tx | (ty << 16));
+                let has_dots = gs.tile_start[t + 1] > gs.tile_start[t];
+                let k = if kind == 2 && !has_dots { 3 } else { kind };
+                work[k].push(tx | (ty << 16));
             }
         }
-        if work.is_empty() {
+        if work.iter().all(Vec::is_empty) {
             return Ok(img);
         }
-        let kind = gs.params.size[2].min(2) as usize;
         let mut bufs = self.buffers.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
-        let (vals, hard) = self.run_pass(&mut bufs, &gs, kind, false, &work)?;
         let mut fine_work = Vec::new();
-        for (k, packed) in work.iter().enumerate() {
-            let (tx, ty) = (packed & 0xffff, packed >> 16);
-            for ly in 0..TILE_PX {
-                for lx in 0..TILE_PX {
-                    let (x, y) = (tx * TILE_PX + lx, ty * TILE_PX + ly);
-                    if x >= w || y >= h {
-                        continue;
-                    }
-                    let slot = k * 64 + (ly * TILE_PX + lx) as usize;
-                    img[y as usize * w as usize + x as usize] = vals[slot];
-                    if hard[slot] != 0 {
-                        fine_work.push(x | (y << 16));
+        for (k, list) in work.iter().enumerate().filter(|(_, l)| !l.is_empty()) {
+            let (vals, hard) = self.run_pass(&mut bufs, &gs, k, false, list)?;
+            for (j, packed) in list.iter().enumerate() {
+                let (tx, ty) = (packed & 0xffff, packed >> 16);
+                for ly in 0..TILE_PX {
+                    for lx in 0..TILE_PX {
+                        let (x, y) = (tx * TILE_PX + lx, ty * TILE_PX + ly);
+                        if x >= w || y >= h {
+                            continue;
+                        }
+                        let slot = j * 64 + (ly * TILE_PX + lx) as usize;
+                        img[y as usize * w as usize + x as usize] = vals[slot];
+                        if hard[slot] != 0 {
+                            fine_work.push(x | (y << 16));
+                        }
                     }
                 }
             }
         }
-        log::debug!("{} coarse tiles, {} fine pixels", work.len(), fine_work.len());
+        log::debug!("{:?} coarse tiles per pass kind, {} fine pixels", work.each_ref().map(Vec::len), fine_work.len());
         if !fine_work.is_empty() {
             let (vals, _) = self.run_pass(&mut bufs, &gs, kind, true, &fine_work)?;
             for (packed, v) in fine_work.iter().zip(vals) {

@@ -5,14 +5,17 @@
 //! dots the expected centroid and area of the rendered blob.
 //!
 //! **Blob centroid.** Under perspective and distortion the image of a dot's centre is not the
-//! centroid of the dot's image (the bias is up to ~0.2 px). The rendered blob is the set of image
-//! points whose ray sees this dot first (occlusion by the sphere and by other beads included), clipped
-//! to the image. Its area centroid is computed by exact ray casting ([`Tracer`]): every pixel of the
+//! centroid of the dot's image (the bias is up to ~0.2 px). The blob is the set of image points
+//! whose ray sees this dot first (occlusion by the sphere and by other beads included), clipped to
+//! the image. Two centroids are labelled: `centroid_px`, the intensity-weighted centroid of the
+//! box-filtered rendered blob (sum over pixels of coverage x pixel centre, / area), which is what an
+//! intensity-centroid detector measures on the noise-free image; and `area_centroid_px`, the centroid
+//! of the continuous region (they differ by the pixel discretisation of the boundary).
+//! Both come from exact ray casting ([`Tracer`]): every pixel of the
 //! dot's conservative bounding box is probed at a 3 x 3 grid of points; pixels whose probes all see
 //! the dot count as whole pixels (centroid at the pixel centre), pixels whose probes disagree are
 //! integrated with `CENTROID_SUBSAMPLES^2` exact samples (a sliver thinner than half a pixel
-//! that no probe touches is missed; such slivers are below any detector's reach). This is the centroid of the box-filtered
-//! rendered blob, i.e. the intensity-weighted centroid of `(surround - I)` over the blob.
+//! that no probe touches is missed; such slivers are below any detector's reach).
 
 use nalgebra::Point2;
 use rayon::prelude::*;
@@ -56,9 +59,14 @@ pub struct FeatureLabel {
     pub in_image: bool,
     /// In front, inside the image and (for dots) at least partly unoccluded.
     pub visible: bool,
-    /// Dots: centroid of the rendered blob, pixels; `None` when nothing of it is rendered.
+    /// Dots: intensity-weighted centroid of the rendered (box-filtered) blob, pixels: what an
+    /// intensity-centroid detector measures on the noise-free image. `None` when nothing is rendered.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub centroid_px: Option<[f64; 2]>,
+    /// Dots: centroid of the continuous blob region (differs from `centroid_px` by the pixel
+    /// discretisation of the boundary).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub area_centroid_px: Option<[f64; 2]>,
     /// Dots: area of the rendered blob, pixels^2.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub area_px: Option<f64>,
@@ -108,8 +116,19 @@ impl From<RenderSettings> for RenderLabel {
     }
 }
 
-/// Area and centroid of the rendered blob of dot `id` (see module docs).
-pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4]) -> Option<(f64, [f64; 2])> {
+/// A dot's rendered blob.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Blob {
+    /// Area, pixels^2.
+    pub area_px: f64,
+    /// Centroid of the box-filtered image: sum over pixels of coverage x pixel centre, / area.
+    pub centroid_px: [f64; 2],
+    /// Centroid of the continuous region.
+    pub area_centroid_px: [f64; 2],
+}
+
+/// Area and centroids of the rendered blob of dot `id` (see module docs).
+pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4]) -> Option<Blob> {
     let size = tracer.scene().camera.size;
     let x0 = bbox[0].floor().max(0.0) as i64;
     let y0 = bbox[1].floor().max(0.0) as i64;
@@ -117,6 +136,7 @@ pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4]) -> Option<(
     let y1 = (bbox[3].ceil() as i64).min(i64::from(size.height) - 1);
     let sees = |u: f64, v: f64| tracer.trace_px(&Point2::new(u, v)).feature == Some(id);
     let (mut area, mut su, mut sv) = (0.0, 0.0, 0.0);
+    let (mut pu, mut pv) = (0.0, 0.0);
     for y in y0..=y1 {
         for x in x0..=x1 {
             let (xf, yf) = (x as f64, y as f64);
@@ -130,7 +150,10 @@ pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4]) -> Option<(
                 area += 1.0;
                 su += xf;
                 sv += yf;
+                pu += xf;
+                pv += yf;
             } else if hits > 0 {
+                let before = area;
                 let n = CENTROID_SUBSAMPLES;
                 let w = 1.0 / f64::from(n * n);
                 for j in 0..n {
@@ -144,10 +167,12 @@ pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4]) -> Option<(
                         }
                     }
                 }
+                pu += (area - before) * xf;
+                pv += (area - before) * yf;
             }
         }
     }
-    (area > 0.0).then(|| (area, [su / area, sv / area]))
+    (area > 0.0).then(|| Blob { area_px: area, centroid_px: [pu / area, pv / area], area_centroid_px: [su / area, sv / area] })
 }
 
 /// Compute the truth labels of `scene`.
@@ -176,12 +201,14 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 visible: proj.visible(),
                 centroid_px: None,
                 area_px: None,
+                area_centroid_px: None,
             };
             if kind == FeatureKind::Dot {
                 let blob = dot_bbox_px(scene, p, radius(id), 1.5).and_then(|bb| blob_centroid(&tracer, id, bb));
-                if let Some((area, c)) = blob {
-                    label.area_px = Some(area);
-                    label.centroid_px = Some(c);
+                if let Some(b) = blob {
+                    label.area_px = Some(b.area_px);
+                    label.centroid_px = Some(b.centroid_px);
+                    label.area_centroid_px = Some(b.area_centroid_px);
                 } else {
                     label.visible = false;
                 }

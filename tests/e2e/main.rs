@@ -4,6 +4,7 @@ mod architecture;
 mod bad_input;
 mod common;
 mod determinism;
+mod dot_fidelity;
 mod fidelity;
 mod golden;
 mod truth;
