@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod demo;
+mod detect;
 mod render;
 
 /// synthcam: synthetic camera images with exact ground truth for calibration and visual servoing.
@@ -22,6 +23,10 @@ pub struct Cli {
 pub enum Command {
     /// Time the renderer (render + readback) on the embedded scenes.
     Bench(bench::BenchArgs),
+    /// Detect a target's points in images (files or folders) and print or write them as JSON.
+    ///
+    /// SYNOPSIS: synthcam detect ../shared/data/opencv_left --target chessboard:9x6 --json corners.json
+    Detect(detect::DetectArgs),
     /// Run the main job on the embedded default scenario and write a report folder.
     Demo {
         /// Output folder.
@@ -43,6 +48,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Bench(args) => bench::run(&args),
         Command::Demo { out } => demo::run(&out),
+        Command::Detect(args) => detect::run(&args),
         Command::Render(args) => render::run(&args),
     }
 }

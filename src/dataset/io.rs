@@ -68,3 +68,16 @@ pub fn write_image_and_truth(png_path: &Path, img: &GreyImage, truth: &TruthLabe
     }
     Ok(())
 }
+
+/// Decode an image file (PNG, JPEG) to grey f32 samples (colour is converted with the usual luma
+/// weights, as `cv2.cvtColor(..., COLOR_BGR2GRAY)`).
+///
+/// # Errors
+/// [`DatasetError::Read`] for a missing, unreadable, truncated or unsupported file.
+pub fn load_grey(path: &Path) -> Result<crate::detect::ImageF32, DatasetError> {
+    let err = |reason: String| DatasetError::Read { path: path.display().to_string(), reason };
+    let img = image::ImageReader::open(path).map_err(|e| err(e.to_string()))?.with_guessed_format().map_err(|e| err(e.to_string()))?;
+    let grey = img.decode().map_err(|e| err(e.to_string()))?.to_luma8();
+    let (w, h) = grey.dimensions();
+    crate::detect::ImageF32::from_u8(w as usize, h as usize, grey.as_raw()).map_err(|e| err(e.to_string()))
+}

@@ -2,8 +2,9 @@
 //! rename), so a failed run never leaves a truncated image behind.
 
 pub mod io;
+pub mod overlay;
 
-pub use io::{encode_png, write_atomic, write_image_and_truth};
+pub use io::{encode_png, load_grey, write_atomic, write_image_and_truth};
 
 /// File errors.
 #[derive(Debug, thiserror::Error)]
@@ -16,6 +17,14 @@ pub enum DatasetError {
         path: String,
         /// The OS error.
         source: std::io::Error,
+    },
+    /// A file could not be read or decoded.
+    #[error("cannot read {path}: {reason}")]
+    Read {
+        /// The path.
+        path: String,
+        /// Why.
+        reason: String,
     },
     /// PNG encoding failed.
     #[error("cannot encode PNG: {0}")]

@@ -3,8 +3,14 @@
 //! This first version holds the sub-pixel corner refiner the renderer's fidelity test uses; the
 //! chessboard and dot detectors build on it.
 
+pub mod chessboard;
+pub mod dots;
+pub mod filters;
+pub mod grid_order;
 pub mod image;
+pub mod s_path_order;
 pub mod subpixel;
+pub mod target;
 
 pub use self::image::ImageF32;
 pub use subpixel::{refine_corner, SubpixelParams};
@@ -20,6 +26,12 @@ pub enum DetectError {
         expected: usize,
         /// Actual length.
         actual: usize,
+    },
+    /// The target is not (fully) there.
+    #[error("target not found: {reason}")]
+    NotFound {
+        /// Why.
+        reason: String,
     },
     /// The refinement window leaves the image or has no gradient.
     #[error("corner refinement failed at ({u:.2}, {v:.2}): {reason}")]

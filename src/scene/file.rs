@@ -343,6 +343,16 @@ t_m = [-0.05, -0.04, 0.3]
     }
 
     #[test]
+    fn json_scene_is_accepted() {
+        let json = r#"{"camera": {"width": 64, "height": 48, "fx": 60.0, "fy": 60.0, "cx": 31.5, "cy": 23.5},
+            "target": {"kind": "dot-grid", "n": 3},
+            "pose": {"rvec": [0.0, 0.0, 0.0], "t_m": [0.0, 0.0, 2.0]}}"#;
+        let s = parse_scene(json).unwrap();
+        assert!(matches!(s.target, Target::DotGrid(DotGrid { n: 3, .. })));
+        assert_eq!(s.render, RenderSettings::default());
+    }
+
+    #[test]
     fn missing_field_is_named() {
         let e = parse_scene(&GOOD.replace("fx = 60.0\n", "")).unwrap_err().to_string();
         assert!(e.contains("fx"), "{e}");

@@ -73,3 +73,28 @@ fn lp_num_threads_does_not_change_the_png() {
     assert!(outputs.windows(2).all(|w| w[0] == w[1]), "PNG bytes depend on LP_NUM_THREADS");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn falls_back_to_gl_without_vulkan_and_renders_the_same_bytes() {
+    let dir = std::env::temp_dir().join(format!("synthcam-gl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/course_s_path.toml");
+    let mut pngs = Vec::new();
+    for (name, icd) in [("vk", None), ("gl", Some("/nonexistent/icd.json"))] {
+        let out = dir.join(format!("{name}.png"));
+        let mut cmd = Command::new(bin());
+        cmd.args(["render", scene, "-o"]).arg(&out);
+        if let Some(icd) = icd {
+            cmd.env("VK_ICD_FILENAMES", icd).env("VK_DRIVER_FILES", icd);
+        }
+        let o = cmd.output().expect("run");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{name}: {stderr}");
+        if icd.is_some() {
+            assert!(stderr.contains("Gl"), "expected the GL adapter without a Vulkan driver: {stderr}");
+        }
+        pngs.push(std::fs::read(&out).expect("png"));
+    }
+    assert!(pngs[0] == pngs[1], "GL fallback render differs from Vulkan");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,152 @@
+//! `synthcam detect <IMAGES>... --target chessboard:COLSxROWS | dot-grid:NxN | s-path`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use serde::Serialize;
+use synthcam::dataset::overlay::draw_points;
+use synthcam::dataset::{load_grey, write_atomic};
+use synthcam::detect::target::{detect, TargetSpec};
+
+/// Arguments of `detect`.
+#[derive(Debug, clap::Args)]
+pub struct DetectArgs {
+    /// Image files or folders (PNG, JPEG; folders are read in name order).
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    /// Target: chessboard:COLSxROWS (inner corners), dot-grid:NxN or s-path.
+    #[arg(long, value_parser = |s: &str| s.parse::<TargetSpec>())]
+    pub target: TargetSpec,
+    /// Write the detections as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write each image with its points and their order drawn into this folder.
+    #[arg(long)]
+    pub draw: Option<PathBuf>,
+}
+
+
+/// One image's result, as written to JSON.
+#[derive(Debug, Serialize)]
+struct ImageResult {
+    file: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    width: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    height: Option<usize>,
+    found: bool,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    points_px: Vec<[f64; 2]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    indices: Option<Vec<usize>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    time_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    note: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error: Option<String>,
+}
+
+#[derive(Debug, Serialize)]
+struct Output {
+    target: TargetSpec,
+    pixel_convention: &'static str,
+    images: Vec<ImageResult>,
+}
+
+/// Expand folders into their image files, in name order.
+pub fn expand_images(inputs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in inputs {
+        if p.is_dir() {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("reading folder {}", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| f.extension().and_then(|e| e.to_str()).is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "jpg" | "jpeg")))
+                .collect();
+            files.sort();
+            out.extend(files);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
+}
+
+/// Run `detect`.
+pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
+    let files = expand_images(&args.images)?;
+    if files.is_empty() {
+        anyhow::bail!("no images found in {:?}", args.images);
+    }
+    if let Some(dir) = &args.draw {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let mut results = Vec::new();
+    let mut errors = 0;
+    for f in &files {
+        let name = file_name(f);
+        let img = match load_grey(f) {
+            Ok(i) => i,
+            Err(e) => {
+                eprintln!("error: {e}");
+                errors += 1;
+                results.push(ImageResult {
+                    file: name,
+                    width: None,
+                    height: None,
+                    found: false,
+                    points_px: Vec::new(),
+                    indices: None,
+                    time_ms: None,
+                    note: None,
+                    error: Some(e.to_string()),
+                });
+                continue;
+            }
+        };
+        let t0 = std::time::Instant::now();
+        let det = detect(&img, &args.target).with_context(|| format!("detecting in {}", f.display()))?;
+        let time_ms = t0.elapsed().as_secs_f64() * 1e3;
+        if args.json.is_none() {
+            println!("{name}: {} ({} points, {time_ms:.2} ms){}", if det.found { "found" } else { "not found" }, det.points_px.len(), det.note.as_ref().map(|n| format!(": {n}")).unwrap_or_default());
+        }
+        if let Some(dir) = &args.draw {
+            let overlay = draw_points(&img, &det.points_px);
+            let mut png = Vec::new();
+            image::DynamicImage::ImageRgb8(overlay)
+                .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+                .context("encoding overlay")?;
+            let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "image".into());
+            write_atomic(&dir.join(format!("{stem}.png")), &png)?;
+        }
+        results.push(ImageResult {
+            file: name,
+            width: Some(img.width),
+            height: Some(img.height),
+            found: det.found,
+            points_px: det.points_px.iter().map(|p| [p.x, p.y]).collect(),
+            indices: det.indices,
+            time_ms: Some(time_ms),
+            note: det.note,
+            error: None,
+        });
+    }
+    let found = results.iter().filter(|r| r.found).count();
+    if let Some(path) = &args.json {
+        let out = Output { target: args.target, pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0)", images: results };
+        let bytes = serde_json::to_vec_pretty(&out).context("serialising JSON")?;
+        write_atomic(path, &bytes)?;
+        println!("{found} of {} images found; wrote {}", files.len(), path.display());
+    } else {
+        println!("{found} of {} images found", files.len());
+    }
+    if errors > 0 {
+        anyhow::bail!("{errors} of {} files could not be read", files.len());
+    }
+    Ok(())
+}

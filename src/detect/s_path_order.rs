@@ -1,0 +1,140 @@
+//! Ordering the S-path's dots along the path.
+//!
+//! The first dot of the S-path target is larger (10 mm against 6 mm): the start is the dot whose
+//! area is largest relative to its two nearest neighbours (seen at about the same obliquity), and it
+//! must exceed them by `start_area_ratio`. From there the chain follows the curve with a
+//! constant-velocity prediction (next = current + (current - previous)), accepting the nearest
+//! unused dot within `tolerance` of the step length; a dot missing from the image (occluded, out of
+//! view) is bridged by predicting two steps ahead, so the visible dots keep their path index.
+//! Reference: the course's S-path target (shared/spec/course-scenario.md 1.4, 3.4).
+
+use nalgebra::Point2;
+
+use super::dots::Dot;
+use super::DetectError;
+
+/// Parameters of [`order_s_path`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SPathOrderParams {
+    /// Number of points on the path (course: 101).
+    pub points: usize,
+    /// The start dot's area over the mean of its two nearest neighbours' (beads: (10/6)^2 = 2.8).
+    pub start_area_ratio: f64,
+    /// Search radius around a prediction, as a fraction of the last step.
+    pub tolerance: f64,
+}
+
+impl Default for SPathOrderParams {
+    fn default() -> Self {
+        Self { points: 101, start_area_ratio: 1.8, tolerance: 0.45 }
+    }
+}
+
+/// A dot with its index along the path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IndexedDot {
+    /// Index along the path, 0 = start.
+    pub index: usize,
+    /// Centre, pixels.
+    pub centre_px: Point2<f64>,
+}
+
+/// Two nearest other dots of dot `i`: (index, distance) pairs, nearest first.
+fn two_nearest(dots: &[Dot], i: usize) -> Vec<(usize, f64)> {
+    let mut d: Vec<(usize, f64)> =
+        dots.iter().enumerate().filter(|(j, _)| *j != i).map(|(j, o)| (j, (o.centre_px - dots[i].centre_px).norm())).collect();
+    d.sort_by(|a, b| a.1.total_cmp(&b.1));
+    d.truncate(2);
+    d
+}
+
+/// Order detected dots along the S-path.
+///
+/// # Errors
+/// [`DetectError::NotFound`] when fewer than 3 dots are given or the start dot is not recognised.
+pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<IndexedDot>, DetectError> {
+    if dots.len() < 3 {
+        return Err(DetectError::NotFound { reason: format!("{} dots, at least 3 needed to order a path", dots.len()) });
+    }
+    let ratio = |i: usize| {
+        let nn = two_nearest(dots, i);
+        let mean = nn.iter().map(|(j, _)| dots[*j].area_px).sum::<f64>() / nn.len().max(1) as f64;
+        dots[i].area_px / mean.max(1e-9)
+    };
+    let (start, best) = (0..dots.len()).map(|i| (i, ratio(i))).max_by(|a, b| a.1.total_cmp(&b.1)).unwrap_or((0, 0.0));
+    if best < params.start_area_ratio {
+        return Err(DetectError::NotFound {
+            reason: format!("start dot not recognised (largest relative area {best:.2} < {})", params.start_area_ratio),
+        });
+    }
+    let mut used = vec![false; dots.len()];
+    used[start] = true;
+    let mut out = vec![IndexedDot { index: 0, centre_px: dots[start].centre_px }];
+    let Some(&(second, _)) = two_nearest(dots, start).first() else { return Ok(out) };
+    used[second] = true;
+    out.push(IndexedDot { index: 1, centre_px: dots[second].centre_px });
+    let nearest_unused = |p: Point2<f64>, used: &[bool]| {
+        dots.iter()
+            .enumerate()
+            .filter(|(j, _)| !used[*j])
+            .map(|(j, d)| (j, (d.centre_px - p).norm()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    while out.len() < dots.len() {
+        let n = out.len();
+        let (prev, cur) = (out[n - 2], out[n - 1]);
+        let step = (cur.centre_px - prev.centre_px) / (cur.index - prev.index) as f64;
+        let mut found = None;
+        for skip in 1..=2usize {
+            let pred = cur.centre_px + step * skip as f64;
+            if let Some((j, dist)) = nearest_unused(pred, &used) {
+                if dist <= params.tolerance * step.norm() * skip as f64 + 1.0 {
+                    found = Some((j, cur.index + skip));
+                    break;
+                }
+            }
+        }
+        let Some((j, index)) = found else { break };
+        if index >= params.points {
+            break;
+        }
+        used[j] = true;
+        out.push(IndexedDot { index, centre_px: dots[j].centre_px });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dot(x: f64, y: f64, area: f64) -> Dot {
+        Dot { centre_px: Point2::new(x, y), area_px: area, core_px: 4, contrast: 200.0 }
+    }
+
+    #[test]
+    fn orders_a_curve_and_bridges_a_gap() {
+        // A quarter circle of 20 dots, the first larger, dot 7 missing, input shuffled.
+        let mut dots: Vec<Dot> = (0..20)
+            .filter(|i| *i != 7)
+            .map(|i| {
+                let a = f64::from(i) * 0.08;
+                dot(100.0 + 200.0 * a.cos(), 100.0 + 200.0 * a.sin(), if i == 0 { 90.0 } else { 30.0 })
+            })
+            .collect();
+        dots.reverse();
+        dots.swap(3, 11);
+        let params = SPathOrderParams { points: 20, ..Default::default() };
+        let out = order_s_path(&dots, &params).unwrap();
+        assert_eq!(out.len(), 19);
+        let idx: Vec<usize> = out.iter().map(|d| d.index).collect();
+        assert_eq!(idx, (0..20).filter(|i| *i != 7).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn no_start_dot_is_an_error() {
+        let dots: Vec<Dot> = (0..10).map(|i| dot(f64::from(i) * 10.0, 0.0, 30.0)).collect();
+        assert!(matches!(order_s_path(&dots, &SPathOrderParams::default()), Err(DetectError::NotFound { .. })));
+        assert!(order_s_path(&dots[..2], &SPathOrderParams::default()).is_err());
+    }
+}
