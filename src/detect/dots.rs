@@ -40,13 +40,13 @@ pub struct DotParams {
     pub max_core_px: usize,
     /// Growth of the core for the centroid window, pixels.
     pub grow_px: usize,
-    /// Darkness weights below this are set to 0.
+    /// Darkness weights are clamped to [-min_weight, 1] (negative weights let surround noise cancel).
     pub min_weight: f64,
 }
 
 impl Default for DotParams {
     fn default() -> Self {
-        Self { window_px: 12, core_fraction: 0.25, min_contrast: 40.0, min_core_px: 2, max_core_px: 4000, grow_px: 2, min_weight: 0.04 }
+        Self { window_px: 12, core_fraction: 0.25, min_contrast: 40.0, min_core_px: 2, max_core_px: 4000, grow_px: 2, min_weight: 0.5 }
     }
 }
 
@@ -86,7 +86,8 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     }
     let lo = extreme_filter(img, params.window_px, false);
     let hi = extreme_filter(img, params.window_px, true);
-    // Closing (dilation then erosion): the surround level with the dots removed.
+    // Closing (dilation then erosion): the surround level with the dots removed. It rides on noise
+    // peaks; each dot subtracts the median lift of its ring below.
     let surround = extreme_filter(&hi, params.window_px, false);
     let mask = image::GrayImage::from_fn(w as u32, h as u32, |x, y| {
         let i = y as usize * w + x as usize;
@@ -142,6 +143,16 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let half = core_vals.len().div_ceil(2);
         let d = f64::from(median(&mut core_vals[..half]));
         let s_core = f64::from(median(&mut core.iter().map(|&(x, y)| surround.data[y * w + x]).collect::<Vec<_>>()));
+        // Lift of the closing over the image in the ring around the grown core (noise peaks).
+        let mut lift = Vec::new();
+        for y in by0..=by1 {
+            for x in bx0..=bx1 {
+                if owner[y * w + x] == 0 {
+                    lift.push(surround.data[y * w + x] - img.data[y * w + x]);
+                }
+            }
+        }
+        let lift = f64::from(median(&mut lift));
         if !(s_core - d > f64::from(params.min_contrast) * 0.5) {
             continue;
         }
@@ -151,11 +162,9 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
                 if owner[y * w + x] != id {
                     continue;
                 }
-                let s = f64::from(surround.data[y * w + x]);
-                let wgt = ((s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6)).clamp(0.0, 1.0);
-                if wgt < params.min_weight {
-                    continue;
-                }
+                let s = f64::from(surround.data[y * w + x]) - lift;
+                // Not clamped at 0: noise in the surround then averages out instead of biasing.
+                let wgt = ((s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6)).clamp(-params.min_weight, 1.0);
                 sw += wgt;
                 su += wgt * x as f64;
                 sv += wgt * y as f64;
