@@ -1,3 +1,4 @@
+#![allow(missing_docs)]
 //! Criterion benchmark of the renderer: render + readback of the embedded scenes (1280 x 1024),
 //! the figure the speed goals are stated in. `cargo bench --bench render`.
 

@@ -1,5 +1,7 @@
 //! End-to-end tests, built as one binary: `cargo test --release --test e2e`.
 
+#![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
+
 mod architecture;
 mod bad_input;
 mod common;
