@@ -24,6 +24,9 @@ pub struct ChessboardCorners {
 ///
 /// # Errors
 /// Never.
-pub fn find_chessboard(_img: &ImageF32, _params: &ChessboardParams) -> Result<Option<ChessboardCorners>, DetectError> {
+pub fn find_chessboard(img: &ImageF32, _params: &ChessboardParams) -> Result<Option<ChessboardCorners>, DetectError> {
+    if img.data.len() != img.width * img.height {
+        return Err(DetectError::BadBuffer { expected: img.width * img.height, actual: img.data.len() });
+    }
     Ok(None)
 }

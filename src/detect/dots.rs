@@ -5,7 +5,8 @@
 //!    A pixel is in a dot's *core* when `I < lo + core_fraction * (hi - lo)` and the local contrast
 //!    `hi - lo` exceeds `min_contrast`. The low fraction (0.25) keeps a mid-grey background (the
 //!    S-path target's, around the sphere) out of the cores even where a dot touches the outline.
-//! 2. Cores are 8-connected components; too small or too large ones are dropped.
+//! 2. Cores are 8-connected components; too small or too large ones, and those the image border
+//!    cuts, are dropped.
 //! 3. Centre: over the core grown by `grow_px`, the weight of a pixel is its darkness
 //!    `(S - I) / (S - D)` clamped to [0, 1], with `S` the surround level at that pixel (the
 //!    morphological closing of the image, which removes the dots but keeps larger structures such
@@ -84,6 +85,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     if w < 3 || h < 3 {
         return Ok(Vec::new());
     }
+    let t0 = std::time::Instant::now();
     let lo = extreme_filter(img, params.window_px, false);
     let hi = extreme_filter(img, params.window_px, true);
     // Closing (dilation then erosion): the surround level with the dots removed. It rides on noise
@@ -94,7 +96,9 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let (l, hh, v) = (lo.data[i], hi.data[i], img.data[i]);
         image::Luma([u8::from(hh - l > params.min_contrast && v < l + params.core_fraction * (hh - l))])
     });
+    let t1 = t0.elapsed().as_secs_f64() * 1e3;
     let labels = connected_components(&mask, Connectivity::Eight, image::Luma([0u8]));
+    log::debug!("dots: filters+mask {t1:.1} ms, components {:.1} ms", t0.elapsed().as_secs_f64() * 1e3 - t1);
     // Per label: pixel list.
     let mut cores: Vec<Vec<(usize, usize)>> = Vec::new();
     for (x, y, l) in labels.enumerate_pixels() {
@@ -136,6 +140,10 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
             y1 = y1.max(y);
         }
         let pad = params.grow_px + 1;
+        // A blob cut by the image border has a biased centre: not reported.
+        if x0 < pad || y0 < pad || x1 + pad >= w || y1 + pad >= h {
+            continue;
+        }
         let (bx0, by0) = (x0.saturating_sub(pad), y0.saturating_sub(pad));
         let (bx1, by1) = ((x1 + pad).min(w - 1), (y1 + pad).min(h - 1));
         let mut core_vals: Vec<f32> = core.iter().map(|&(x, y)| img.data[y * w + x]).collect();

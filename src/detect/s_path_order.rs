@@ -6,6 +6,8 @@
 //! constant-velocity prediction (next = current + (current - previous)), accepting the nearest
 //! unused dot within `tolerance` of the step length; a dot missing from the image (occluded, out of
 //! view) is bridged by predicting two steps ahead, so the visible dots keep their path index.
+//! The chain counts as the path when it holds at least `min_chain` dots and `min_chain_share` of
+//! all detected dots (random clutter chains a few dots by chance, never most of them).
 //! Reference: the course's S-path target (shared/spec/course-scenario.md 1.4, 3.4).
 
 use nalgebra::Point2;
@@ -22,11 +24,15 @@ pub struct SPathOrderParams {
     pub start_area_ratio: f64,
     /// Search radius around a prediction, as a fraction of the last step.
     pub tolerance: f64,
+    /// Fewest dots a chain must hold to count as the path.
+    pub min_chain: usize,
+    /// Smallest share of the detected dots the chain must hold (the rest are taken as clutter).
+    pub min_chain_share: f64,
 }
 
 impl Default for SPathOrderParams {
     fn default() -> Self {
-        Self { points: 101, start_area_ratio: 1.8, tolerance: 0.45 }
+        Self { points: 101, start_area_ratio: 1.8, tolerance: 0.45, min_chain: 10, min_chain_share: 0.8 }
     }
 }
 
@@ -88,7 +94,11 @@ pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<Index
         for skip in 1..=2usize {
             let pred = cur.centre_px + step * skip as f64;
             if let Some((j, dist)) = nearest_unused(pred, &used) {
-                if dist <= params.tolerance * step.norm() * skip as f64 + 1.0 {
+                // Path dots are apart by more than their size (25.7 mm against 12 mm beads).
+                let radius = |d: &Dot| (d.area_px / std::f64::consts::PI).sqrt();
+                let last = out.last().map_or(cur.centre_px, |o| o.centre_px);
+                let apart = (dots[j].centre_px - last).norm() >= 1.2 * (radius(&dots[j]) + radius(&dots[start]).min(radius(&dots[j]) * 2.0));
+                if apart && dist <= params.tolerance * step.norm() * skip as f64 + 1.0 {
                     found = Some((j, cur.index + skip));
                     break;
                 }
@@ -100,6 +110,12 @@ pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<Index
         }
         used[j] = true;
         out.push(IndexedDot { index, centre_px: dots[j].centre_px });
+    }
+    let need = params.min_chain.min(params.points).max((params.min_chain_share * dots.len() as f64).ceil() as usize);
+    if out.len() < need {
+        return Err(DetectError::NotFound {
+            reason: format!("the chain from the start dot holds {} of {} dots (at least {need} needed)", out.len(), dots.len()),
+        });
     }
     Ok(out)
 }
@@ -124,7 +140,7 @@ mod tests {
             .collect();
         dots.reverse();
         dots.swap(3, 11);
-        let params = SPathOrderParams { points: 20, ..Default::default() };
+        let params = SPathOrderParams { points: 20, min_chain: 5, ..Default::default() };
         let out = order_s_path(&dots, &params).unwrap();
         assert_eq!(out.len(), 19);
         let idx: Vec<usize> = out.iter().map(|d| d.index).collect();

@@ -5,8 +5,10 @@
 mod architecture;
 mod bad_input;
 mod common;
+mod detect_cli;
 mod determinism;
 mod dot_fidelity;
 mod fidelity;
 mod golden;
+mod robustness;
 mod truth;

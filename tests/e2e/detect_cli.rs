@@ -1,0 +1,79 @@
+//! `synthcam detect`: JSON shape, per-file errors, overlays, and the S-path on a render.
+
+use std::process::Command;
+
+use crate::common::bin;
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("synthcam-detect-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("tmp");
+    d
+}
+
+#[test]
+fn s_path_render_is_detected_in_order_and_bad_files_are_reported() {
+    let dir = tmp("spath");
+    let png = dir.join("spath.png");
+    let o = Command::new(bin())
+        .args(["render", concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/course_s_path.toml"), "-o"])
+        .arg(&png)
+        .output()
+        .expect("render");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // A truncated PNG and a text file posing as a JPEG.
+    let bytes = std::fs::read(&png).expect("png");
+    std::fs::write(dir.join("truncated.png"), &bytes[..bytes.len() / 3]).expect("write");
+    std::fs::write(dir.join("garbage.jpg"), b"not a jpeg").expect("write");
+    let json = dir.join("det.json");
+    let draw = dir.join("draw");
+    let o = Command::new(bin())
+        .args(["detect"])
+        .arg(&dir)
+        .args(["--target", "s-path", "--json"])
+        .arg(&json)
+        .arg("--draw")
+        .arg(&draw)
+        .output()
+        .expect("detect");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "unreadable files must give a non-zero exit");
+    assert!(stderr.contains("truncated.png") && stderr.contains("garbage.jpg"), "{stderr}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("parse");
+    let images = v["images"].as_array().expect("images");
+    assert_eq!(images.len(), 3);
+    let good = images.iter().find(|i| i["file"] == "spath.png").expect("spath entry");
+    assert_eq!(good["found"], true);
+    assert_eq!(good["points_px"].as_array().map(Vec::len), Some(101));
+    let idx: Vec<u64> = good["indices"].as_array().expect("indices").iter().filter_map(|x| x.as_u64()).collect();
+    assert_eq!(idx, (0..101).collect::<Vec<u64>>());
+    for bad in ["truncated.png", "garbage.jpg"] {
+        let e = images.iter().find(|i| i["file"] == bad).expect("entry");
+        assert_eq!(e["found"], false);
+        assert!(e["error"].as_str().is_some_and(|s| !s.is_empty()));
+    }
+    assert!(draw.join("spath.png").exists(), "overlay written");
+    // Detected centres against the truth centroids (noise-free render).
+    let truth: serde_json::Value = serde_json::from_slice(&std::fs::read(png.with_extension("json")).expect("truth")).expect("parse");
+    let mut errs = Vec::new();
+    for (p, i) in good["points_px"].as_array().expect("pts").iter().zip(&idx) {
+        let c = &truth["features"][*i as usize]["centroid_px"];
+        let (du, dv) = (p[0].as_f64().unwrap_or(0.0) - c[0].as_f64().unwrap_or(0.0), p[1].as_f64().unwrap_or(0.0) - c[1].as_f64().unwrap_or(0.0));
+        errs.push((du * du + dv * dv).sqrt());
+    }
+    errs.sort_by(f64::total_cmp);
+    let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt();
+    eprintln!("S-path beads, noise-free: RMS {rms:.4} px, median {:.4}, max {:.4}", errs[errs.len() / 2], errs[errs.len() - 1]);
+    // The three dots touching the sphere's outline are the worst (up to ~0.13 px); the rest < 0.01.
+    assert!(rms < 0.02, "RMS {rms}");
+    assert!(errs[errs.len() - 4] < 0.015, "4th worst {}", errs[errs.len() - 4]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_target_strings_are_rejected() {
+    for t in ["chessboard:9", "dot-grid:3x4", "hexagon", "chessboard:0x6"] {
+        let o = Command::new(bin()).args(["detect", "/nonexistent.png", "--target", t]).output().expect("run");
+        assert!(!o.status.success(), "{t}");
+        assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
+    }
+}
