@@ -7,6 +7,7 @@ mod bad_input;
 mod common;
 mod detect_cli;
 mod determinism;
+mod dot_accuracy;
 mod dot_fidelity;
 mod fidelity;
 mod golden;
