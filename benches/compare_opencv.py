@@ -233,6 +233,9 @@ def run_synthcam(binary: str, files: list[Path], pattern: tuple[int, int], runs:
                  single_thread: bool) -> SynthcamRun:
     res = SynthcamRun()
     exe = shutil.which(binary) or (binary if Path(binary).is_file() else None)
+    repo_rel = Path(__file__).resolve().parent.parent / binary  # default path is relative to the repo root
+    if exe is None and not Path(binary).is_absolute() and repo_rel.is_file():
+        exe = str(repo_rel)
     if exe is None:
         res.note = f"synthcam binary not found at {binary!r} (build it: cargo build --release); synthcam columns empty"
         return res
@@ -287,6 +290,11 @@ def run_synthcam(binary: str, files: list[Path], pattern: tuple[int, int], runs:
 
 def fmt(v, spec=".2f", none="–"):
     return none if v is None else format(v, spec)
+
+
+def fmt_ms(v):
+    """Milliseconds: 2 decimals, or 3 significant digits below 1 ms."""
+    return "–" if v is None else (f"{v:.2f}" if v >= 1 else f"{v:.3g}")
 
 
 def median_or_none(xs):
@@ -441,7 +449,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         det = rec["det"]
         found = " / ".join(("–" if d not in det else ("Y" if det[d]["found"] else "n")) for d in shown)
-        med = " / ".join(fmt(det[d]["median_ms"]) if d in det else "–" for d in shown)
+        med = " / ".join(fmt_ms(det[d]["median_ms"]) if d in det else "–" for d in shown)
         row = [p.name, f"{rec['size'][0]}x{rec['size'][1]}", found, med]
         notes = []
         if args.truth:
@@ -469,9 +477,9 @@ def main(argv: list[str] | None = None) -> int:
     # ---- summary
     summary: dict = {"detectors": {}}
     print("\n## Summary\n")
-    print("| detector | recall | median of medians ms (1 thread) | "
-          + (f"median of medians ms ({default_threads} threads) | " if mt_pass else "")
-          + ("images w/ truth | corners | err RMS px | err max px | " if args.truth else "") + "")
+    print(("| detector | recall | median of medians ms (1 thread) | "
+           + (f"median of medians ms ({default_threads} threads) | " if mt_pass else "")
+           + ("images w/ truth | corners | err RMS px | err max px |" if args.truth else "")).rstrip())
     print("|---|---|---|" + ("---|" if mt_pass else "") + ("---|---|---|---|" if args.truth else ""))
     for d in shown:
         rs = [images[p.name]["det"][d] for p in readable if d in images[p.name]["det"]]
@@ -483,7 +491,7 @@ def main(argv: list[str] | None = None) -> int:
         mmt = median_or_none([r.get("median_ms_mt") for r in rs])
         s = {"found": nf, "of": len(readable), "median_of_medians_ms_1thread": mm,
              "median_of_medians_ms_default_threads": mmt}
-        line = f"| {LABELS[d]} | {nf}/{len(readable)} | {fmt(mm)} |" + (f" {fmt(mmt)} |" if mt_pass else "")
+        line = f"| {LABELS[d]} | {nf}/{len(readable)} | {fmt_ms(mm)} |" + (f" {fmt_ms(mmt)} |" if mt_pass else "")
         if args.truth:
             ds = [r["truth_dists"] for r in rs if "truth_dists" in r]
             allv = np.concatenate(ds) if ds else np.zeros(0)
@@ -495,10 +503,12 @@ def main(argv: list[str] | None = None) -> int:
     print()
     if use_sc and "synthcam" in summary["detectors"]:
         ys = summary["detectors"]["synthcam"]["median_of_medians_ms_1thread"]
+        if summary["detectors"]["synthcam"]["found"] == 0:
+            print("- synthcam found no board: its times below are those of a failed search")
         for d in cv_dets:
             cs = summary["detectors"][d]["median_of_medians_ms_1thread"]
             if ys is not None and cs:
-                print(f"- time ratio synthcam / {LABELS[d]} (median of per-image medians, 1 thread): {ys / cs:.3f}")
+                print(f"- time ratio synthcam / {LABELS[d]} (median of per-image medians, 1 thread): {ys / cs:.3g}")
                 summary[f"ratio_synthcam_over_{d}"] = ys / cs
     if "classic" in cv_dets and args.consensus_sb in cv_dets:
         cons = [images[p.name].get("consensus") for p in readable]
@@ -509,9 +519,12 @@ def main(argv: list[str] | None = None) -> int:
         e = err_stats(allv)
         summary["consensus"] = {"sb_variant": args.consensus_sb, "both_found": len(both), "agree_within_px": CONSENSUS_RMS_PX,
                                 "agreeing": len(used), "synthcam_found_on_agreeing": len(yd), "synthcam_vs_mean": e}
-        print(f"- consensus (classic & {LABELS[args.consensus_sb]} both found: {len(both)}, agree ≤ {CONSENSUS_RMS_PX} px RMS: "
-              f"{len(used)}): synthcam found on {len(yd)} of them; synthcam vs mean RMS {fmt(e['rms_px'], '.4f')} px, "
-              f"max {fmt(e['max_px'], '.4f')} px over {e['n']} corners")
+        line = (f"- consensus (classic & {LABELS[args.consensus_sb]} both found: {len(both)}, "
+                f"agree ≤ {CONSENSUS_RMS_PX} px RMS: {len(used)})")
+        if any("synthcam" in images[p.name]["det"] for p in readable):
+            line += (f": synthcam found on {len(yd)} of them; synthcam vs mean RMS {fmt(e['rms_px'], '.4f')} px, "
+                     f"max {fmt(e['max_px'], '.4f')} px over {e['n']} corners")
+        print(line)
     if read_errors:
         print(f"- **{read_errors} image(s) could not be read** (see table)")
 

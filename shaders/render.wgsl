@@ -547,44 +547,34 @@ fn coarse_pixel(wg: vec3<u32>, lid: vec3<u32>) -> vec3<u32> {
     return vec3<u32>(tx * 8u + lid.x, ty * 8u + lid.y, ty * P.tiles.x + tx);
 }
 
-fn coarse_slot(wg: vec3<u32>, lid: vec3<u32>) -> u32 {
-    return (wg.y * 65535u + wg.x) * 64u + lid.y * 8u + lid.x;
+fn write_coarse(wg: vec3<u32>, lid: vec3<u32>, c: Coarse) {
+    let slot = (wg.y * 65535u + wg.x) * 64u + lid.y * 8u + lid.x;
+    out_vals[slot] = c.value;
+    out_hard[slot] = select(0u, 1u, c.hard);
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_chessboard(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    let c = chess_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))));
-    let slot = coarse_slot(wg, lid);
-    out_vals[slot] = c.value;
-    out_hard[slot] = select(0u, 1u, c.hard);
+    write_coarse(wg, lid, chess_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_dot_grid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    let c = grid_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))));
-    let slot = coarse_slot(wg, lid);
-    out_vals[slot] = c.value;
-    out_hard[slot] = select(0u, 1u, c.hard);
+    write_coarse(wg, lid, grid_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_spath(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    let c = spath_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), px.z);
-    let slot = coarse_slot(wg, lid);
-    out_vals[slot] = c.value;
-    out_hard[slot] = select(0u, 1u, c.hard);
+    write_coarse(wg, lid, spath_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), px.z));
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_spath_limb(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    let c = spath_coarse_limb(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))));
-    let slot = coarse_slot(wg, lid);
-    out_vals[slot] = c.value;
-    out_hard[slot] = select(0u, 1u, c.hard);
+    write_coarse(wg, lid, spath_coarse_limb(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
 }
 
 // Fine passes: one invocation per hard pixel (the tail of the last workgroup repeats the last

@@ -1,18 +1,29 @@
 //! Image to 2-D features: CPU, deterministic, no file I/O.
 //!
-//! This first version holds the sub-pixel corner refiner the renderer's fidelity test uses; the
-//! chessboard and dot detectors build on it.
+//! Holds the sub-pixel corner refiners (gradient-orthogonality [`refine_corner`] and the unbiased
+//! saddle-model fit [`refine_saddle`]), the chessboard detector [`find_chessboard`] (saddle
+//! response in [`response`], grid growing in [`grid`], X-junction test in [`xcorner`]), the dot
+//! detector and orderings, and the target dispatch.
+//!
+//! Reference: OpenCV `findChessboardCorners` / `cornerSubPix`; Geiger et al. 2012, "Automatic
+//! camera and range sensor calibration using a single shot".
 
 pub mod chessboard;
 pub mod dots;
 pub mod filters;
+pub mod grid;
 pub mod grid_order;
 pub mod image;
+pub mod response;
 pub mod s_path_order;
+pub mod saddle_fit;
 pub mod subpixel;
 pub mod target;
+pub mod xcorner;
 
 pub use self::image::ImageF32;
+pub use chessboard::{find_chessboard, ChessboardCorners, ChessboardParams};
+pub use saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};
 pub use subpixel::{refine_corner, SubpixelParams};
 
 /// Errors of the detectors.
@@ -26,6 +37,20 @@ pub enum DetectError {
         expected: usize,
         /// Actual length.
         actual: usize,
+    },
+    /// The image has no pixels.
+    #[error("image is empty ({width} x {height})")]
+    EmptyImage {
+        /// Width, pixels.
+        width: usize,
+        /// Height, pixels.
+        height: usize,
+    },
+    /// Invalid detector parameters.
+    #[error("invalid parameters: {reason}")]
+    BadParams {
+        /// Why.
+        reason: &'static str,
     },
     /// The target is not (fully) there.
     #[error("target not found: {reason}")]

@@ -79,7 +79,7 @@ pub struct Detection {
 pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectError> {
     match *spec {
         TargetSpec::Chessboard { cols, rows } => {
-            let found = find_chessboard(img, &ChessboardParams { cols, rows })?;
+            let found = find_chessboard(img, &ChessboardParams::new(cols, rows))?;
             Ok(match found {
                 Some(c) => Detection { found: true, points_px: c.points_px, ..Default::default() },
                 None => Detection { note: Some("no complete board of that size".into()), ..Default::default() },

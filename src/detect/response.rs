@@ -1,0 +1,238 @@
+//! Saddle-point response: Gaussian smoothing then R = fxy^2 - fxx * fyy (minus the Hessian
+//! determinant; positive at X-junctions, ~0 on straight edges, negative on blobs), with
+//! non-maximum suppression into a candidate list.
+//!
+//! Reference: L. Lucchese, S. Mitra, "Using saddle points for subpixel feature detection in camera
+//! calibration targets", APCCAS 2002; P. Beaudet, "Rotationally invariant image operators",
+//! ICPR 1978 (Hessian determinant).
+
+use nalgebra::Point2;
+use rayon::prelude::*;
+
+use super::ImageF32;
+
+/// Smoothed image and saddle response map of the same size.
+#[derive(Debug, Clone)]
+pub struct ResponseMap {
+    /// Gaussian-smoothed image.
+    pub smooth: ImageF32,
+    /// Saddle response fxy^2 - fxx*fyy (0 on the 1-pixel border).
+    pub response: ImageF32,
+}
+
+/// A corner candidate (local maximum of the response).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// Sub-pixel position (quadratic peak fit), pixels.
+    pub point: Point2<f64>,
+    /// Response at the peak pixel.
+    pub strength: f32,
+}
+
+fn gaussian_kernel(sigma: f64) -> Vec<f32> {
+    let r = (3.0 * sigma).ceil().max(1.0) as i64;
+    let mut k: Vec<f64> = (-r..=r).map(|i| (-((i * i) as f64) / (2.0 * sigma * sigma)).exp()).collect();
+    let s: f64 = k.iter().sum();
+    k.iter_mut().for_each(|v| *v /= s);
+    k.into_iter().map(|v| v as f32).collect()
+}
+
+/// Separable Gaussian blur with clamped borders (rows in parallel for large images).
+pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
+    let (w, h) = (img.width, img.height);
+    if w == 0 || h == 0 || !(sigma > 0.0) {
+        return img.clone();
+    }
+    let k = gaussian_kernel(sigma);
+    let r = k.len() / 2;
+    let par = w * h > 200_000;
+    // horizontal
+    let mut tmp = vec![0.0f32; w * h];
+    let hpass = |(y, out): (usize, &mut [f32])| {
+        let src = &img.data[y * w..(y + 1) * w];
+        if w > 2 * r {
+            // interior: one vectorisable axpy per tap
+            let n = w - 2 * r;
+            let o = &mut out[r..r + n];
+            for (t, kv) in k.iter().enumerate() {
+                for (a, b) in o.iter_mut().zip(src[t..t + n].iter()) {
+                    *a += b * kv;
+                }
+            }
+        }
+        for x in 0..w {
+            if x >= r && x + r < w {
+                continue;
+            }
+            let mut acc = 0.0f32;
+            {
+                for (i, kv) in k.iter().enumerate() {
+                    let xx = (x as i64 + i as i64 - r as i64).clamp(0, w as i64 - 1) as usize;
+                    acc += src[xx] * kv;
+                }
+            }
+            out[x] = acc;
+        }
+    };
+    if par {
+        tmp.par_chunks_mut(w).enumerate().for_each(hpass);
+    } else {
+        tmp.chunks_mut(w).enumerate().for_each(hpass);
+    }
+    // vertical
+    let mut out = vec![0.0f32; w * h];
+    let vpass = |(y, o): (usize, &mut [f32])| {
+        for (i, kv) in k.iter().enumerate() {
+            let yy = (y as i64 + i as i64 - r as i64).clamp(0, h as i64 - 1) as usize;
+            let src = &tmp[yy * w..(yy + 1) * w];
+            for (a, b) in o.iter_mut().zip(src.iter()) {
+                *a += b * kv;
+            }
+        }
+    };
+    if par {
+        out.par_chunks_mut(w).enumerate().for_each(vpass);
+    } else {
+        out.chunks_mut(w).enumerate().for_each(vpass);
+    }
+    ImageF32 { width: w, height: h, data: out }
+}
+
+/// 5-tap binomial blur [1 4 6 4 1] / 16 (sigma = 1) in both directions, clamped borders; per
+/// output row a vertical pass into a row buffer then a horizontal pass (no full-size temporary),
+/// written as slice arithmetic so it vectorises.
+pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
+    let (w, h) = (img.width, img.height);
+    if w < 5 || h < 5 {
+        return gaussian_blur(img, 1.0);
+    }
+    let src = &img.data;
+    let row_job = |buf: &mut Vec<f32>, (y, o): (usize, &mut [f32])| {
+        let row = |k: i64| {
+            let yy = (y as i64 + k).clamp(0, h as i64 - 1) as usize;
+            &src[yy * w..(yy + 1) * w]
+        };
+        let (a, b, c, d, e) = (row(-2), row(-1), row(0), row(1), row(2));
+        buf.clear();
+        buf.extend((0..w).map(|i| (a[i] + e[i]) + 4.0 * (b[i] + d[i]) + 6.0 * c[i]));
+        let s = &buf[..];
+        let n = w - 4;
+        let (a, b, c, d, e) = (&s[0..n], &s[1..n + 1], &s[2..n + 2], &s[3..n + 3], &s[4..n + 4]);
+        for (i, out) in o[2..w - 2].iter_mut().enumerate() {
+            *out = ((a[i] + e[i]) + 4.0 * (b[i] + d[i]) + 6.0 * c[i]) * (1.0 / 256.0);
+        }
+        let at = |x: i64| s[x.clamp(0, w as i64 - 1) as usize];
+        for x in [0usize, 1, w - 2, w - 1] {
+            let xi = x as i64;
+            o[x] = ((at(xi - 2) + at(xi + 2)) + 4.0 * (at(xi - 1) + at(xi + 1)) + 6.0 * at(xi)) * (1.0 / 256.0);
+        }
+    };
+    let mut out = vec![0.0f32; w * h];
+    if w * h > 200_000 {
+        out.par_chunks_mut(w).enumerate().for_each_init(|| Vec::with_capacity(w), row_job);
+    } else {
+        let mut buf = Vec::with_capacity(w);
+        out.chunks_mut(w).enumerate().for_each(|r| row_job(&mut buf, r));
+    }
+    ImageF32 { width: w, height: h, data: out }
+}
+
+/// Smooth with `sigma` (exactly 1.0 uses the 5-tap binomial kernel) and compute the saddle
+/// response.
+pub fn saddle_response(img: &ImageF32, sigma: f64) -> ResponseMap {
+    let smooth = if sigma == 1.0 { binomial_blur(img) } else { gaussian_blur(img, sigma) };
+    let (w, h) = (img.width, img.height);
+    let mut resp = vec![0.0f32; w * h];
+    if w >= 3 && h >= 3 {
+        let s = &smooth.data;
+        let row = |(y, o): (usize, &mut [f32])| {
+            if y == 0 || y + 1 >= h {
+                return;
+            }
+            let (a, b, c) = (&s[(y - 1) * w..y * w], &s[y * w..(y + 1) * w], &s[(y + 1) * w..(y + 2) * w]);
+            for x in 1..w - 1 {
+                let fxx = b[x + 1] - 2.0 * b[x] + b[x - 1];
+                let fyy = c[x] - 2.0 * b[x] + a[x];
+                let fxy = 0.25 * (c[x + 1] - c[x - 1] - a[x + 1] + a[x - 1]);
+                o[x] = fxy * fxy - fxx * fyy;
+            }
+        };
+        if w * h > 200_000 {
+            resp.par_chunks_mut(w).enumerate().for_each(row);
+        } else {
+            resp.chunks_mut(w).enumerate().for_each(row);
+        }
+    }
+    ResponseMap { smooth, response: ImageF32 { width: w, height: h, data: resp } }
+}
+
+/// Sub-pixel peak of `r` at integer (x, y) by a separable quadratic fit (offset clamped to +-0.5).
+pub fn peak_subpixel(r: &ImageF32, x: usize, y: usize) -> Point2<f64> {
+    let w = r.width;
+    if x == 0 || y == 0 || x + 1 >= w || y + 1 >= r.height {
+        return Point2::new(x as f64, y as f64);
+    }
+    let c = f64::from(r.data[y * w + x]);
+    let off = |m: f64, p: f64| {
+        let den = m - 2.0 * c + p;
+        if den < -1e-12 { (0.5 * (m - p) / den).clamp(-0.5, 0.5) } else { 0.0 }
+    };
+    let dx = off(f64::from(r.data[y * w + x - 1]), f64::from(r.data[y * w + x + 1]));
+    let dy = off(f64::from(r.data[(y - 1) * w + x]), f64::from(r.data[(y + 1) * w + x]));
+    Point2::new(x as f64 + dx, y as f64 + dy)
+}
+
+/// Local maxima of the response over a (2 `nms_radius` + 1)^2 window above
+/// `rel_threshold` x the global maximum, strongest first, at most `max_count`.
+pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_count: usize) -> Vec<Candidate> {
+    let (w, h) = (r.width, r.height);
+    let maxv = if w * h > 200_000 {
+        r.data.par_chunks(w.max(1)).map(|c| c.iter().copied().fold(0.0f32, f32::max)).reduce(|| 0.0, f32::max)
+    } else {
+        r.data.iter().copied().fold(0.0f32, f32::max)
+    };
+    if !(maxv > 0.0) || w < 3 || h < 3 {
+        return Vec::new();
+    }
+    let thr = maxv * rel_threshold;
+    let nr = nms_radius.max(1);
+    let scan_row = |y: usize| -> Vec<Candidate> {
+        let mut found = Vec::new();
+        let row = &r.data[y * w..(y + 1) * w];
+        let up = &r.data[(y - 1) * w..y * w];
+        let dn = &r.data[(y + 1) * w..(y + 2) * w];
+        for x in 1..w - 1 {
+            let v = row[x];
+            if v <= thr {
+                continue;
+            }
+            if row[x - 1] > v || row[x + 1] > v || up[x] > v || dn[x] > v || up[x - 1] > v || up[x + 1] > v || dn[x - 1] > v || dn[x + 1] > v {
+                continue;
+            }
+            let mut is_max = true;
+            'scan: for yy in y.saturating_sub(nr)..=(y + nr).min(h - 1) {
+                let rr = &r.data[yy * w..(yy + 1) * w];
+                for xx in x.saturating_sub(nr)..=(x + nr).min(w - 1) {
+                    let u = rr[xx];
+                    // strict on one side to break plateaus deterministically
+                    if u > v || (u == v && (yy, xx) < (y, x)) {
+                        is_max = false;
+                        break 'scan;
+                    }
+                }
+            }
+            if is_max {
+                found.push(Candidate { point: peak_subpixel(r, x, y), strength: v });
+            }
+        }
+        found
+    };
+    let mut out: Vec<Candidate> = if w * h > 200_000 {
+        (1..h - 1).into_par_iter().flat_map_iter(scan_row).collect()
+    } else {
+        (1..h - 1).flat_map(scan_row).collect()
+    };
+    out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
+    out.truncate(max_count);
+    out
+}
