@@ -105,7 +105,7 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     if img.width == 0 || img.height == 0 {
         return Err(DetectError::EmptyImage { width: img.width, height: img.height });
     }
-    let expected = img.width.checked_mul(img.height).unwrap_or(usize::MAX);
+    let expected = img.width.saturating_mul(img.height);
     if img.data.len() != expected {
         return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
     }
@@ -126,7 +126,7 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     let mut used: Vec<Point2<f64>> = Vec::new();
     let mut seeds_tried = 0;
     // several complete boards (e.g. one shown on a monitor): keep the largest in the image
-    let mut best: Option<(f64, Vec<Vec<Point2<f64>>>, usize)> = None;
+    let mut best: Option<(f64, Rows, usize)> = None;
     for seed in &cands {
         if seeds_tried >= params.max_seeds || best.as_ref().is_some_and(|b| seeds_tried >= b.2 + params.extra_seeds_after_found) {
             break;
@@ -153,13 +153,16 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
         };
         if let Some(grid) = fits.as_ref().and_then(|g| to_rows(g, params.cols, params.rows)) {
             let area = polygon_area(&grid);
-            if best.as_ref().is_none_or(|b: &(f64, Vec<Vec<Point2<f64>>>, usize)| area > b.0) {
+            if best.as_ref().is_none_or(|b: &(f64, Rows, usize)| area > b.0) {
                 best = Some((area, grid, seeds_tried));
             }
         }
     }
     Ok(best.map(|(_, grid, st)| refine_all(img, orient(grid, params.cols, params.rows), params, cands.len(), st)))
 }
+
+/// Corner positions as rows of `cols` points.
+type Rows = Vec<Vec<Point2<f64>>>;
 
 /// The `k` nearest other candidates of `seed` (at least 3 px away, at least `min_frac` of its
 /// strength), nearest first.

@@ -37,6 +37,9 @@ impl Default for GrowParams {
     }
 }
 
+/// Predicted position, local step length, and the step vectors along i and j.
+type Prediction = (Point2<f64>, f64, Vector2<f64>, Vector2<f64>);
+
 /// A grown grid: integer grid coordinates to corner positions.
 #[derive(Debug, Clone, Default)]
 pub struct Grid {
@@ -125,7 +128,7 @@ impl Grid {
 
     /// Prediction of cell (i, j) from filled neighbours, with the local step length and the two
     /// local grid step vectors (along i, along j).
-    fn predict(&self, i: i32, j: i32) -> Option<(Point2<f64>, f64, Vector2<f64>, Vector2<f64>)> {
+    fn predict(&self, i: i32, j: i32) -> Option<Prediction> {
         let mut sum = Vector2::zeros();
         let mut n = 0.0;
         let mut step_i: Option<Vector2<f64>> = None;
@@ -291,10 +294,8 @@ fn try_add(g: &mut Grid, resp: &ResponseMap, i: i32, j: i32, min_r: f32, params:
     }
     // no duplicate of an existing neighbour
     for (di, dj) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
-        if let Some(q) = g.get(i + di, j + dj) {
-            if (q - p.coords).norm() < 0.5 * step {
-                return false;
-            }
+        if g.get(i + di, j + dj).is_some_and(|q| (q - p.coords).norm() < 0.5 * step) {
+            return false;
         }
     }
     g.cells.insert((i, j), p);

@@ -60,18 +60,16 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
                 }
             }
         }
-        for x in 0..w {
+        for (x, o) in out.iter_mut().enumerate() {
             if x >= r && x + r < w {
                 continue;
             }
             let mut acc = 0.0f32;
-            {
-                for (i, kv) in k.iter().enumerate() {
-                    let xx = (x as i64 + i as i64 - r as i64).clamp(0, w as i64 - 1) as usize;
-                    acc += src[xx] * kv;
-                }
+            for (i, kv) in k.iter().enumerate() {
+                let xx = (x as i64 + i as i64 - r as i64).clamp(0, w as i64 - 1) as usize;
+                acc += src[xx] * kv;
             }
-            out[x] = acc;
+            *o = acc;
         }
     };
     if par {
@@ -212,8 +210,8 @@ pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_
             let mut is_max = true;
             'scan: for yy in y.saturating_sub(nr)..=(y + nr).min(h - 1) {
                 let rr = &r.data[yy * w..(yy + 1) * w];
-                for xx in x.saturating_sub(nr)..=(x + nr).min(w - 1) {
-                    let u = rr[xx];
+                let x0 = x.saturating_sub(nr);
+                for (xx, &u) in rr.iter().enumerate().take((x + nr).min(w - 1) + 1).skip(x0) {
                     // strict on one side to break plateaus deterministically
                     if u > v || (u == v && (yy, xx) < (y, x)) {
                         is_max = false;

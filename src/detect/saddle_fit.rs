@@ -229,6 +229,9 @@ fn model(x: &SVector<f64, NP>, g: &Geo, dx: f64, dy: f64, jac: &mut SVector<f64,
     x[4] + x[9] * dx + x[10] * dy + a * e1 * e2
 }
 
+/// A linearisation point: parameters, J^T J, J^T r, cost.
+type Normal = (SVector<f64, NP>, SMatrix<f64, NP, NP>, SVector<f64, NP>, f64);
+
 /// Normal equations J^T J, J^T r and the cost over the window for the `N` active parameters
 /// `idx` (packed so the inner loops have compile-time bounds).
 fn accumulate_n<const N: usize>(
@@ -354,7 +357,7 @@ pub fn refine_saddle(
     let mut exact = false;
     let mut exact_iters = 0;
     let mut converged = false;
-    let mut saved: Option<(SVector<f64, NP>, SMatrix<f64, NP, NP>, SVector<f64, NP>, f64)> = None;
+    let mut saved: Option<Normal> = None;
     let mut iterations = 0;
     let mut cost = f64::INFINITY;
     let max_total = params.max_iterations + 3;
@@ -410,10 +413,8 @@ pub fn refine_saddle(
             }
         }
     }
-    if !converged {
-        if let Some((xs, _, _, _)) = saved {
-            x = xs;
-        }
+    if let (false, Some((xs, _, _, _))) = (converged, saved) {
+        x = xs;
     }
     if !x.iter().all(|v| v.is_finite()) {
         return Err(fail("fit diverged"));
