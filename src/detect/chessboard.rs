@@ -121,6 +121,45 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     if img.width < 8 || img.height < 8 {
         return Ok(None);
     }
+    // Coarse to fine: halve the image once when it has at least PYRAMID_MIN_PIXELS pixels, look for the
+    // grid from the coarsest level down (the response and candidate search cost 4x less per level),
+    // and refine every corner at full resolution.
+    let half = (img.width * img.height >= PYRAMID_MIN_PIXELS).then(|| downsample2(img));
+    let levels: Vec<(usize, &ImageF32)> = half.iter().map(|h| (1, h)).chain([(0, img)]).collect();
+    for &(level, im) in &levels {
+        if let Some((mut grid, n_cands, seeds)) = search(im, params) {
+            // A pixel i of one level covers pixels 2i and 2i + 1 of the next finer: centre 2i + 0.5.
+            for _ in 0..level {
+                grid = grid.into_iter().map(|row| row.into_iter().map(|p| Point2::new(2.0 * p.x + 0.5, 2.0 * p.y + 0.5)).collect()).collect();
+            }
+            return Ok(Some(refine_all(img, orient(grid, params.cols, params.rows), params, n_cands, seeds)));
+        }
+    }
+    Ok(None)
+}
+
+/// Levels with at least this many pixels are halved for the coarse search (640 x 480 -> 320 x 240).
+pub const PYRAMID_MIN_PIXELS: usize = 300_000;
+
+/// 2 x 2 box downsampling (odd last row / column dropped).
+fn downsample2(img: &ImageF32) -> ImageF32 {
+    let (w, h) = (img.width / 2, img.height / 2);
+    let mut data = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let (r0, r1) = (&img.data[2 * y * img.width..], &img.data[(2 * y + 1) * img.width..]);
+        for x in 0..w {
+            data.push(0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]));
+        }
+    }
+    ImageF32 { width: w, height: h, data }
+}
+
+/// Find the grid (unrefined) in `img`: the rows of corners, the candidate count and the seeds
+/// tried.
+fn search(img: &ImageF32, params: &ChessboardParams) -> Option<(Rows, usize, usize)> {
+    if img.width < 8 || img.height < 8 {
+        return None;
+    }
     let resp = saddle_response(img, params.smoothing_sigma_px);
     let cands = find_candidates(&resp.response, 3, params.candidate_rel_threshold, params.max_candidates);
     let mut used: Vec<Point2<f64>> = Vec::new();
@@ -158,7 +197,7 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
             }
         }
     }
-    Ok(best.map(|(_, grid, st)| refine_all(img, orient(grid, params.cols, params.rows), params, cands.len(), st)))
+    best.map(|(_, grid, st)| (grid, cands.len(), st))
 }
 
 /// Corner positions as rows of `cols` points.
