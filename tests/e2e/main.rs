@@ -10,6 +10,7 @@ mod detect_cli;
 mod determinism;
 mod dot_accuracy;
 mod dot_fidelity;
+mod dot_grid;
 mod fidelity;
 mod golden;
 mod robustness;
