@@ -3,9 +3,10 @@
 //! The first dot of the S-path target is larger (10 mm against 6 mm): the start is the dot whose
 //! area is largest relative to its two nearest neighbours (seen at about the same obliquity), and it
 //! must exceed them by `start_area_ratio`. From there the chain follows the curve with a
-//! constant-velocity prediction (next = current + (current - previous)), accepting the nearest
-//! unused dot within `tolerance` of the step length; a dot missing from the image (occluded, out of
-//! view) is bridged by predicting two steps ahead, so the visible dots keep their path index.
+//! constant-curvature prediction (the last step turned by the angle between the last two steps), accepting the nearest
+//! unused dot within `tolerance` of the step length; dots missing from the image (occluded, out of
+//! view) are bridged by predicting up to [`MAX_SKIP`] steps ahead, so the visible dots
+//! keep their path index.
 //! The chain counts as the path when it holds at least `min_chain` dots and `min_chain_share` of
 //! all detected dots (random clutter chains a few dots by chance, never most of them).
 //! Reference: the course's S-path target (shared/spec/course-scenario.md 1.4, 3.4).
@@ -14,6 +15,10 @@ use nalgebra::Point2;
 
 use super::dots::Dot;
 use super::DetectError;
+
+/// Most steps a prediction may bridge (one missing dot). Bridging three (for painted discs that
+/// thin to slivers) let random clutter chain into a path in the robustness test.
+pub const MAX_SKIP: usize = 2;
 
 /// Parameters of [`order_s_path`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -90,14 +95,30 @@ pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<Index
         let n = out.len();
         let (prev, cur) = (out[n - 2], out[n - 1]);
         let step = (cur.centre_px - prev.centre_px) / (cur.index - prev.index) as f64;
+        // Constant curvature: turn the step by the angle between the last two steps.
+        let turn = if n >= 3 {
+            let before = (prev.centre_px - out[n - 3].centre_px) / (prev.index - out[n - 3].index) as f64;
+            let ang = before.x * step.y - before.y * step.x;
+            ang.atan2(before.dot(&step)).clamp(-0.6, 0.6)
+        } else {
+            0.0
+        };
+        let rot = nalgebra::Rotation2::new(turn);
         let mut found = None;
-        for skip in 1..=2usize {
-            let pred = cur.centre_px + step * skip as f64;
+        for skip in 1..=MAX_SKIP {
+            // Predict skip steps ahead along the arc.
+            let mut pred = cur.centre_px;
+            let mut s = step;
+            for _ in 0..skip {
+                s = rot * s;
+                pred += s;
+            }
             if let Some((j, dist)) = nearest_unused(pred, &used) {
-                // Path dots are apart by more than their size (25.7 mm against 12 mm beads).
+                // Path dots do not overlap (25.7 mm apart, 12 mm beads): two blobs closer than most of
+                // their radii are clutter, not consecutive dots.
                 let radius = |d: &Dot| (d.area_px / std::f64::consts::PI).sqrt();
-                let last = out.last().map_or(cur.centre_px, |o| o.centre_px);
-                let apart = (dots[j].centre_px - last).norm() >= 1.2 * (radius(&dots[j]) + radius(&dots[start]).min(radius(&dots[j]) * 2.0));
+                let cur_dot = dots.iter().find(|d| d.centre_px == cur.centre_px).map_or(0.0, radius);
+                let apart = (dots[j].centre_px - cur.centre_px).norm() >= 0.8 * (radius(&dots[j]) + cur_dot);
                 if apart && dist <= params.tolerance * step.norm() * skip as f64 + 1.0 {
                     found = Some((j, cur.index + skip));
                     break;

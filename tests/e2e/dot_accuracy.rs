@@ -48,6 +48,9 @@ fn run(style: DotStyle, views: usize, seed: u64) -> Stats {
             let big = f.area_px.is_some_and(|a| a >= std::f64::consts::PI * 1.5 * 1.5);
             if f.visible && big {
                 st.eligible += 1;
+                if std::env::var("MISSED").is_ok() && !indices.contains(&f.id) {
+                    eprintln!("missed dot {} area {:.1} at {:?} (found {} dots, note {:?})", f.id, f.area_px.unwrap_or(0.0), f.pixel_px, det.points_px.len(), det.note);
+                }
             }
         }
         for (p, i) in det.points_px.iter().zip(&indices) {
@@ -97,9 +100,9 @@ fn s_path_beads_from_course_like_poses() {
     let st = run(DotStyle::Bead, 6, 11);
     let (recall, rms) = summary("beads", &st);
     // Issue targets: recall >= 99 %, RMS <= 0.015 px, max <= 0.06 px. Measured 2026-11-24: recall
-    // 96.9 %, RMS 0.07 px (dots touching the sphere's outline dominate). Regression bounds:
+    // 100 %, RMS 0.071 px, max 0.30 px (dots touching the sphere's outline dominate).
     assert_eq!(st.false_dots, 0);
-    assert!(recall >= 0.95, "recall {recall}");
+    assert!(recall >= 0.99, "recall {recall}");
     assert!(rms <= 0.1, "RMS {rms}");
 }
 
