@@ -4,6 +4,9 @@
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// Calibration.
+    #[error(transparent)]
+    Calib(#[from] crate::calib::CalibError),
     /// Camera model.
     #[error(transparent)]
     Camera(#[from] crate::camera::CameraError),

@@ -23,6 +23,7 @@
 
 #![deny(missing_docs)]
 
+pub mod calib;
 pub mod camera;
 pub mod dataset;
 pub mod detect;

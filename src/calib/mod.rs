@@ -1,0 +1,205 @@
+//! Intrinsic camera calibration from views of a planar target: Zhang's closed form, then
+//! Levenberg-Marquardt over intrinsics, Brown-Conrady distortion and every view's pose.
+//!
+//! Reference: Z. Zhang, "A flexible new technique for camera calibration", IEEE PAMI 22(11), 2000;
+//! OpenCV `calibrateCamera` (same model and objective: its results are the outside reference in
+//! the tests).
+
+pub mod homography;
+pub mod refine;
+pub mod zhang;
+
+use nalgebra::{Isometry3, Point2, Point3, Vector2, Vector3, Vector6};
+
+use crate::camera::{CameraModel, ImageSize};
+use crate::math::so3::rvec_from_rotation;
+pub use refine::View;
+
+/// Errors of the calibration.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum CalibError {
+    /// Not enough views.
+    #[error("calibration needs at least {required} views, got {actual}")]
+    TooFewViews {
+        /// Needed.
+        required: usize,
+        /// Given.
+        actual: usize,
+    },
+    /// A view has too few points.
+    #[error("view {view} has {actual} points, at least {required} needed")]
+    TooFewPoints {
+        /// View index.
+        view: usize,
+        /// Needed.
+        required: usize,
+        /// Given.
+        actual: usize,
+    },
+    /// A point is NaN or infinite.
+    #[error("view {view}, point {index}: non-finite coordinate")]
+    NonFinite {
+        /// View index.
+        view: usize,
+        /// Point index.
+        index: usize,
+    },
+    /// The data cannot determine the parameters.
+    #[error("degenerate data: {reason}")]
+    Degenerate {
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Options of [`calibrate`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalibParams {
+    /// Estimate the skew K[0][1] (OpenCV never does).
+    pub estimate_skew: bool,
+    /// Fix distortion coefficients (k1, k2, p1, p2, k3) at 0.
+    pub fix_distortion: [bool; 5],
+    /// Levenberg-Marquardt iteration limit.
+    pub max_iterations: usize,
+}
+
+impl Default for CalibParams {
+    fn default() -> Self {
+        Self { estimate_skew: false, fix_distortion: [false; 5], max_iterations: 200 }
+    }
+}
+
+/// Result for one view.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewResult {
+    /// `cam_from_board` rotation vector, radians.
+    pub rvec: Vector3<f64>,
+    /// `cam_from_board` translation, board units.
+    pub tvec: Vector3<f64>,
+    /// RMS reprojection error, px.
+    pub rms_px: f64,
+    /// Largest reprojection error, px.
+    pub max_px: f64,
+    /// Residuals (projected - observed), px.
+    pub residuals_px: Vec<Vector2<f64>>,
+}
+
+/// Standard deviations of the intrinsics (NaN for fixed ones), order fx, fy, cx, cy, skew, k1,
+/// k2, p1, p2, k3.
+pub type IntrinsicStd = [f64; 10];
+
+/// Result of [`calibrate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibResult {
+    /// The calibrated camera.
+    pub camera: CameraModel,
+    /// RMS reprojection error over all points, px (as OpenCV's `calibrateCamera` returns).
+    pub rms_px: f64,
+    /// Per view.
+    pub views: Vec<ViewResult>,
+    /// Standard deviations from sigma^2 (J^T J)^-1 with sigma^2 = SSE / (n - k).
+    pub std: IntrinsicStd,
+    /// Iterations of the refinement.
+    pub iterations: usize,
+    /// Whether the refinement met its convergence test.
+    pub converged: bool,
+}
+
+fn validate(views: &[View]) -> Result<(), CalibError> {
+    if views.len() < 3 {
+        return Err(CalibError::TooFewViews { required: 3, actual: views.len() });
+    }
+    for (vi, v) in views.iter().enumerate() {
+        if v.len() < 4 {
+            return Err(CalibError::TooFewPoints { view: vi, required: 4, actual: v.len() });
+        }
+        for (i, (x, q)) in v.iter().enumerate() {
+            if !(x.coords.iter().all(|c| c.is_finite()) && q.coords.iter().all(|c| c.is_finite())) {
+                return Err(CalibError::NonFinite { view: vi, index: i });
+            }
+        }
+        // Spread of the board points: both principal axes must be non-degenerate.
+        let n = v.len() as f64;
+        let m = v.iter().fold(Vector2::zeros(), |a, (x, _)| a + x.xy().coords) / n;
+        let mut c = nalgebra::Matrix2::zeros();
+        for (x, _) in v {
+            let d = x.xy().coords - m;
+            c += d * d.transpose();
+        }
+        let e = c.symmetric_eigenvalues();
+        if !(e.min() > 1e-12 * e.max().max(1e-300)) {
+            return Err(CalibError::Degenerate { reason: format!("the points of view {vi} are collinear") });
+        }
+        if v.iter().any(|(x, _)| x.z != 0.0) {
+            return Err(CalibError::Degenerate { reason: format!("view {vi}: board points must lie on z = 0") });
+        }
+    }
+    Ok(())
+}
+
+/// Calibrate from views of a planar target.
+///
+/// # Errors
+/// Fewer than 3 views or 4 points per view, NaN, collinear or parallel views.
+pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Result<CalibResult, CalibError> {
+    validate(views)?;
+    let hs = views
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let (src, dst): (Vec<Point2<f64>>, Vec<Point2<f64>>) = v.iter().map(|(x, q)| (x.xy(), *q)).unzip();
+            homography::homography(&src, &dst).ok_or_else(|| CalibError::Degenerate { reason: format!("no homography for view {i}") })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let k0 = zhang::intrinsics_from_homographies(&hs, !params.estimate_skew)?;
+    let poses: Vec<Vector6<f64>> = hs
+        .iter()
+        .map(|h| {
+            let p: Isometry3<f64> = zhang::pose_from_homography(h, &k0);
+            let r = rvec_from_rotation(&p.rotation.to_rotation_matrix());
+            let t = p.translation.vector;
+            Vector6::new(r.x, r.y, r.z, t.x, t.y, t.z)
+        })
+        .collect();
+    let a0 = [k0.fx, k0.fy, k0.cx, k0.cy, k0.skew, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let mut free: Vec<usize> = vec![0, 1, 2, 3];
+    if params.estimate_skew {
+        free.push(4);
+    }
+    free.extend((0..5).filter(|i| !params.fix_distortion[*i]).map(|i| 5 + i));
+    let init = refine::State { a: a0, poses };
+    let r = refine::refine(size, init, views, &free, params.max_iterations)
+        .ok_or_else(|| CalibError::Degenerate { reason: "the normal equations are singular".into() })?;
+    let camera = refine::camera_of(size, &r.state.a);
+    let mut std = [f64::NAN; 10];
+    for (j, &f) in free.iter().enumerate() {
+        std[f] = r.covariance[(j, j)].sqrt();
+    }
+    let mut total = 0.0;
+    let mut count = 0usize;
+    let view_results = views
+        .iter()
+        .zip(&r.state.poses)
+        .map(|(v, pose)| {
+            let w = Vector3::new(pose[0], pose[1], pose[2]);
+            let t = Vector3::new(pose[3], pose[4], pose[5]);
+            let rot = crate::math::so3::rotation_from_rvec(&w);
+            let res: Vec<Vector2<f64>> = v.iter().map(|(x, q)| camera.project_unchecked(&Point3::from(rot * x.coords + t)) - q).collect();
+            let ss: f64 = res.iter().map(|e| e.norm_squared()).sum();
+            total += ss;
+            count += res.len();
+            ViewResult {
+                rvec: w,
+                tvec: t,
+                rms_px: (ss / res.len() as f64).sqrt(),
+                max_px: res.iter().map(|e| e.norm()).fold(0.0, f64::max),
+                residuals_px: res,
+            }
+        })
+        .collect();
+    Ok(CalibResult { camera, rms_px: (total / count.max(1) as f64).sqrt(), views: view_results, std, iterations: r.iterations, converged: r.converged })
+}
+
+#[cfg(test)]
+mod tests;
