@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod calibrate;
 mod demo;
 mod detect;
 mod render;
@@ -27,6 +28,10 @@ pub enum Command {
     ///
     /// SYNOPSIS: synthcam detect ../shared/data/opencv_left --target chessboard:9x6 --json corners.json
     Detect(detect::DetectArgs),
+    /// Calibrate a camera from chessboard images or a detections JSON.
+    ///
+    /// SYNOPSIS: synthcam calibrate ../shared/data/opencv_left --target chessboard:9x6 --square 0.025 --json calib.json
+    Calibrate(calibrate::CalibrateArgs),
     /// Run the main job on the embedded default scenario and write a report folder.
     Demo {
         /// Output folder.
@@ -47,6 +52,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Bench(args) => bench::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
         Command::Demo { out } => demo::run(&out),
         Command::Detect(args) => detect::run(&args),
         Command::Render(args) => render::run(&args),

@@ -4,6 +4,7 @@
 
 mod architecture;
 mod bad_input;
+mod calibration;
 mod chessboard_accuracy;
 mod common;
 mod detect_cli;

@@ -1,0 +1,168 @@
+//! `synthcam calibrate <IMAGES | detections.json>... --target chessboard:COLSxROWS --square M`.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use nalgebra::{Point2, Point3};
+use serde::Serialize;
+use synthcam::calib::{calibrate, CalibParams, View};
+use synthcam::camera::ImageSize;
+use synthcam::dataset::calib_io::{opencv_yaml, ros_yaml};
+use synthcam::dataset::{load_grey, write_atomic};
+use synthcam::detect::target::{detect, TargetSpec};
+
+/// Arguments of `calibrate`.
+#[derive(Debug, clap::Args)]
+pub struct CalibrateArgs {
+    /// Images or folders (detected here), or one detections JSON written by `synthcam detect`.
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Target: chessboard:COLSxROWS (inner corners).
+    #[arg(long, value_parser = |s: &str| s.parse::<TargetSpec>())]
+    pub target: TargetSpec,
+    /// Square size, metres (the board's unit).
+    #[arg(long)]
+    pub square: f64,
+    /// Also estimate the skew K[0][1].
+    #[arg(long)]
+    pub skew: bool,
+    /// Write the result as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the result as OpenCV FileStorage YAML.
+    #[arg(long)]
+    pub opencv_yaml: Option<PathBuf>,
+    /// Write the result as a ROS camera_info YAML.
+    #[arg(long)]
+    pub ros_yaml: Option<PathBuf>,
+}
+
+#[derive(Debug, Serialize)]
+struct ViewOut {
+    file: String,
+    rms_px: f64,
+    max_px: f64,
+    rvec: [f64; 3],
+    tvec: [f64; 3],
+}
+
+#[derive(Debug, Serialize)]
+struct Output {
+    image_size: [u32; 2],
+    rms_px: f64,
+    #[serde(rename = "K")]
+    k: [[f64; 3]; 3],
+    dist: [f64; 5],
+    std: serde_json::Value,
+    views: Vec<ViewOut>,
+    used: usize,
+    skipped: Vec<String>,
+    iterations: usize,
+    converged: bool,
+    /// Time of the calibration itself (after detection or loading), milliseconds.
+    time_ms: f64,
+}
+
+/// (file, width, height, points) of every image in which the board was found, and the skipped ones.
+type Detections = (Vec<(String, usize, usize, Vec<Point2<f64>>)>, Vec<String>);
+
+fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
+    let images = v["images"].as_array().with_context(|| format!("{}: no `images` array (not a `synthcam detect` file)", path.display()))?;
+    let (mut found, mut skipped) = (Vec::new(), Vec::new());
+    for (i, im) in images.iter().enumerate() {
+        let file = im["file"].as_str().map_or_else(|| format!("#{i}"), str::to_string);
+        if im["found"].as_bool() != Some(true) {
+            skipped.push(file);
+            continue;
+        }
+        let pts = im["points_px"].as_array().with_context(|| format!("{file}: `points_px` missing"))?;
+        let pts: Vec<Point2<f64>> = pts
+            .iter()
+            .map(|p| match (p[0].as_f64(), p[1].as_f64()) {
+                (Some(u), Some(v)) => Ok(Point2::new(u, v)),
+                _ => anyhow::bail!("{file}: a point is not [u, v]"),
+            })
+            .collect::<anyhow::Result<_>>()?;
+        anyhow::ensure!(pts.len() == n, "{file}: {} points, the target has {n}", pts.len());
+        let w = im["width"].as_u64().with_context(|| format!("{file}: `width` missing"))? as usize;
+        let h = im["height"].as_u64().with_context(|| format!("{file}: `height` missing"))? as usize;
+        found.push((file, w, h, pts));
+    }
+    Ok((found, skipped))
+}
+
+/// Run `calibrate`.
+pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
+    let TargetSpec::Chessboard { cols, rows } = args.target else {
+        anyhow::bail!("calibrate takes a chessboard target (chessboard:COLSxROWS)");
+    };
+    anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be a positive number of metres, got {}", args.square);
+    let n = cols * rows;
+    let (found, skipped) = if args.inputs.len() == 1 && args.inputs[0].extension().is_some_and(|e| e == "json") {
+        from_json(&args.inputs[0], n)?
+    } else {
+        let (mut found, mut skipped) = (Vec::new(), Vec::new());
+        for f in super::detect::expand_images(&args.inputs)? {
+            let name = f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned());
+            match load_grey(&f) {
+                Ok(img) => {
+                    let det = detect(&img, &args.target)?;
+                    if det.found {
+                        found.push((name, img.width, img.height, det.points_px));
+                    } else {
+                        skipped.push(name);
+                    }
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    skipped.push(name);
+                }
+            }
+        }
+        (found, skipped)
+    };
+    let Some(&(_, w, h, _)) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
+    anyhow::ensure!(found.iter().all(|f| f.1 == w && f.2 == h), "the images differ in size");
+    let board: Vec<Point3<f64>> = (0..n).map(|k| Point3::new((k % cols) as f64 * args.square, (k / cols) as f64 * args.square, 0.0)).collect();
+    let views: Vec<View> = found.iter().map(|(_, _, _, pts)| board.iter().copied().zip(pts.iter().copied()).collect()).collect();
+    let size = ImageSize { width: w as u32, height: h as u32 };
+    let t0 = std::time::Instant::now();
+    let r = calibrate(&views, size, &CalibParams { estimate_skew: args.skew, ..Default::default() }).context("calibrating")?;
+    let time_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let k = r.camera.intrinsics;
+    let names = ["fx", "fy", "cx", "cy", "skew", "k1", "k2", "p1", "p2", "k3"];
+    let std: serde_json::Map<String, serde_json::Value> =
+        names.iter().zip(r.std).filter(|(_, v)| v.is_finite()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect();
+    println!("{} views used, {} skipped; RMS {:.4} px", found.len(), skipped.len(), r.rms_px);
+    println!("fx {:.4} +- {:.4}  fy {:.4} +- {:.4}  cx {:.4} +- {:.4}  cy {:.4} +- {:.4}  skew {:.4}", k.fx, r.std[0], k.fy, r.std[1], k.cx, r.std[2], k.cy, r.std[3], k.skew);
+    println!("dist (k1, k2, p1, p2, k3) = {:?}", r.camera.distortion.to_array());
+    let out = Output {
+        image_size: [size.width, size.height],
+        rms_px: r.rms_px,
+        k: [[k.fx, k.skew, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
+        dist: r.camera.distortion.to_array(),
+        std: serde_json::Value::Object(std),
+        views: found
+            .iter()
+            .zip(&r.views)
+            .map(|((file, ..), v)| ViewOut { file: file.clone(), rms_px: v.rms_px, max_px: v.max_px, rvec: v.rvec.into(), tvec: v.tvec.into() })
+            .collect(),
+        used: found.len(),
+        skipped,
+        iterations: r.iterations,
+        converged: r.converged,
+        time_ms,
+    };
+    if let Some(p) = &args.json {
+        write_atomic(p, &serde_json::to_vec_pretty(&out)?)?;
+    }
+    if let Some(p) = &args.opencv_yaml {
+        write_atomic(p, opencv_yaml(&r).as_bytes())?;
+    }
+    if let Some(p) = &args.ros_yaml {
+        write_atomic(p, ros_yaml(&r, "synthcam").as_bytes())?;
+    }
+    Ok(())
+}
