@@ -108,8 +108,11 @@ pub struct Refined {
     pub covariance: DMatrix<f64>,
 }
 
-/// Schur-complement reduced system: S and the right-hand side for the intrinsics.
-fn reduced(b: &Blocks, lambda: f64) -> Option<(DMatrix<f64>, DVector<f64>, Vec<Matrix6<f64>>)> {
+/// Reduced system: the Schur complement S, its right-hand side, and the inverted view blocks.
+type Reduced = (DMatrix<f64>, DVector<f64>, Vec<Matrix6<f64>>);
+
+/// Schur-complement reduced system for the intrinsics at damping `lambda`.
+fn reduced(b: &Blocks, lambda: f64) -> Option<Reduced> {
     let k = b.u.nrows();
     let mut s = b.u.clone();
     for i in 0..k {
