@@ -8,6 +8,7 @@ mod bench;
 mod calibrate;
 mod demo;
 mod detect;
+mod experiment;
 mod render;
 
 /// synthcam: synthetic camera images with exact ground truth for calibration and visual servoing.
@@ -38,6 +39,9 @@ pub enum Command {
         #[arg(short, long, default_value = "out/demo")]
         out: PathBuf,
     },
+    /// Reproduce the course's experiments (calib-sweep).
+    #[command(subcommand)]
+    Experiment(experiment::Experiment),
     /// Render a scene file (TOML or JSON) to a PNG and its truth JSON.
     ///
     /// SYNOPSIS: synthcam render assets/scenes/chessboard_k1.toml -o board.png
@@ -55,6 +59,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Calibrate(args) => calibrate::run(&args),
         Command::Demo { out } => demo::run(&out),
         Command::Detect(args) => detect::run(&args),
+        Command::Experiment(e) => experiment::run(&e),
         Command::Render(args) => render::run(&args),
     }
 }
