@@ -7,7 +7,7 @@ use nalgebra::{Point2, Point3};
 use serde::Serialize;
 use synthcam::calib::{calibrate, CalibParams, View};
 use synthcam::camera::ImageSize;
-use synthcam::dataset::calib_io::{opencv_yaml, ros_yaml};
+use synthcam::dataset::calib_io::{opencv_yaml, plot_png, ros_yaml};
 use synthcam::dataset::{load_grey, write_atomic};
 use synthcam::detect::target::{detect, TargetSpec};
 
@@ -35,6 +35,9 @@ pub struct CalibrateArgs {
     /// Write the result as a ROS camera_info YAML.
     #[arg(long)]
     pub ros_yaml: Option<PathBuf>,
+    /// Plot per-view errors and residual vectors to this PNG.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 #[derive(Debug, Serialize)]
@@ -163,6 +166,10 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     }
     if let Some(p) = &args.ros_yaml {
         write_atomic(p, ros_yaml(&r, "synthcam").as_bytes())?;
+    }
+    if let Some(p) = &args.plot {
+        let pts: Vec<Vec<Point2<f64>>> = found.iter().map(|f| f.3.clone()).collect();
+        write_atomic(p, &plot_png(&r, &pts)?)?;
     }
     Ok(())
 }

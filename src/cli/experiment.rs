@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use synthcam::dataset::sweep::{csv, markdown, run_sweep, SweepMode};
+use synthcam::dataset::sweep::{csv, markdown, plot_png, run_sweep, SweepMode};
 use synthcam::dataset::write_atomic;
 
 /// Experiments.
@@ -11,7 +11,7 @@ use synthcam::dataset::write_atomic;
 pub enum Experiment {
     /// Intrinsic calibration error against views M and points N x N (course-scenario 1.3, 3.3).
     CalibSweep {
-        /// Output folder (table.md, runs.csv).
+        /// Output folder (table.md, runs.csv, error_fx.png).
         #[arg(short, long, default_value = "out/calib-sweep")]
         out: PathBuf,
         /// Seeds per (M, N).
@@ -37,8 +37,9 @@ pub fn run(e: &Experiment) -> anyhow::Result<()> {
             let table = markdown(&runs, &ms, &ns);
             write_atomic(&out.join("table.md"), table.as_bytes())?;
             write_atomic(&out.join("runs.csv"), csv(&runs).as_bytes())?;
+            write_atomic(&out.join("error_fx.png"), &plot_png(&runs, &ms, &ns)?)?;
             println!("{table}");
-            println!("wrote {} and {}", out.join("table.md").display(), out.join("runs.csv").display());
+            println!("wrote table.md, runs.csv and error_fx.png to {}", out.display());
             Ok(())
         }
     }

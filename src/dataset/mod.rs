@@ -4,6 +4,7 @@
 pub mod calib_io;
 pub mod io;
 pub mod overlay;
+pub mod plot;
 pub mod sweep;
 
 pub use io::{encode_png, load_grey, write_atomic, write_image_and_truth};

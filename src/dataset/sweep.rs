@@ -180,3 +180,32 @@ pub fn csv(runs: &[SweepRun]) -> String {
     }
     s
 }
+
+/// The sweep as a PNG: mean % error of fx against M (log-log), one line per N, one panel per mode.
+///
+/// # Errors
+/// PNG encoding.
+pub fn plot_png(runs: &[SweepRun], ms: &[usize], ns: &[usize]) -> Result<Vec<u8>, super::DatasetError> {
+    use super::plot::{canvas, png, text, Panel, PALETTE};
+    let mut img = canvas(1100, 520);
+    let (ylo, yhi) = (-3.0f64, 2.0f64);
+    let xt: Vec<(f64, String)> = ms.iter().map(|m| ((*m as f64).log10(), m.to_string())).collect();
+    let yt: Vec<(f64, String)> = (-3..=2).map(|e| (f64::from(e), format!("{}", 10f64.powi(e)))).collect();
+    let xr = ((ms[0] as f64).log10() - 0.1, (ms[ms.len() - 1] as f64).log10() + 0.1);
+    for (k, (mode, name)) in [(SweepMode::Ideal, "ideal + 0.5 px noise"), (SweepMode::Rendered, "rendered + detected")].into_iter().enumerate() {
+        let panel = Panel { rect: (90 + 520 * k as i32, 50, 420, 380), x: xr, y: (ylo, yhi) };
+        panel.axes(&mut img, name, "views M", "% err fx", &xt, &yt);
+        for (j, &n) in ns.iter().enumerate() {
+            let pts: Vec<(f64, f64)> = ms
+                .iter()
+                .filter_map(|&m| {
+                    let v: Vec<f64> = runs.iter().filter(|r| r.mode == mode && r.m == m && r.n == n).map(|r| r.err_pct[0]).collect();
+                    (!v.is_empty()).then(|| ((m as f64).log10(), (v.iter().sum::<f64>() / v.len() as f64).max(1e-3).log10().clamp(ylo, yhi)))
+                })
+                .collect();
+            panel.line(&mut img, &pts, PALETTE[j % PALETTE.len()]);
+            text(&mut img, 90 + 520 * k as i32 + 330, 60 + 14 * j as i32, &format!("N = {n}"), PALETTE[j % PALETTE.len()], 1);
+        }
+    }
+    png(&img)
+}

@@ -4,6 +4,7 @@
 
 mod architecture;
 mod bad_input;
+mod calibrate_cli;
 mod calibration;
 mod chessboard_accuracy;
 mod common;
