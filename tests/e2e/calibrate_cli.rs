@@ -36,9 +36,12 @@ fn run(path: &std::path::Path) -> (bool, String) {
     (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
+/// (case name, detected points per image, text the error must contain).
+type Case = (&'static str, Vec<Vec<[f64; 2]>>, &'static str);
+
 #[test]
 fn bad_detections_fail_with_an_explanation() {
-    let cases: Vec<(&str, Vec<Vec<[f64; 2]>>, &str)> = vec![
+    let cases: Vec<Case> = vec![
         ("two-views", vec![view(1), view(2)], "at least 3 views"),
         ("wrong-shape", vec![view(1), view(2), view(3)[..10].to_vec()], "10 points"),
         ("collinear", vec![(0..12).map(|i| [100.0 + 10.0 * f64::from(i), 200.0]).collect(), view(2), view(3)], "degenerate"),
