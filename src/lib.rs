@@ -3,10 +3,13 @@
 //! A synthetic-camera pipeline for robotics vision: a headless GPU renderer (wgpu; lavapipe or
 //! llvmpipe without a GPU) that draws calibration targets and the 3-D S-path dot target with
 //! Brown-Conrady distortion and skew applied in the shader, anti-aliased and deterministic, with
-//! exact truth labels; and the vision stack that runs on its pixels.
+//! exact truth labels; and the vision stack that runs on its pixels: [`detect`] (chessboard
+//! corners, dots, S-path ordering), [`calib`] (Zhang + Levenberg-Marquardt), [`robot`] (the
+//! course's ABB IRB 1200).
 //!
 //! ## Module map (dependencies point one way)
-//! `math` <- `camera` / `target` <- `scene` <- `detect` <- `render` / `dataset` <- `cli`.
+//! `math` <- `camera` / `target` / `robot` <- `scene` <- `detect` / `calib` <- `render` / `dataset`
+//! <- `cli`.
 //! Modules below `render` are pure (no file I/O, no wgpu, no global state). Only [`render`] names
 //! wgpu; only [`dataset`] and `cli` touch the filesystem (checked by `tests/e2e/architecture.rs`).
 //!
@@ -30,6 +33,7 @@ pub mod detect;
 pub mod error;
 pub mod math;
 pub mod render;
+pub mod robot;
 pub mod scene;
 pub mod target;
 
