@@ -17,7 +17,9 @@ pub type Joints = SVector<f64, 6>;
 pub const AXES: [[f64; 3]; 6] = [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]];
 /// Link vectors p01 .. p56 and p6T, metres.
 pub const LINKS: [[f64; 3]; 7] = [[0.0, 0.0, 0.3991], [0.0; 3], [0.0, 0.0, 0.448], [0.451, 0.0, 0.042], [0.0; 3], [0.0; 3], [0.082, 0.0, 0.0]];
-/// Lower and upper position limits, radians (course-scenario 1.5 table).
+/// Lower and upper position limits, radians (course-scenario 1.5 table, as published: +-6.283 is
+/// the datasheet's rounded 360 degrees, not TAU).
+#[allow(clippy::approx_constant)]
 pub const LIMITS_RAD: [[f64; 2]; 6] = [[-2.967, 2.967], [-1.745, 2.269], [-3.491, 1.222], [-4.712, 4.712], [-2.269, 2.269], [-6.283, 6.283]];
 /// Velocity limits, rad/s.
 pub const VEL_LIMITS: [f64; 6] = [5.027, 4.189, 5.236, 6.981, 7.069, 10.472];
