@@ -32,6 +32,7 @@ pub mod dataset;
 pub mod detect;
 pub mod error;
 pub mod math;
+pub mod pnp;
 pub mod render;
 pub mod robot;
 pub mod scene;
