@@ -31,6 +31,7 @@ pub mod camera;
 pub mod dataset;
 pub mod detect;
 pub mod error;
+pub mod handeye;
 pub mod math;
 pub mod pnp;
 pub mod render;
