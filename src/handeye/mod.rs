@@ -158,9 +158,12 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
+    /// (base_from_tool per view, world_from_cam per view, tool_from_cam, world_from_base).
+    type Views = (Vec<Isometry3<f64>>, Vec<Isometry3<f64>>, Isometry3<f64>, Isometry3<f64>);
+
     /// Course variant A (course-scenario 3.6): p_0B = (2.5, 0, 0), p_TC = (0, 0, 0.05),
     /// R_TC = [ey, ez, ex]; views at q = (0, 1.6, 3, 3, 2, 0) + U(-0.25, 0.25).
-    fn variant_a(views: usize, seed: u64) -> (Vec<Isometry3<f64>>, Vec<Isometry3<f64>>, Isometry3<f64>, Isometry3<f64>) {
+    fn variant_a(views: usize, seed: u64) -> Views {
         let r_tc = Matrix3::from_columns(&[Vector3::y(), Vector3::z(), Vector3::x()]);
         let x = Isometry3::from_parts(Translation3::new(0.0, 0.0, 0.05), UnitQuaternion::from_matrix(&r_tc));
         let wb = Isometry3::from_parts(Translation3::new(2.5, 0.0, 0.0), UnitQuaternion::identity());
