@@ -9,6 +9,7 @@ mod calibrate;
 mod demo;
 mod detect;
 mod experiment;
+mod handeye;
 mod render;
 
 /// synthcam: synthetic camera images with exact ground truth for calibration and visual servoing.
@@ -42,6 +43,10 @@ pub enum Command {
     /// Reproduce the course's experiments (calib-sweep).
     #[command(subcommand)]
     Experiment(experiment::Experiment),
+    /// The course's hand-eye experiment (variant A) on rendered and detected pixels.
+    ///
+    /// SYNOPSIS: synthcam handeye --views 5 --seed 0   (prints estimated vs true transforms)
+    Handeye(handeye::HandEyeArgs),
     /// Render a scene file (TOML or JSON) to a PNG and its truth JSON.
     ///
     /// SYNOPSIS: synthcam render assets/scenes/chessboard_k1.toml -o board.png
@@ -60,6 +65,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo { out } => demo::run(&out),
         Command::Detect(args) => detect::run(&args),
         Command::Experiment(e) => experiment::run(&e),
+        Command::Handeye(args) => handeye::run(&args),
         Command::Render(args) => render::run(&args),
     }
 }

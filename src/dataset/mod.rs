@@ -2,6 +2,7 @@
 //! rename), so a failed run never leaves a truncated image behind.
 
 pub mod calib_io;
+pub mod handeye_run;
 pub mod io;
 pub mod overlay;
 pub mod plot;

@@ -15,5 +15,6 @@ mod dot_fidelity;
 mod dot_grid;
 mod fidelity;
 mod golden;
+mod handeye;
 mod robustness;
 mod truth;

@@ -1,0 +1,60 @@
+//! `synthcam handeye [--views M] [--seed S] [--ideal] [--json OUT]`: the course's hand-eye
+//! experiment (variant A) on rendered and detected pixels, or on ideal projections + noise.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use synthcam::dataset::handeye_run::{run_handeye, variant_a, Observation};
+use synthcam::dataset::write_atomic;
+
+/// Arguments of `handeye`.
+#[derive(Debug, clap::Args)]
+pub struct HandEyeArgs {
+    /// Views.
+    #[arg(long, default_value_t = 5)]
+    pub views: usize,
+    /// Seed of the robot configurations and the noise.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Ideal projections + 0.1 px noise (the course's method) instead of rendered + detected.
+    #[arg(long)]
+    pub ideal: bool,
+    /// Write the estimates and errors as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// Run `handeye`.
+pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
+    let obs = if args.ideal { Observation::Ideal } else { Observation::Rendered };
+    let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
+    let r = run_handeye(renderer.as_ref(), obs, args.views, args.seed).context("hand-eye experiment")?;
+    let (x, wb) = variant_a();
+    let show = |name: &str, est: &nalgebra::Isometry3<f64>, truth: &nalgebra::Isometry3<f64>| {
+        let t = est.translation.vector;
+        let e = 1e3 * (t - truth.translation.vector).norm();
+        let a = (est.rotation * truth.rotation.inverse()).angle().to_degrees();
+        println!("{name:<34} t = ({:+.5}, {:+.5}, {:+.5}) m   error {e:.3} mm, {a:.4} deg", t.x, t.y, t.z);
+    };
+    println!("{} views ({} configurations drawn), {}", args.views, r.drawn, if args.ideal { "ideal projections + 0.1 px" } else { "rendered + detected" });
+    println!("PnP camera position errors, mm: {:?}", r.pnp_mm.iter().map(|v| (v * 1e3).round() / 1e3).collect::<Vec<_>>());
+    show("tool_from_cam (course linear)", &r.linear.tool_from_cam, &x);
+    show("world_from_base (course linear)", &r.linear.world_from_base, &wb);
+    show("tool_from_cam (Park-Martin)", &r.park_martin.tool_from_cam, &x);
+    show("world_from_base (Park-Martin)", &r.park_martin.world_from_base, &wb);
+    if let Some(p) = &args.json {
+        let v = serde_json::json!({
+            "views": args.views, "seed": args.seed, "mode": if args.ideal { "ideal" } else { "rendered" },
+            "pnp_position_error_mm": r.pnp_mm,
+            "errors": {
+                "linear_tool_from_cam": {"mm": r.errors[0].mm, "deg": r.errors[0].deg},
+                "linear_world_from_base": {"mm": r.errors[1].mm, "deg": r.errors[1].deg},
+                "park_martin_tool_from_cam": {"mm": r.errors[2].mm, "deg": r.errors[2].deg},
+                "park_martin_world_from_base": {"mm": r.errors[3].mm, "deg": r.errors[3].deg},
+            },
+            "residuals_m": {"linear": r.linear.residual_m, "park_martin": r.park_martin.residual_m},
+        });
+        write_atomic(p, &serde_json::to_vec_pretty(&v)?)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,176 @@
+//! The course's hand-eye experiment (course-scenario 1.7 / 3.6, variant A) on rendered and
+//! detected pixels: robot configurations around q = (0, 1.6, 3, 3, 2, 0) (+-0.25 rad per joint)
+//! are drawn until the whole S-path is in view; the S-path is rendered from the true camera pose,
+//! its dots are detected and ordered, PnP gives `cam_from_world` per view, and both hand-eye
+//! solvers estimate `tool_from_cam` and `world_from_base`.
+//!
+//! Bead centroids are not the projections of the path points (about half of each bead is inside
+//! the sphere: 1.4 px on average at the course's desired pose). PnP therefore corrects them with
+//! the model: the expected blob centroid minus the projected centre at the current pose estimate
+//! (computed by [`truth_labels`]) is subtracted from the detections and PnP is solved again (two
+//! rounds).
+
+use nalgebra::{Isometry3, Matrix3, Point2, Translation3, UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+use crate::camera::CameraModel;
+use crate::detect::target::{detect, TargetSpec};
+use crate::detect::ImageF32;
+use crate::handeye::{course_linear, park_martin, HandEyeResult};
+use crate::pnp::pnp_general;
+use crate::render::Renderer;
+use crate::robot::{base_from_tool, Joints};
+use crate::scene::truth::truth_labels;
+use crate::scene::{RenderSettings, Scene};
+use crate::target::{SPathDots, Target};
+
+/// How the dots are observed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Observation {
+    /// Ideal projections plus N(0, 0.1^2) px noise (the course's method).
+    Ideal,
+    /// Rendered (noise 1 grey level) and detected.
+    Rendered,
+}
+
+/// Errors of one estimate against the truth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseError {
+    /// Translation error, millimetres.
+    pub mm: f64,
+    /// Rotation error, degrees.
+    pub deg: f64,
+}
+
+fn err(est: &Isometry3<f64>, truth: &Isometry3<f64>) -> PoseError {
+    PoseError { mm: 1e3 * (est.translation.vector - truth.translation.vector).norm(), deg: (est.rotation * truth.rotation.inverse()).angle().to_degrees() }
+}
+
+/// Result of one hand-eye run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HandEyeRun {
+    /// The course's linear solver (rotations known).
+    pub linear: HandEyeResult,
+    /// Park-Martin (rotations unknown).
+    pub park_martin: HandEyeResult,
+    /// Errors: linear `tool_from_cam`, linear `world_from_base`, Park-Martin `tool_from_cam`,
+    /// Park-Martin `world_from_base`.
+    pub errors: [PoseError; 4],
+    /// Per view: PnP camera-position error, millimetres.
+    pub pnp_mm: Vec<f64>,
+    /// Robot configurations drawn to get the views (acceptance rate).
+    pub drawn: usize,
+}
+
+/// Errors of the experiment.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum HandEyeRunError {
+    /// No configuration shows the whole S.
+    #[error("no configuration out of {0} draws shows the whole S-path: the scenario is unreachable")]
+    Unreachable(usize),
+    /// A view could not be measured.
+    #[error("view {view}: {reason}")]
+    View {
+        /// View index.
+        view: usize,
+        /// Why.
+        reason: String,
+    },
+    /// The solvers failed.
+    #[error(transparent)]
+    HandEye(#[from] crate::handeye::HandEyeError),
+}
+
+/// Course variant A truth: `tool_from_cam` and `world_from_base`.
+pub fn variant_a() -> (Isometry3<f64>, Isometry3<f64>) {
+    let r_tc = Matrix3::from_columns(&[Vector3::y(), Vector3::z(), Vector3::x()]);
+    (
+        Isometry3::from_parts(Translation3::new(0.0, 0.0, 0.05), UnitQuaternion::from_matrix(&r_tc)),
+        Isometry3::from_parts(Translation3::new(2.5, 0.0, 0.0), UnitQuaternion::identity()),
+    )
+}
+
+/// Run the experiment with `views` views.
+///
+/// # Errors
+/// Unreachable scenario, failed detection or PnP, degenerate motions.
+pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
+    let cam = CameraModel::course_default();
+    let target = SPathDots::default();
+    let pts = target.path.points_m.clone();
+    let (x_true, wb_true) = variant_a();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let q0 = [0.0, 1.6, 3.0, 3.0, 2.0, 0.0];
+    let (mut bt, mut wc, mut pnp_mm) = (Vec::new(), Vec::new(), Vec::new());
+    let mut drawn = 0;
+    let max_draws = 400 * views.max(1);
+    while bt.len() < views {
+        if drawn >= max_draws {
+            return Err(HandEyeRunError::Unreachable(drawn));
+        }
+        drawn += 1;
+        let q = Joints::from_iterator(q0.iter().map(|v| v + rng.random_range(-0.25..0.25)));
+        let base_from_tool_q = base_from_tool(&q);
+        let world_from_cam = wb_true * base_from_tool_q * x_true;
+        let cam_from_world = world_from_cam.inverse();
+        if !pts.iter().all(|p| cam.project(&(cam_from_world * p)).visible()) {
+            continue;
+        }
+        let view = bt.len();
+        let mut scene = Scene {
+            camera: cam,
+            target: Target::SPath(target.clone()),
+            cam_from_target: cam_from_world,
+            render: RenderSettings { noise_sigma: 1.0, samples: 8, seed: rng.random(), ..Default::default() },
+        };
+        let (points, pixels): (Vec<_>, Vec<Point2<f64>>) = match obs {
+            Observation::Ideal => {
+                let n = Normal::new(0.0, 0.1).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+                pts.iter().map(|p| (*p, cam.project_unchecked(&(cam_from_world * p)) + Vector3::new(n.sample(&mut rng), n.sample(&mut rng), 0.0).xy())).unzip()
+            }
+            Observation::Rendered => {
+                let r = renderer.ok_or_else(|| HandEyeRunError::View { view, reason: "no renderer".into() })?;
+                let img = r.render(&scene).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+                let grey = ImageF32::from_u8(1280, 1024, &img.to_u8()).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+                let det = detect(&grey, &TargetSpec::SPath { points: pts.len() }).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+                let Some(idx) = det.indices.filter(|_| det.found) else {
+                    return Err(HandEyeRunError::View { view, reason: det.note.unwrap_or_else(|| "S-path not found".into()) });
+                };
+                idx.iter().map(|i| pts[*i]).zip(det.points_px).unzip()
+            }
+        };
+        let mut est = pnp_general(&cam, &points, &pixels).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+        if obs == Observation::Rendered {
+            // Centroid-bias correction at the current estimate, two rounds.
+            for _ in 0..2 {
+                scene.cam_from_target = est.cam_from_target;
+                let labels = truth_labels(&scene);
+                let corrected: Vec<Point2<f64>> = points
+                    .iter()
+                    .zip(&pixels)
+                    .map(|(p, q)| {
+                        let id = pts.iter().position(|x| x == p).unwrap_or(0);
+                        let f = &labels.features[id];
+                        match f.centroid_px {
+                            Some(c) => Point2::new(q.x - (c[0] - f.pixel_px[0]), q.y - (c[1] - f.pixel_px[1])),
+                            None => *q,
+                        }
+                    })
+                    .collect();
+                est = pnp_general(&cam, &points, &corrected).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+            }
+        }
+        let wc_est = est.cam_from_target.inverse();
+        pnp_mm.push(1e3 * (wc_est.translation.vector - world_from_cam.translation.vector).norm());
+        bt.push(base_from_tool_q);
+        wc.push(wc_est);
+    }
+    let r_tc = x_true.rotation.to_rotation_matrix().into_inner();
+    let linear = course_linear(&bt, &wc, &r_tc)?;
+    let pm = park_martin(&bt, &wc)?;
+    let errors = [err(&linear.tool_from_cam, &x_true), err(&linear.world_from_base, &wb_true), err(&pm.tool_from_cam, &x_true), err(&pm.world_from_base, &wb_true)];
+    Ok(HandEyeRun { linear, park_martin: pm, errors, pnp_mm, drawn })
+}
