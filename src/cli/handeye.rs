@@ -42,6 +42,9 @@ pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
     show("world_from_base (course linear)", &r.linear.world_from_base, &wb);
     show("tool_from_cam (Park-Martin)", &r.park_martin.tool_from_cam, &x);
     show("world_from_base (Park-Martin)", &r.park_martin.world_from_base, &wb);
+    show("tool_from_cam (refined)", &r.refined.tool_from_cam, &x);
+    show("world_from_base (refined)", &r.refined.world_from_base, &wb);
+    println!("refined: reprojection RMS per view, px: {:?}", r.refined.view_rms_px.iter().map(|v| (v * 1e4).round() / 1e4).collect::<Vec<_>>());
     if let Some(p) = &args.json {
         let v = serde_json::json!({
             "views": args.views, "seed": args.seed, "mode": if args.ideal { "ideal" } else { "rendered" },
@@ -51,8 +54,11 @@ pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
                 "linear_world_from_base": {"mm": r.errors[1].mm, "deg": r.errors[1].deg},
                 "park_martin_tool_from_cam": {"mm": r.errors[2].mm, "deg": r.errors[2].deg},
                 "park_martin_world_from_base": {"mm": r.errors[3].mm, "deg": r.errors[3].deg},
+                "refined_tool_from_cam": {"mm": r.errors[4].mm, "deg": r.errors[4].deg},
+                "refined_world_from_base": {"mm": r.errors[5].mm, "deg": r.errors[5].deg},
             },
             "residuals_m": {"linear": r.linear.residual_m, "park_martin": r.park_martin.residual_m},
+            "refined_view_rms_px": r.refined.view_rms_px,
         });
         write_atomic(p, &serde_json::to_vec_pretty(&v)?)?;
     }

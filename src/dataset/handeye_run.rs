@@ -18,6 +18,7 @@ use rand_distr::{Distribution, Normal};
 use crate::camera::CameraModel;
 use crate::detect::target::{detect, TargetSpec};
 use crate::detect::ImageF32;
+use crate::handeye::refine::{refine_joint, JointRefinement, Observations};
 use crate::handeye::{course_linear, park_martin, HandEyeResult};
 use crate::pnp::pnp_general;
 use crate::render::Renderer;
@@ -55,9 +56,11 @@ pub struct HandEyeRun {
     pub linear: HandEyeResult,
     /// Park-Martin (rotations unknown).
     pub park_martin: HandEyeResult,
+    /// Park-Martin refined jointly on the reprojection error of all views.
+    pub refined: JointRefinement,
     /// Errors: linear `tool_from_cam`, linear `world_from_base`, Park-Martin `tool_from_cam`,
-    /// Park-Martin `world_from_base`.
-    pub errors: [PoseError; 4],
+    /// Park-Martin `world_from_base`, refined `tool_from_cam`, refined `world_from_base`.
+    pub errors: [PoseError; 6],
     /// Per view: PnP camera-position error, millimetres.
     pub pnp_mm: Vec<f64>,
     /// Robot configurations drawn to get the views (acceptance rate).
@@ -105,6 +108,7 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, views: usize, 
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let q0 = [0.0, 1.6, 3.0, 3.0, 2.0, 0.0];
     let (mut bt, mut wc, mut pnp_mm) = (Vec::new(), Vec::new(), Vec::new());
+    let mut observations: Vec<Observations> = Vec::new();
     let mut drawn = 0;
     let max_draws = 400 * views.max(1);
     while bt.len() < views {
@@ -143,6 +147,7 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, views: usize, 
             }
         };
         let mut est = pnp_general(&cam, &points, &pixels).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+        let mut used_pixels = pixels.clone();
         if obs == Observation::Rendered {
             // Centroid-bias correction at the current estimate, two rounds.
             for _ in 0..2 {
@@ -161,8 +166,10 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, views: usize, 
                     })
                     .collect();
                 est = pnp_general(&cam, &points, &corrected).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+                used_pixels = corrected;
             }
         }
+        observations.push(points.iter().copied().zip(used_pixels).collect());
         let wc_est = est.cam_from_target.inverse();
         pnp_mm.push(1e3 * (wc_est.translation.vector - world_from_cam.translation.vector).norm());
         bt.push(base_from_tool_q);
@@ -171,6 +178,14 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, views: usize, 
     let r_tc = x_true.rotation.to_rotation_matrix().into_inner();
     let linear = course_linear(&bt, &wc, &r_tc)?;
     let pm = park_martin(&bt, &wc)?;
-    let errors = [err(&linear.tool_from_cam, &x_true), err(&linear.world_from_base, &wb_true), err(&pm.tool_from_cam, &x_true), err(&pm.world_from_base, &wb_true)];
-    Ok(HandEyeRun { linear, park_martin: pm, errors, pnp_mm, drawn })
+    let refined = refine_joint(&cam, &bt, &observations, &pm);
+    let errors = [
+        err(&linear.tool_from_cam, &x_true),
+        err(&linear.world_from_base, &wb_true),
+        err(&pm.tool_from_cam, &x_true),
+        err(&pm.world_from_base, &wb_true),
+        err(&refined.tool_from_cam, &x_true),
+        err(&refined.world_from_base, &wb_true),
+    ];
+    Ok(HandEyeRun { linear, park_martin: pm, refined, errors, pnp_mm, drawn })
 }

@@ -14,6 +14,8 @@
 //! Reference: F. C. Park, B. J. Martin, "Robot sensor calibration: solving AX = XB on the
 //! Euclidean group", IEEE T-RA 10(5), 1994; Tsai & Lenz 1989 (pair formulation).
 
+pub mod refine;
+
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
 use crate::math::so3::rvec_from_rotation;

@@ -6,11 +6,11 @@ use synthcam::dataset::handeye_run::{run_handeye, Observation};
 
 use crate::common::renderer;
 
-fn summary(name: &str, obs: Observation, seeds: u64) -> Vec<[f64; 4]> {
+fn summary(name: &str, obs: Observation, seeds: u64) -> Vec<[f64; 7]> {
     let mut rows = Vec::new();
     for seed in 0..seeds {
         let r = run_handeye(Some(renderer()), obs, 5, seed).expect("hand-eye run");
-        rows.push([r.errors[0].mm, r.errors[1].mm, r.errors[2].mm, r.errors[2].deg]);
+        rows.push([r.errors[0].mm, r.errors[1].mm, r.errors[2].mm, r.errors[2].deg, r.errors[4].mm, r.errors[4].deg, r.errors[5].mm]);
     }
     let col = |k: usize| {
         let mut v: Vec<f64> = rows.iter().map(|r| r[k]).collect();
@@ -18,6 +18,8 @@ fn summary(name: &str, obs: Observation, seeds: u64) -> Vec<[f64; 4]> {
         (v[v.len() / 2], v[v.len() - 1])
     };
     let (a, b, c, d) = (col(0), col(1), col(2), col(3));
+    let (e, f, g) = (col(4), col(5), col(6));
+    eprintln!("{name}: refined tool_from_cam {:.3}/{:.3} mm and {:.4}/{:.4} deg, refined base {:.3}/{:.3} mm (median/worst)", e.0, e.1, f.0, f.1, g.0, g.1);
     eprintln!(
         "{name}, {seeds} seeds: linear tool_from_cam {:.3}/{:.3} mm, linear base {:.3}/{:.3} mm, Park-Martin tool_from_cam {:.3}/{:.3} mm and {:.4}/{:.4} deg (median/worst)",
         a.0, a.1, b.0, b.1, c.0, c.1, d.0, d.1
@@ -32,4 +34,5 @@ fn hand_eye_on_rendered_and_detected_dots() {
     let worst = |k: usize| rows.iter().map(|r| r[k]).fold(0.0, f64::max);
     assert!(worst(0) <= 1.0 && worst(1) <= 1.0, "linear {} / {} mm", worst(0), worst(1));
     assert!(worst(2) <= 1.0 && worst(3) <= 0.05, "Park-Martin {} mm, {} deg", worst(2), worst(3));
+    assert!(worst(4) <= 1.0 && worst(5) <= 0.05 && worst(6) <= 1.0, "refined {} mm, {} deg, base {} mm", worst(4), worst(5), worst(6));
 }
