@@ -4,12 +4,15 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use synthcam::dataset::handeye_run::{run_handeye, variant_a, Observation};
+use synthcam::dataset::handeye_run::{run_handeye, Observation, Scenario};
 use synthcam::dataset::write_atomic;
 
 /// Arguments of `handeye`.
 #[derive(Debug, clap::Args)]
 pub struct HandEyeArgs {
+    /// Scenario file (TOML; default: the course's variant A, assets/scenarios/course.toml).
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
     /// Views.
     #[arg(long, default_value_t = 5)]
     pub views: usize,
@@ -26,10 +29,18 @@ pub struct HandEyeArgs {
 
 /// Run `handeye`.
 pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(args.views >= 3, "--views must be at least 3 (the AX = XB solver needs 3 views), got {}", args.views);
     let obs = if args.ideal { Observation::Ideal } else { Observation::Rendered };
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
-    let r = run_handeye(renderer.as_ref(), obs, args.views, args.seed).context("hand-eye experiment")?;
-    let (x, wb) = variant_a();
+    let scenario = match &args.scenario {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            toml::from_str::<Scenario>(&text).with_context(|| format!("in scenario {}", p.display()))?
+        }
+        None => Scenario::default(),
+    };
+    let r = run_handeye(renderer.as_ref(), obs, &scenario, args.views, args.seed).context("hand-eye experiment")?;
+    let (x, wb) = scenario.truth();
     let show = |name: &str, est: &nalgebra::Isometry3<f64>, truth: &nalgebra::Isometry3<f64>| {
         let t = est.translation.vector;
         let e = 1e3 * (t - truth.translation.vector).norm();

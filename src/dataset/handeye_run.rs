@@ -87,26 +87,65 @@ pub enum HandEyeRunError {
     HandEye(#[from] crate::handeye::HandEyeError),
 }
 
+/// A hand-eye scenario (TOML, `assets/scenarios/course.toml`): where the robot looks from and
+/// the true transforms.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Centre of the joint sampling, radians.
+    pub q0_rad: [f64; 6],
+    /// Uniform perturbation per joint, radians.
+    pub spread_rad: f64,
+    /// Translation of `world_from_base` (rotation identity), metres.
+    pub base_t_m: [f64; 3],
+    /// Translation of `tool_from_cam`, metres.
+    pub tool_from_cam_t_m: [f64; 3],
+    /// Rotation of `tool_from_cam`, rows.
+    #[serde(rename = "tool_from_cam_R")]
+    pub tool_from_cam_r: [[f64; 3]; 3],
+}
+
+impl Default for Scenario {
+    /// Course variant A.
+    fn default() -> Self {
+        Self {
+            q0_rad: [0.0, 1.6, 3.0, 3.0, 2.0, 0.0],
+            spread_rad: 0.25,
+            base_t_m: [2.5, 0.0, 0.0],
+            tool_from_cam_t_m: [0.0, 0.0, 0.05],
+            tool_from_cam_r: [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        }
+    }
+}
+
+impl Scenario {
+    /// The true `tool_from_cam` and `world_from_base`.
+    pub fn truth(&self) -> (Isometry3<f64>, Isometry3<f64>) {
+        let r = crate::math::so3::project_to_so3(&Matrix3::from_fn(|i, j| self.tool_from_cam_r[i][j]));
+        (
+            Isometry3::from_parts(Translation3::from(Vector3::from(self.tool_from_cam_t_m)), UnitQuaternion::from_rotation_matrix(&r)),
+            Isometry3::from_parts(Translation3::from(Vector3::from(self.base_t_m)), UnitQuaternion::identity()),
+        )
+    }
+}
+
 /// Course variant A truth: `tool_from_cam` and `world_from_base`.
 pub fn variant_a() -> (Isometry3<f64>, Isometry3<f64>) {
-    let r_tc = Matrix3::from_columns(&[Vector3::y(), Vector3::z(), Vector3::x()]);
-    (
-        Isometry3::from_parts(Translation3::new(0.0, 0.0, 0.05), UnitQuaternion::from_matrix(&r_tc)),
-        Isometry3::from_parts(Translation3::new(2.5, 0.0, 0.0), UnitQuaternion::identity()),
-    )
+    Scenario::default().truth()
 }
 
 /// Run the experiment with `views` views.
 ///
 /// # Errors
 /// Unreachable scenario, failed detection or PnP, degenerate motions.
-pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
+pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Scenario, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
     let cam = CameraModel::course_default();
     let target = SPathDots::default();
     let pts = target.path.points_m.clone();
-    let (x_true, wb_true) = variant_a();
+    let (x_true, wb_true) = scenario.truth();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let q0 = [0.0, 1.6, 3.0, 3.0, 2.0, 0.0];
+    let q0 = scenario.q0_rad;
+    let spread = scenario.spread_rad.abs().max(1e-12);
     let (mut bt, mut wc, mut pnp_mm) = (Vec::new(), Vec::new(), Vec::new());
     let mut observations: Vec<Observations> = Vec::new();
     let mut drawn = 0;
@@ -116,7 +155,7 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, views: usize, 
             return Err(HandEyeRunError::Unreachable(drawn));
         }
         drawn += 1;
-        let q = Joints::from_iterator(q0.iter().map(|v| v + rng.random_range(-0.25..0.25)));
+        let q = Joints::from_iterator(q0.iter().map(|v| v + rng.random_range(-spread..spread)));
         let base_from_tool_q = base_from_tool(&q);
         let world_from_cam = wb_true * base_from_tool_q * x_true;
         let cam_from_world = world_from_cam.inverse();
