@@ -104,3 +104,50 @@ pub fn refine_joint(cam: &CameraModel, base_from_tool: &[Isometry3<f64>], obs: &
     }
     JointRefinement { tool_from_cam: x, world_from_base: wb, view_rms_px, iterations }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::handeye::park_martin;
+    use crate::robot::{base_from_tool, Joints};
+    use crate::target::course_s_path;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn refinement_is_exact_on_ideal_data_and_independent_of_view_order() {
+        let cam = CameraModel::course_default();
+        let r_tc = nalgebra::Matrix3::from_columns(&[Vector3::y(), Vector3::z(), Vector3::x()]);
+        let x = Isometry3::from_parts(Translation3::new(0.0, 0.0, 0.05), UnitQuaternion::from_matrix(&r_tc));
+        let wb = Isometry3::from_parts(Translation3::new(2.5, 0.0, 0.0), UnitQuaternion::identity());
+        let pts = course_s_path().points_m;
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let (mut bt, mut wc, mut obs) = (Vec::new(), Vec::new(), Vec::new());
+        for _ in 0..5 {
+            let q = Joints::from_iterator([0.0, 1.6, 3.0, 3.0, 2.0, 0.0].iter().map(|v| v + rng.random_range(-0.25..0.25)));
+            let t = base_from_tool(&q);
+            let world_from_cam = wb * t * x;
+            // Start the solvers from slightly wrong PnP poses, refine on exact pixels.
+            let jitter = Isometry3::from_parts(Translation3::new(1e-4, -2e-4, 1e-4), UnitQuaternion::from_euler_angles(1e-4, 0.0, -1e-4));
+            bt.push(t);
+            wc.push(world_from_cam * jitter);
+            let cam_from_world = world_from_cam.inverse();
+            obs.push(pts.iter().map(|p| (*p, cam.project_unchecked(&(cam_from_world * p)))).collect::<Observations>());
+        }
+        let start = park_martin(&bt, &wc).unwrap();
+        let a = refine_joint(&cam, &bt, &obs, &start);
+        assert!((a.tool_from_cam.translation.vector - x.translation.vector).norm() < 1e-9);
+        assert!((a.tool_from_cam.rotation * x.rotation.inverse()).angle() < 1e-9);
+        assert!((a.world_from_base.translation.vector - wb.translation.vector).norm() < 1e-9);
+        let order = [3, 0, 4, 1, 2];
+        let (bt2, wc2, obs2): (Vec<_>, Vec<_>, Vec<_>) = order.iter().map(|&i| (bt[i], wc[i], obs[i].clone())).fold((vec![], vec![], vec![]), |mut acc, (b, w, o)| {
+            acc.0.push(b);
+            acc.1.push(w);
+            acc.2.push(o);
+            acc
+        });
+        let b = refine_joint(&cam, &bt2, &obs2, &park_martin(&bt2, &wc2).unwrap());
+        assert!((a.tool_from_cam.translation.vector - b.tool_from_cam.translation.vector).norm() < 1e-9);
+        assert!((a.world_from_base.translation.vector - b.world_from_base.translation.vector).norm() < 1e-9);
+    }
+}
