@@ -5,7 +5,6 @@
 //! OpenCV `calibrateCamera` (same model and objective: its results are the outside reference in
 //! the tests).
 
-pub mod homography;
 pub mod refine;
 pub mod zhang;
 
@@ -149,7 +148,7 @@ pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Resul
         .enumerate()
         .map(|(i, v)| {
             let (src, dst): (Vec<Point2<f64>>, Vec<Point2<f64>>) = v.iter().map(|(x, q)| (x.xy(), *q)).unzip();
-            homography::homography(&src, &dst).ok_or_else(|| CalibError::Degenerate { reason: format!("no homography for view {i}") })
+            crate::math::homography::homography(&src, &dst).ok_or_else(|| CalibError::Degenerate { reason: format!("no homography for view {i}") })
         })
         .collect::<Result<Vec<_>, _>>()?;
     let k0 = zhang::intrinsics_from_homographies(&hs, !params.estimate_skew)?;

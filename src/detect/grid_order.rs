@@ -6,34 +6,16 @@
 //! growing to the right and iy downwards in the image at the top-left corner: for a target seen
 //! without rotation this is the target's own order. A symmetric grid has no marker, so a rotated
 //! view relabels the dots consistently (a rotation of the board), which calibration absorbs.
-//! Reference: Hartley & Zisserman, Multiple View Geometry, 2nd ed., 4.1 (DLT for a homography).
+//! Reference: Hartley & Zisserman, Multiple View Geometry, 2nd ed., 4.4 (normalised DLT).
 
-use nalgebra::{DMatrix, Matrix3, Point2, Vector3};
+use nalgebra::{Point2, Vector3};
+
+use crate::math::homography::homography;
 
 use super::dots::Dot;
 
 /// Largest distance (grid units) of a mapped dot from its integer grid position.
 pub const MAX_GRID_RESIDUAL: f64 = 0.3;
-
-/// Homography mapping `src[i]` to `dst[i]` (4 or more pairs), by DLT with SVD.
-fn homography(src: &[Point2<f64>], dst: &[Point2<f64>]) -> Option<Matrix3<f64>> {
-    // At least 9 rows (zero rows added) so that the thin SVD keeps the null vector.
-    let mut a = DMatrix::<f64>::zeros((2 * src.len()).max(9), 9);
-    for (k, (s, d)) in src.iter().zip(dst).enumerate() {
-        let (x, y, u, v) = (s.x, s.y, d.x, d.y);
-        let r0 = [-x, -y, -1.0, 0.0, 0.0, 0.0, u * x, u * y, u];
-        let r1 = [0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v];
-        for c in 0..9 {
-            a[(2 * k, c)] = r0[c];
-            a[(2 * k + 1, c)] = r1[c];
-        }
-    }
-    let svd = a.svd(false, true);
-    let vt = svd.v_t?;
-    let (imin, _) = svd.singular_values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))?;
-    let h = vt.row(imin);
-    Some(Matrix3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]))
-}
 
 /// Order `dots` as an `n x n` grid; `None` unless there are exactly n^2 dots that all land on
 /// distinct grid positions.
@@ -78,6 +60,7 @@ pub fn order_grid(dots: &[Dot], n: usize) -> Option<Vec<Point2<f64>>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Matrix3;
 
     #[test]
     fn orders_a_perspective_grid_x_slow_y_fast() {

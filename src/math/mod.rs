@@ -5,6 +5,7 @@
 //! Reference: Nocedal & Wright, "Numerical Optimization" (2006), ch. 8 (finite
 //! differences); OpenCV calib3d docs, `cv::Rodrigues`.
 
+pub mod homography;
 pub mod numdiff;
 pub mod so3;
 pub mod spline;

@@ -11,7 +11,7 @@
 
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6, Point2, Point3, Translation3, UnitQuaternion, Vector3, Vector6};
 
-use crate::calib::homography::homography;
+use crate::math::homography::homography;
 use crate::calib::refine::drotated_drvec;
 use crate::camera::CameraModel;
 use crate::math::so3::{project_to_so3, rotation_from_rvec, rvec_from_rotation};
