@@ -434,7 +434,7 @@ pub fn refine_saddle(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// Area-sampled (n x n supersampled) rotated saddle, lines at angles t1, t2 through (cx, cy).

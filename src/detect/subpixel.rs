@@ -85,25 +85,9 @@ pub fn refine_corner(img: &ImageF32, seed: Point2<f64>, params: &SubpixelParams)
 mod tests {
     use super::*;
 
-    /// An exactly area-sampled saddle (checker corner) at (cx, cy): the refiner must find it.
+    /// An area-sampled axis-aligned saddle (checker corner) at (cx, cy): the refiner must find it.
     fn saddle(cx: f64, cy: f64) -> ImageF32 {
-        let (w, h) = (31, 31);
-        let n = 32;
-        let mut data = vec![0.0f32; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let mut acc = 0.0;
-                for j in 0..n {
-                    for i in 0..n {
-                        let u = x as f64 - 0.5 + (i as f64 + 0.5) / n as f64 - cx;
-                        let v = y as f64 - 0.5 + (j as f64 + 0.5) / n as f64 - cy;
-                        acc += if (u > 0.0) == (v > 0.0) { 200.0 } else { 30.0 };
-                    }
-                }
-                data[y * w + x] = (acc / (n * n) as f64) as f32;
-            }
-        }
-        ImageF32::new(w, h, data).unwrap()
+        crate::detect::saddle_fit::tests::saddle(cx, cy, 0.0, -std::f64::consts::FRAC_PI_2)
     }
 
     #[test]
