@@ -37,6 +37,7 @@ pub mod pnp;
 pub mod render;
 pub mod robot;
 pub mod scene;
+pub mod servo;
 pub mod target;
 
 pub use error::Error;

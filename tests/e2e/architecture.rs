@@ -24,8 +24,8 @@ fn layering_rules_hold() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
     rust_files(&src, &mut files);
-    let pure = ["math", "camera", "target", "robot", "scene", "detect", "calib", "pnp", "handeye"];
-    let order = ["math", "camera", "target", "robot", "scene", "detect", "calib", "pnp", "handeye", "render", "dataset", "cli"];
+    let pure = ["math", "camera", "target", "robot", "scene", "detect", "calib", "pnp", "handeye", "servo"];
+    let order = ["math", "camera", "target", "robot", "scene", "detect", "calib", "pnp", "handeye", "servo", "render", "dataset", "cli"];
     for f in files {
         let text = std::fs::read_to_string(&f).expect("read");
         let m = module_of(&f, &src);
