@@ -169,10 +169,11 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Sce
             cam_from_target: cam_from_world,
             render: RenderSettings { noise_sigma: 1.0, samples: 8, seed: rng.random(), ..Default::default() },
         };
-        let (points, pixels): (Vec<_>, Vec<Point2<f64>>) = match obs {
+        // Path index and pixel of every observed dot.
+        let (ids, pixels): (Vec<usize>, Vec<Point2<f64>>) = match obs {
             Observation::Ideal => {
                 let n = Normal::new(0.0, 0.1).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                pts.iter().map(|p| (*p, cam.project_unchecked(&(cam_from_world * p)) + Vector3::new(n.sample(&mut rng), n.sample(&mut rng), 0.0).xy())).unzip()
+                pts.iter().enumerate().map(|(i, p)| (i, cam.project_unchecked(&(cam_from_world * p)) + Vector3::new(n.sample(&mut rng), n.sample(&mut rng), 0.0).xy())).unzip()
             }
             Observation::Rendered => {
                 let r = renderer.ok_or_else(|| HandEyeRunError::View { view, reason: "no renderer".into() })?;
@@ -182,9 +183,10 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Sce
                 let Some(idx) = det.indices.filter(|_| det.found) else {
                     return Err(HandEyeRunError::View { view, reason: det.note.unwrap_or_else(|| "S-path not found".into()) });
                 };
-                idx.iter().map(|i| pts[*i]).zip(det.points_px).unzip()
+                (idx, det.points_px)
             }
         };
+        let points: Vec<_> = ids.iter().map(|i| pts[*i]).collect();
         let mut est = pnp_general(&cam, &points, &pixels).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
         let mut used_pixels = pixels.clone();
         if obs == Observation::Rendered {
@@ -192,12 +194,11 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Sce
             for _ in 0..2 {
                 scene.cam_from_target = est.cam_from_target;
                 let labels = truth_labels(&scene);
-                let corrected: Vec<Point2<f64>> = points
+                let corrected: Vec<Point2<f64>> = ids
                     .iter()
                     .zip(&pixels)
-                    .map(|(p, q)| {
-                        let id = pts.iter().position(|x| x == p).unwrap_or(0);
-                        let f = &labels.features[id];
+                    .map(|(id, q)| {
+                        let f = &labels.features[*id];
                         match f.centroid_px {
                             Some(c) => Point2::new(q.x - (c[0] - f.pixel_px[0]), q.y - (c[1] - f.pixel_px[1])),
                             None => *q,

@@ -84,6 +84,9 @@ pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<Index
     let Some(&(second, _)) = two_nearest(dots, start).first() else { return Ok(out) };
     used[second] = true;
     out.push(IndexedDot { index: 1, centre_px: dots[second].centre_px });
+    // The detected dot at the end of the chain.
+    let mut cur_j = second;
+    let radius = |d: &Dot| (d.area_px / std::f64::consts::PI).sqrt();
     let nearest_unused = |p: Point2<f64>, used: &[bool]| {
         dots.iter()
             .enumerate()
@@ -116,9 +119,7 @@ pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<Index
             if let Some((j, dist)) = nearest_unused(pred, &used) {
                 // Path dots do not overlap (25.7 mm apart, 12 mm beads): two blobs closer than most of
                 // their radii are clutter, not consecutive dots.
-                let radius = |d: &Dot| (d.area_px / std::f64::consts::PI).sqrt();
-                let cur_dot = dots.iter().find(|d| d.centre_px == cur.centre_px).map_or(0.0, radius);
-                let apart = (dots[j].centre_px - cur.centre_px).norm() >= 0.8 * (radius(&dots[j]) + cur_dot);
+                let apart = (dots[j].centre_px - cur.centre_px).norm() >= 0.8 * (radius(&dots[j]) + radius(&dots[cur_j]));
                 if apart && dist <= params.tolerance * step.norm() * skip as f64 + 1.0 {
                     found = Some((j, cur.index + skip));
                     break;
@@ -130,6 +131,7 @@ pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<Index
             break;
         }
         used[j] = true;
+        cur_j = j;
         out.push(IndexedDot { index, centre_px: dots[j].centre_px });
     }
     let need = params.min_chain.min(params.points).max((params.min_chain_share * dots.len() as f64).ceil() as usize);
