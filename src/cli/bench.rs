@@ -15,6 +15,10 @@ pub struct BenchArgs {
     /// GPU backend: auto, vulkan or gl.
     #[arg(long, default_value = "auto")]
     pub backend: String,
+    /// Also time the closed IBVS loop from the course's start for this many steps (render +
+    /// detect + law every step, no early stop), e.g. 200.
+    #[arg(long)]
+    pub servo_steps: Option<usize>,
     /// Scene files to time instead of the embedded scenes.
     pub scenes: Vec<std::path::PathBuf>,
 }
@@ -66,6 +70,29 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             percentile(&render_ms, 0.9),
             percentile(&post_ms, 0.5),
             render_ms.len()
+        );
+    }
+    if let Some(steps) = args.servo_steps {
+        use synthcam::dataset::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
+        let mut o = ServoOptions::new(Law::Ibvs);
+        o.max_steps = steps;
+        o.stop = None;
+        o.handeye = HandEyeSource::Truth;
+        let t = run_servo(Some(&renderer), &ServoScenario::default(), &o, &mut |_, _| {}).context("IBVS loop")?;
+        let (r, d, l) = t.time_split_ms();
+        let n = t.steps.len().max(1) as f64;
+        println!(
+            "IBVS loop, {} steps ({}): {:.2} s wall; render {:.2} s ({:.1} ms/step), detect {:.2} s ({:.1} ms/step), law {:.3} s ({:.2} ms/step); final pixel RMS {:.3} px",
+            t.steps.len(),
+            t.status.describe(),
+            t.loop_s,
+            r * 1e-3,
+            r / n,
+            d * 1e-3,
+            d / n,
+            l * 1e-3,
+            l / n,
+            t.last().map_or(f64::NAN, |s| s.pixel_rms_px)
         );
     }
     Ok(())

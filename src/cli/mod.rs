@@ -11,6 +11,7 @@ mod detect;
 mod experiment;
 mod handeye;
 mod render;
+mod servo;
 
 /// synthcam: synthetic camera images with exact ground truth for calibration and visual servoing.
 #[derive(Debug, Parser)]
@@ -52,6 +53,11 @@ pub enum Command {
     /// SYNOPSIS: synthcam render assets/scenes/chessboard_k1.toml -o board.png
     /// writes board.png and board.json (camera, pose, every corner's exact pixel).
     Render(render::RenderArgs),
+    /// Visual servoing (PBVS or IBVS) in the loop: render, detect and control at every step.
+    ///
+    /// SYNOPSIS: synthcam servo --law ibvs -o out/ibvs --frames
+    /// writes trace.csv/json, trace_ideal.csv/json, plots and summary.md (error budget).
+    Servo(servo::ServoArgs),
 }
 
 /// Run a parsed command line.
@@ -67,6 +73,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Experiment(e) => experiment::run(&e),
         Command::Handeye(args) => handeye::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::Servo(args) => servo::run(&args),
     }
 }
 

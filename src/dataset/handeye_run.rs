@@ -1,29 +1,21 @@
 //! The course's hand-eye experiment (course-scenario 1.7 / 3.6, variant A) on rendered and
 //! detected pixels: robot configurations around q = (0, 1.6, 3, 3, 2, 0) (+-0.25 rad per joint)
 //! are drawn until the whole S-path is in view; the S-path is rendered from the true camera pose,
-//! its dots are detected and ordered, PnP gives `cam_from_world` per view, and both hand-eye
-//! solvers estimate `tool_from_cam` and `world_from_base`.
-//!
-//! Bead centroids are not the projections of the path points (about half of each bead is inside
-//! the sphere: 1.4 px on average at the course's desired pose). PnP therefore corrects them with
-//! the model: the expected blob centroid minus the projected centre at the current pose estimate
-//! (computed by [`truth_labels`]) is subtracted from the detections and PnP is solved again (two
-//! rounds).
+//! its dots are detected and ordered, PnP (with the bead-centroid correction of
+//! [`super::observe`]) gives `cam_from_world` per view, and both hand-eye solvers estimate
+//! `tool_from_cam` and `world_from_base`.
 
-use nalgebra::{Isometry3, Matrix3, Point2, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
+use super::observe::{pose_from_dots, render_and_detect, Dots};
 use crate::camera::CameraModel;
-use crate::detect::target::{detect, TargetSpec};
-use crate::detect::ImageF32;
 use crate::handeye::refine::{refine_joint, JointRefinement, Observations};
 use crate::handeye::{course_linear, park_martin, HandEyeResult};
-use crate::pnp::pnp_general;
 use crate::render::Renderer;
 use crate::robot::{base_from_tool, Joints};
-use crate::scene::truth::truth_labels;
 use crate::scene::{RenderSettings, Scene};
 use crate::target::{SPathDots, Target};
 
@@ -37,7 +29,7 @@ pub enum Observation {
 }
 
 /// Errors of one estimate against the truth.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct PoseError {
     /// Translation error, millimetres.
     pub mm: f64,
@@ -163,52 +155,28 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Sce
             continue;
         }
         let view = bt.len();
-        let mut scene = Scene {
+        let scene = Scene {
             camera: cam,
             target: Target::SPath(target.clone()),
             cam_from_target: cam_from_world,
             render: RenderSettings { noise_sigma: 1.0, samples: 8, seed: rng.random(), ..Default::default() },
         };
         // Path index and pixel of every observed dot.
-        let (ids, pixels): (Vec<usize>, Vec<Point2<f64>>) = match obs {
+        let dots = match obs {
             Observation::Ideal => {
                 let n = Normal::new(0.0, 0.1).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                pts.iter().enumerate().map(|(i, p)| (i, cam.project_unchecked(&(cam_from_world * p)) + Vector3::new(n.sample(&mut rng), n.sample(&mut rng), 0.0).xy())).unzip()
+                Dots { ids: (0..pts.len()).collect(), pixels_px: pts.iter().map(|p| cam.project_unchecked(&(cam_from_world * p)) + Vector3::new(n.sample(&mut rng), n.sample(&mut rng), 0.0).xy()).collect() }
             }
             Observation::Rendered => {
                 let r = renderer.ok_or_else(|| HandEyeRunError::View { view, reason: "no renderer".into() })?;
-                let img = r.render(&scene).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                let grey = ImageF32::from_u8(1280, 1024, &img.to_u8()).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                let det = detect(&grey, &TargetSpec::SPath { points: pts.len() }).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                let Some(idx) = det.indices.filter(|_| det.found) else {
-                    return Err(HandEyeRunError::View { view, reason: det.note.unwrap_or_else(|| "S-path not found".into()) });
-                };
-                (idx, det.points_px)
+                let seen = render_and_detect(r, &scene).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+                seen.dots.ok_or_else(|| HandEyeRunError::View { view, reason: seen.note.unwrap_or_else(|| "S-path not found".into()) })?
             }
         };
-        let points: Vec<_> = ids.iter().map(|i| pts[*i]).collect();
-        let mut est = pnp_general(&cam, &points, &pixels).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-        let mut used_pixels = pixels.clone();
-        if obs == Observation::Rendered {
-            // Centroid-bias correction at the current estimate, two rounds.
-            for _ in 0..2 {
-                scene.cam_from_target = est.cam_from_target;
-                let labels = truth_labels(&scene);
-                let corrected: Vec<Point2<f64>> = ids
-                    .iter()
-                    .zip(&pixels)
-                    .map(|(id, q)| {
-                        let f = &labels.features[*id];
-                        match f.centroid_px {
-                            Some(c) => Point2::new(q.x - (c[0] - f.pixel_px[0]), q.y - (c[1] - f.pixel_px[1])),
-                            None => *q,
-                        }
-                    })
-                    .collect();
-                est = pnp_general(&cam, &points, &corrected).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                used_pixels = corrected;
-            }
-        }
+        let points: Vec<_> = dots.ids.iter().map(|i| pts[*i]).collect();
+        // Rendered beads: two rounds of the centroid-bias correction.
+        let rounds = if obs == Observation::Rendered { 2 } else { 0 };
+        let (est, used_pixels) = pose_from_dots(&scene, &dots, rounds).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
         observations.push(points.iter().copied().zip(used_pixels).collect());
         let wc_est = est.cam_from_target.inverse();
         pnp_mm.push(1e3 * (wc_est.translation.vector - world_from_cam.translation.vector).norm());

@@ -4,8 +4,11 @@
 pub mod calib_io;
 pub mod handeye_run;
 pub mod io;
+pub mod observe;
 pub mod overlay;
 pub mod plot;
+pub mod servo_report;
+pub mod servo_run;
 pub mod sweep;
 
 pub use io::{encode_png, load_grey, write_atomic, write_image_and_truth};

@@ -17,4 +17,5 @@ mod fidelity;
 mod golden;
 mod handeye;
 mod robustness;
+mod servo;
 mod truth;

@@ -1,0 +1,202 @@
+//! `synthcam servo --law pbvs|ibvs [--scenario S] [--steps N] [-o DIR] [--frames]`: the closed
+//! loop on rendered and detected pixels, next to the same loop on ideal projections + noise, with
+//! traces (CSV, JSON), plots and the error budget.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use synthcam::dataset::handeye_run::Observation;
+use synthcam::dataset::servo_report::{budget_markdown, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
+use synthcam::dataset::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
+use synthcam::dataset::{encode_png, write_atomic};
+use synthcam::servo::{Gain, IbvsParams, InteractionFrom};
+
+/// The law on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LawArg {
+    /// Position-based.
+    Pbvs,
+    /// Image-based.
+    Ibvs,
+}
+
+/// The interaction matrix on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum InteractionArg {
+    /// At the current pose estimate (the course).
+    Current,
+    /// At the desired pose.
+    Desired,
+    /// Mean of both.
+    Mean,
+}
+
+/// Arguments of `servo`.
+#[derive(Debug, clap::Args)]
+pub struct ServoArgs {
+    /// Control law.
+    #[arg(long, value_enum)]
+    pub law: LawArg,
+    /// Scenario (TOML; default: the course, assets/scenarios/servo_course.toml).
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+    /// Maximum control steps (default: PBVS 100, IBVS 300; with --course 30 / 200).
+    #[arg(long)]
+    pub steps: Option<usize>,
+    /// Output folder (default out/servo-<law>).
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Save every rendered frame and a contact sheet.
+    #[arg(long)]
+    pub frames: bool,
+    /// Run only on ideal projections + noise (no renderer).
+    #[arg(long)]
+    pub ideal: bool,
+    /// Skip the ideal-projection comparison run.
+    #[arg(long)]
+    pub no_compare: bool,
+    /// Use the true hand-eye transforms instead of estimating them from 5 views.
+    #[arg(long)]
+    pub true_handeye: bool,
+    /// The course's law exactly: constant IBVS gain 0.03, 30 / 200 steps, no early stop.
+    #[arg(long)]
+    pub course: bool,
+    /// Run every step (no early stop).
+    #[arg(long)]
+    pub no_stop: bool,
+    /// IBVS interaction matrix.
+    #[arg(long, value_enum, default_value_t = InteractionArg::Current)]
+    pub interaction: InteractionArg,
+    /// IBVS damping of the least squares, px^2 (default 100, course 0.1).
+    #[arg(long)]
+    pub damping: Option<f64>,
+    /// Seed of the hand-eye views and all noise.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+fn options(args: &ServoArgs, observation: Observation) -> ServoOptions {
+    let law = if args.law == LawArg::Pbvs { Law::Pbvs } else { Law::Ibvs };
+    let mut o = ServoOptions::new(law);
+    o.observation = observation;
+    o.seed = args.seed;
+    if args.course {
+        o.ibvs = IbvsParams { gain: Gain::Constant(0.03), ..IbvsParams::course() };
+        o.max_steps = if law == Law::Pbvs { 30 } else { 200 };
+        o.stop = None;
+    }
+    if args.no_stop {
+        o.stop = None;
+    }
+    if let Some(n) = args.steps {
+        o.max_steps = n;
+    }
+    o.ibvs.interaction = match args.interaction {
+        InteractionArg::Current => InteractionFrom::Current,
+        InteractionArg::Desired => InteractionFrom::Desired,
+        InteractionArg::Mean => InteractionFrom::Mean,
+    };
+    if let Some(d) = args.damping {
+        o.ibvs.damping = d;
+    }
+    if args.true_handeye {
+        o.handeye = HandEyeSource::Truth;
+    }
+    o
+}
+
+fn write_trace(out: &Path, stem: &str, trace: &ServoTrace) -> anyhow::Result<()> {
+    write_atomic(&out.join(format!("{stem}.csv")), csv(trace).as_bytes())?;
+    write_atomic(&out.join(format!("{stem}.json")), &serde_json::to_vec(trace)?)?;
+    Ok(())
+}
+
+fn print_run(name: &str, t: &ServoTrace) {
+    let (r, d, l) = t.time_split_ms();
+    match t.last() {
+        Some(s) => println!(
+            "{name}: {} after {} updates; camera {:.3} mm / {:.4} deg from the desired pose, pixel error RMS {:.3} px (max {:.3}); loop {:.2} s (render {:.2} s, detect {:.2} s, law {:.2} s), hand-eye {:.1} s",
+            t.status.describe(),
+            t.updates,
+            s.pose_error_mm,
+            s.pose_error_deg,
+            s.pixel_rms_px,
+            s.pixel_max_px,
+            t.loop_s,
+            r * 1e-3,
+            d * 1e-3,
+            l * 1e-3,
+            t.handeye_s
+        ),
+        None => println!("{name}: {}", t.status.describe()),
+    }
+}
+
+/// Run `servo`.
+pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
+    let scenario = match &args.scenario {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            toml::from_str::<ServoScenario>(&text).with_context(|| format!("in scenario {}", p.display()))?
+        }
+        None => ServoScenario::default(),
+    };
+    scenario.goal().context("scenario")?;
+    let law_name = if args.law == LawArg::Pbvs { "pbvs" } else { "ibvs" };
+    let out = args.out.clone().unwrap_or_else(|| PathBuf::from(format!("out/servo-{law_name}")));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let mut traces: Vec<(&str, ServoTrace)> = Vec::new();
+    if !args.ideal {
+        let renderer = super::open_renderer("auto")?;
+        let frames_dir = out.join("frames");
+        if args.frames {
+            std::fs::create_dir_all(&frames_dir).with_context(|| format!("creating {}", frames_dir.display()))?;
+        }
+        let mut thumbs = Vec::new();
+        let mut write_err: Option<anyhow::Error> = None;
+        let mut sink = |step: usize, img: &synthcam::render::GreyImage| {
+            if !args.frames || write_err.is_some() {
+                return;
+            }
+            let res = encode_png(img).map_err(anyhow::Error::from).and_then(|png| Ok(write_atomic(&frames_dir.join(format!("step_{step:04}.png")), &png)?));
+            if let Err(e) = res {
+                write_err = Some(e);
+            }
+            if step.is_multiple_of(10) {
+                if let synthcam::render::GreyImage::U8(g) = img {
+                    thumbs.push((step, image::imageops::resize(g, 256, 205, image::imageops::FilterType::Triangle)));
+                }
+            }
+        };
+        eprintln!("{law_name}: rendered + detected (hand-eye from {}) ...", if args.true_handeye { "the truth" } else { "5 rendered views" });
+        let t = run_servo(Some(&renderer), &scenario, &options(args, Observation::Rendered), &mut sink).context("servo run")?;
+        if let Some(e) = write_err {
+            return Err(e.context("writing frames"));
+        }
+        if args.frames && !thumbs.is_empty() {
+            let sheet = contact_sheet(&thumbs, 5);
+            write_atomic(&out.join("contact_sheet.png"), &synthcam::dataset::plot::png(&sheet)?)?;
+        }
+        print_run("rendered + detected", &t);
+        write_trace(&out, "trace", &t)?;
+        traces.push(("rendered + detected", t));
+    }
+    if args.ideal || !args.no_compare {
+        let t = run_servo(None, &scenario, &options(args, Observation::Ideal), &mut |_, _| {}).context("servo run (ideal)")?;
+        print_run("ideal + 0.1 px", &t);
+        write_trace(&out, if args.ideal { "trace" } else { "trace_ideal" }, &t)?;
+        traces.push(("ideal + 0.1 px", t));
+    }
+    let refs: Vec<(&str, &ServoTrace)> = traces.iter().map(|(n, t)| (*n, t)).collect();
+    write_atomic(&out.join("error.png"), &error_png(&refs)?)?;
+    write_atomic(&out.join("singular_values.png"), &singular_png(&refs)?)?;
+    write_atomic(&out.join("camera_path.png"), &path_png(&refs)?)?;
+    write_atomic(&out.join("feature_tracks.png"), &tracks_png(&traces[0].1, 1280, 1024)?)?;
+    let summary = format!("# {} from the course's start\n\n{}\nTraces: trace.csv / trace.json per step; plots: error.png, singular_values.png, feature_tracks.png, camera_path.png.\n", law_name.to_uppercase(), budget_markdown(&refs));
+    write_atomic(&out.join("summary.md"), summary.as_bytes())?;
+    println!("traces, plots and summary.md written to {}", out.display());
+    let primary = &traces[0].1;
+    let stop_requested = !(args.course || args.no_stop);
+    anyhow::ensure!(primary.status.is_success(stop_requested), "{} run ended: {}", law_name.to_uppercase(), primary.status.describe());
+    Ok(())
+}
