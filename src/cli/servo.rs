@@ -132,6 +132,24 @@ fn print_run(name: &str, t: &ServoTrace) {
     }
 }
 
+/// Write the plots and `summary.md` (the error budget of `traces` side by side) into `out`;
+/// returns the budget table (markdown).
+///
+/// # Errors
+/// Encoding or writing failed.
+pub fn write_report(out: &Path, law_name: &str, traces: &[(&str, ServoTrace)]) -> anyhow::Result<String> {
+    let refs: Vec<(&str, &ServoTrace)> = traces.iter().map(|(n, t)| (*n, t)).collect();
+    anyhow::ensure!(!refs.is_empty(), "no servo run to report");
+    write_atomic(&out.join("error.png"), &error_png(&refs)?)?;
+    write_atomic(&out.join("singular_values.png"), &singular_png(&refs)?)?;
+    write_atomic(&out.join("camera_path.png"), &path_png(&refs)?)?;
+    write_atomic(&out.join("feature_tracks.png"), &tracks_png(refs[0].1, 1280, 1024)?)?;
+    let budget = budget_markdown(&refs);
+    let summary = format!("# {} from the course's start\n\n{budget}\nTraces: trace.csv / trace.json per step; plots: error.png, singular_values.png, feature_tracks.png, camera_path.png.\n", law_name.to_uppercase());
+    write_atomic(&out.join("summary.md"), summary.as_bytes())?;
+    Ok(budget)
+}
+
 /// Run `servo`.
 pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
     let scenario = match &args.scenario {
@@ -187,13 +205,7 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         write_trace(&out, if args.ideal { "trace" } else { "trace_ideal" }, &t)?;
         traces.push(("ideal + 0.1 px", t));
     }
-    let refs: Vec<(&str, &ServoTrace)> = traces.iter().map(|(n, t)| (*n, t)).collect();
-    write_atomic(&out.join("error.png"), &error_png(&refs)?)?;
-    write_atomic(&out.join("singular_values.png"), &singular_png(&refs)?)?;
-    write_atomic(&out.join("camera_path.png"), &path_png(&refs)?)?;
-    write_atomic(&out.join("feature_tracks.png"), &tracks_png(&traces[0].1, 1280, 1024)?)?;
-    let summary = format!("# {} from the course's start\n\n{}\nTraces: trace.csv / trace.json per step; plots: error.png, singular_values.png, feature_tracks.png, camera_path.png.\n", law_name.to_uppercase(), budget_markdown(&refs));
-    write_atomic(&out.join("summary.md"), summary.as_bytes())?;
+    write_report(&out, law_name, &traces)?;
     println!("traces, plots and summary.md written to {}", out.display());
     let primary = &traces[0].1;
     let stop_requested = !(args.course || args.no_stop);

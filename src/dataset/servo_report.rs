@@ -11,13 +11,13 @@ use super::DatasetError;
 
 /// One CSV row per step (features are in the JSON trace).
 pub fn csv(trace: &ServoTrace) -> String {
-    let mut out = String::from("step,q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,cam_x_m,cam_y_m,cam_z_m,pose_error_mm,pose_error_deg,est_error_mm,est_error_deg,pixel_rms_px,pixel_max_px,sigma_min_robot,sigma_min_image,dots,source,gain,render_ms,detect_ms,law_ms\n");
+    let mut out = String::from("step,q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,cam_x_m,cam_y_m,cam_z_m,pose_error_mm,pose_error_deg,est_error_mm,est_error_deg,pixel_rms_px,pixel_max_px,sigma_min_robot,sigma_min_image,dots,within_limits,source,gain,render_ms,detect_ms,law_ms\n");
     for s in &trace.steps {
         let q: Vec<String> = s.q_rad.iter().map(|v| format!("{v:.9}")).collect();
         let c: Vec<String> = s.cam_position_m.iter().map(|v| format!("{v:.6}")).collect();
         let source = serde_json::to_value(s.source).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
         out += &format!(
-            "{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{},{source},{:.6},{:.3},{:.3},{:.3}\n",
+            "{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{},{},{source},{:.6},{:.3},{:.3},{:.3}\n",
             s.step,
             q.join(","),
             c.join(","),
@@ -30,6 +30,7 @@ pub fn csv(trace: &ServoTrace) -> String {
             s.sigma_min_robot,
             s.sigma_min_image,
             s.dots,
+            u8::from(s.within_limits),
             s.gain,
             s.render_ms,
             s.detect_ms,
@@ -166,6 +167,7 @@ pub fn budget_markdown(traces: &[(&str, &ServoTrace)]) -> String {
         ("hand-eye estimate error tool_from_cam, mm / deg".into(), vec![]),
         ("hand-eye estimate error world_from_base, mm / deg".into(), vec![]),
         ("steps on the fallback (target lost)".into(), vec![]),
+        ("steps outside the joint limits".into(), vec![]),
         ("loop time s (render / detect / law, s)".into(), vec![]),
     ];
     for (_, t) in traces {
@@ -182,6 +184,7 @@ pub fn budget_markdown(traces: &[(&str, &ServoTrace)]) -> String {
             format!("{:.3} / {:.4}", t.handeye_error[0].mm, t.handeye_error[0].deg),
             format!("{:.3} / {:.4}", t.handeye_error[1].mm, t.handeye_error[1].deg),
             t.steps.iter().filter(|s| s.source == Source::Fallback).count().to_string(),
+            t.steps.iter().filter(|s| !s.within_limits).count().to_string(),
             format!("{:.2} ({:.2} / {:.2} / {:.2})", t.loop_s, r * 1e-3, d * 1e-3, l * 1e-3),
         ];
         for (row, c) in rows.iter_mut().zip(cells) {

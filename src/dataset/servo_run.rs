@@ -24,7 +24,7 @@ use super::handeye_run::{run_handeye, HandEyeRunError, Observation, PoseError, S
 use super::observe::{pose_from_dots, pose_from_dots_cached, render_and_detect, Dots};
 use crate::camera::CameraModel;
 use crate::render::{GreyImage, Renderer};
-use crate::robot::{base_from_tool, jacobian, wrap, Joints};
+use crate::robot::{base_from_tool, check_limits, jacobian, wrap, Joints};
 use crate::scene::{RenderSettings, Scene};
 use crate::servo::{cam_twist_jacobian, ibvs_step, interaction_matrix, joint_image_jacobian, pbvs_error, pbvs_step, IbvsParams, InteractionFrom, PbvsParams};
 use crate::target::{SPathDots, Target};
@@ -257,6 +257,9 @@ pub struct StepRecord {
     pub sigma_min_image: f64,
     /// Dots detected (ideal: visible).
     pub dots: usize,
+    /// Whether the joints are inside the IRB 1200's limits (the course only wraps them; the loop
+    /// reports, it does not clamp).
+    pub within_limits: bool,
     /// Where the measurement came from.
     pub source: Source,
     /// Gain used for this step's update.
@@ -542,6 +545,7 @@ pub fn run_servo(renderer: Option<&Renderer>, scenario: &ServoScenario, options:
             sigma_min_robot,
             sigma_min_image,
             dots: m.count,
+            within_limits: check_limits(&q).is_ok(),
             source,
             gain: 0.0,
             render_ms: m.render_ms,
