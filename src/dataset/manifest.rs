@@ -67,15 +67,18 @@ pub fn manifest_text(entries: &[ManifestEntry]) -> Result<String, DatasetError> 
     Ok(s)
 }
 
-/// Parse manifest text.
+/// Parse manifest text: each entry with its line as written (the merge copies lines verbatim, so
+/// numbers are never re-formatted).
 ///
 /// # Errors
 /// [`DatasetError::Read`] naming the line.
-pub fn parse_manifest(path: &Path, text: &str) -> Result<Vec<ManifestEntry>, DatasetError> {
+pub fn parse_manifest<'t>(path: &Path, text: &'t str) -> Result<Vec<(ManifestEntry, &'t str)>, DatasetError> {
     text.lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| serde_json::from_str(l).map_err(|e| DatasetError::Read { path: path.display().to_string(), reason: format!("line {}: {e}", i + 1) }))
+        .map(|(i, l)| {
+            serde_json::from_str(l).map(|e| (e, l)).map_err(|e| DatasetError::Read { path: path.display().to_string(), reason: format!("line {}: {e}", i + 1) })
+        })
         .collect()
 }
 
@@ -115,11 +118,11 @@ pub fn merge_manifests(dir: &Path, count: u64) -> Result<MergeReport, DatasetErr
     if sources.is_empty() && dir.join(MANIFEST).exists() {
         sources.push(dir.join(MANIFEST));
     }
-    let mut by_k: BTreeMap<u64, ManifestEntry> = BTreeMap::new();
+    let mut by_k: BTreeMap<u64, (ManifestEntry, String)> = BTreeMap::new();
     let mut bad: Vec<BadImage> = Vec::new();
     for src in &sources {
         let text = std::fs::read_to_string(src).map_err(|e| read_err(src, e))?;
-        for e in parse_manifest(src, &text)? {
+        for (e, line) in parse_manifest(src, &text)? {
             if e.k >= count {
                 bad.push(BadImage { k: e.k, reason: format!("k out of range 0..{count}") });
             } else {
@@ -128,7 +131,7 @@ pub fn merge_manifests(dir: &Path, count: u64) -> Result<MergeReport, DatasetErr
                         bad.push(BadImage { k: e.k, reason: format!("listed more than once (again in {})", src.display()) });
                     }
                     std::collections::btree_map::Entry::Vacant(v) => {
-                        v.insert(e);
+                        v.insert((e, line.to_string()));
                     }
                 }
             }
@@ -137,15 +140,15 @@ pub fn merge_manifests(dir: &Path, count: u64) -> Result<MergeReport, DatasetErr
     let missing: Vec<u64> = (0..count).filter(|k| !by_k.contains_key(k)).collect();
     let checks: Vec<Option<BadImage>> = {
         use rayon::prelude::*;
-        by_k.values().collect::<Vec<_>>().par_iter().map(|e| verify_entry(dir, e)).collect()
+        by_k.values().collect::<Vec<_>>().par_iter().map(|(e, _)| verify_entry(dir, e)).collect()
     };
     bad.extend(checks.into_iter().flatten());
     bad.sort_by_key(|b| b.k);
     if !missing.is_empty() || !bad.is_empty() {
         return Err(DatasetError::Incomplete { missing, bad });
     }
-    let entries: Vec<ManifestEntry> = by_k.into_values().collect();
-    super::write_atomic(&dir.join(MANIFEST), manifest_text(&entries)?.as_bytes())?;
+    let text: String = by_k.into_values().map(|(_, line)| line + "\n").collect();
+    super::write_atomic(&dir.join(MANIFEST), text.as_bytes())?;
     Ok(MergeReport { sources: sources.iter().map(|p| p.display().to_string()).collect(), images: count })
 }
 
