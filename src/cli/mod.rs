@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod calibrate;
+mod dataset;
 mod demo;
 mod detect;
 mod experiment;
@@ -35,6 +36,12 @@ pub enum Command {
     ///
     /// SYNOPSIS: synthcam calibrate ../shared/data/opencv_left --target chessboard:9x6 --square 0.025 --json calib.json
     Calibrate(calibrate::CalibrateArgs),
+    /// Generate a dataset from a spec (sharded, resumable), or merge and verify a sharded one.
+    ///
+    /// SYNOPSIS: synthcam dataset assets/specs/chessboard_1280.toml -o DIR [--shard I/N] [--jobs J]
+    ///           synthcam dataset merge DIR
+    /// Shard I/N renders the images k with k % N == I.
+    Dataset(dataset::DatasetArgs),
     /// Run the main job on the embedded default scenario and write a report folder.
     Demo {
         /// Output folder.
@@ -68,6 +75,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Bench(args) => bench::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
+        Command::Dataset(args) => dataset::run(&args),
         Command::Demo { out } => demo::run(&out),
         Command::Detect(args) => detect::run(&args),
         Command::Experiment(e) => experiment::run(&e),

@@ -59,10 +59,27 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
 /// Encoding or writing failed; nothing half-written is left.
 pub fn write_image_and_truth(png_path: &Path, img: &GreyImage, truth: &TruthLabels) -> Result<(), DatasetError> {
     let png = encode_png(img)?;
-    let json = serde_json::to_vec_pretty(truth).map_err(|e| DatasetError::Json(e.to_string()))?;
-    write_atomic(png_path, &png)?;
+    let json = truth_json(truth)?;
+    write_png_and_json(png_path, &png, &json)
+}
+
+/// The truth JSON bytes as [`write_image_and_truth`] writes them.
+///
+/// # Errors
+/// [`DatasetError::Json`].
+pub fn truth_json(truth: &TruthLabels) -> Result<Vec<u8>, DatasetError> {
+    serde_json::to_vec_pretty(truth).map_err(|e| DatasetError::Json(e.to_string()))
+}
+
+/// Write encoded PNG bytes to `png_path` and JSON bytes beside it (same stem, `.json`), each
+/// atomically; when the JSON fails the PNG is removed again.
+///
+/// # Errors
+/// [`DatasetError::Write`]; nothing half-written is left.
+pub fn write_png_and_json(png_path: &Path, png: &[u8], json: &[u8]) -> Result<(), DatasetError> {
+    write_atomic(png_path, png)?;
     let json_path = png_path.with_extension("json");
-    if let Err(e) = write_atomic(&json_path, &json) {
+    if let Err(e) = write_atomic(&json_path, json) {
         let _ = std::fs::remove_file(png_path);
         return Err(e);
     }

@@ -2,16 +2,21 @@
 //! rename), so a failed run never leaves a truncated image behind.
 
 pub mod calib_io;
+pub mod generate;
 pub mod handeye_run;
 pub mod io;
+pub mod manifest;
 pub mod observe;
 pub mod overlay;
 pub mod plot;
+pub mod poses;
 pub mod servo_report;
 pub mod servo_run;
+pub mod spec;
 pub mod sweep;
 
-pub use io::{encode_png, load_grey, write_atomic, write_image_and_truth};
+pub use io::{encode_png, load_grey, write_atomic, write_image_and_truth, write_png_and_json};
+pub use spec::SpecError;
 
 /// File errors.
 #[derive(Debug, thiserror::Error)]
@@ -39,4 +44,37 @@ pub enum DatasetError {
     /// JSON serialisation failed.
     #[error("cannot serialise JSON: {0}")]
     Json(String),
+    /// The dataset spec is invalid.
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+    /// A command-line value is invalid.
+    #[error("invalid {what}: {reason}")]
+    InvalidArgument {
+        /// Which argument.
+        what: String,
+        /// Why.
+        reason: String,
+    },
+    /// The output folder holds a dataset of another spec.
+    #[error("{path} exists and differs from this spec: the folder holds another dataset (use a new folder)")]
+    SpecMismatch {
+        /// The spec copy in the folder.
+        path: String,
+    },
+    /// Rendering failed.
+    #[error("rendering image {k}: {reason}")]
+    Render {
+        /// Image index.
+        k: u64,
+        /// Why.
+        reason: String,
+    },
+    /// A dataset folder is incomplete or has images that do not match its manifest.
+    #[error("{}", manifest::incomplete_message(missing, bad))]
+    Incomplete {
+        /// Indices not listed in any manifest.
+        missing: Vec<u64>,
+        /// Listed images whose files are missing or do not match.
+        bad: Vec<manifest::BadImage>,
+    },
 }

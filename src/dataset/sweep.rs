@@ -46,8 +46,8 @@ pub struct SweepRun {
     pub rms_px: f64,
 }
 
-/// `cam_from_target` of one course calibration view.
-fn course_pose(rng: &mut ChaCha8Rng) -> Isometry3<f64> {
+/// `cam_from_target` of one course calibration view (the target centred at its origin).
+pub fn course_pose(rng: &mut ChaCha8Rng) -> Isometry3<f64> {
     let n = Normal::new(0.0, 1.0).unwrap_or_else(|_| unreachable!());
     let axis = nalgebra::Unit::new_normalize(Vector3::new(n.sample(rng), n.sample(rng), n.sample(rng)));
     let rot = UnitQuaternion::from_axis_angle(&axis, rng.random_range(0.0..std::f64::consts::PI / 10.0));

@@ -1,0 +1,98 @@
+//! `synthcam dataset SPEC.toml -o DIR [--shard I/N] [--jobs J]` and `synthcam dataset merge DIR`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use synthcam::dataset::generate::{generate, GenerateParams, Shard, SPEC_COPY};
+use synthcam::dataset::manifest::merge_manifests;
+use synthcam::dataset::spec::parse_dataset_spec;
+
+/// Arguments of `dataset`.
+#[derive(Debug, clap::Args)]
+pub struct DatasetArgs {
+    /// The dataset spec (TOML; see assets/specs/), or `merge` to join and verify the shard
+    /// manifests of DIR (`generate SPEC` is accepted too).
+    #[arg(value_name = "SPEC|merge")]
+    pub first: PathBuf,
+    /// After `merge`: the dataset folder (after `generate`: the spec).
+    #[arg(value_name = "DIR")]
+    pub second: Option<PathBuf>,
+    /// Output folder (images/, manifest, spec.toml copy).
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// Render only shard I of N: the images k with k % N == I (merge afterwards).
+    #[arg(long, default_value = "0/1")]
+    pub shard: Shard,
+    /// Encoding and writing threads beside the render thread.
+    #[arg(long, default_value_t = 1)]
+    pub jobs: usize,
+    /// GPU backend: auto (Vulkan, then GL), vulkan or gl.
+    #[arg(long, default_value = "auto")]
+    pub backend: String,
+}
+
+/// Run `dataset`.
+pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
+    match (args.first.to_str(), &args.second) {
+        (Some("merge"), Some(dir)) => merge(dir),
+        (Some("merge"), None) => match &args.out {
+            Some(dir) => merge(dir),
+            None => anyhow::bail!("usage: synthcam dataset merge DIR"),
+        },
+        (Some("generate"), Some(spec)) => run_generate(spec, args),
+        (_, None) => run_generate(&args.first, args),
+        (_, Some(extra)) => anyhow::bail!("unexpected argument {} (usage: synthcam dataset SPEC.toml -o DIR | synthcam dataset merge DIR)", extra.display()),
+    }
+}
+
+fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
+    let out = args.out.as_ref().context("missing -o DIR (usage: synthcam dataset SPEC.toml -o DIR)")?;
+    anyhow::ensure!(args.jobs >= 1, "--jobs must be at least 1");
+    let text = std::fs::read_to_string(spec_path).with_context(|| format!("reading {}", spec_path.display()))?;
+    let plan = parse_dataset_spec(&text).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
+    synthcam::dataset::poses::check_feasible(&plan).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
+    let renderer = super::open_renderer(&args.backend)?;
+    let params = GenerateParams { out_dir: out.clone(), spec_text: text, shard: args.shard, jobs: args.jobs };
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} images, {per_sec}, ETA {eta}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let progress = |done: u64, total: u64| {
+        bar.set_length(total);
+        bar.set_position(done);
+    };
+    let report = generate(&renderer, &plan, &params, &progress).with_context(|| format!("generating into {}", out.display()))?;
+    bar.finish_and_clear();
+    let t = report.times;
+    println!(
+        "shard {}/{}: {} images ({} kept, {} rendered, {} leftover temp files removed) in {:.2} s: {:.2} images/s rendered",
+        args.shard.index,
+        args.shard.count,
+        report.images,
+        report.kept,
+        report.rendered,
+        report.removed_tmp,
+        report.wall_s,
+        report.rendered as f64 / report.wall_s.max(1e-9)
+    );
+    println!(
+        "stage sums: prepare {:.2} s, render {:.2} s, truth {:.2} s, PNG encode {:.2} s, write {:.2} s ({} encoder threads); manifest {}",
+        t.prepare_s,
+        t.render_s,
+        t.truth_s,
+        t.encode_s,
+        t.write_s,
+        args.jobs,
+        report.manifest.display()
+    );
+    Ok(())
+}
+
+fn merge(dir: &Path) -> anyhow::Result<()> {
+    let spec_path = dir.join(SPEC_COPY);
+    let text = std::fs::read_to_string(&spec_path).with_context(|| format!("reading {} (is {} a dataset folder?)", spec_path.display(), dir.display()))?;
+    let plan = parse_dataset_spec(&text).with_context(|| format!("in {}", spec_path.display()))?;
+    let report = merge_manifests(dir, plan.count).with_context(|| format!("merging {}", dir.display()))?;
+    println!("merged {} manifest(s) into {}: {} images, all present, SHA-256 verified", report.sources.len(), dir.join("manifest.jsonl").display(), report.images);
+    Ok(())
+}

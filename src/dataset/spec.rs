@@ -1,0 +1,363 @@
+//! Dataset specs: a versioned TOML file describing `count` images of one camera and target under
+//! randomly sampled poses.
+//!
+//! ```toml
+//! version = 1
+//! count = 200
+//! seed = 7
+//! [camera]            # as in a scene file (scene/file.rs `CameraSpec`)
+//! [target]            # as in a scene file (`TargetSpec`)
+//! [render]            # as in a scene file, without `seed` (per-image seeds derive from `seed`)
+//! [poses]
+//! mode = "board"      # or "course", "robot"; see [`PosesSpec`]
+//! ```
+//!
+//! Unknown fields are errors; every invalid value is reported as a [`SpecError`] naming its field.
+
+use serde::Deserialize;
+
+use super::handeye_run::Scenario;
+use crate::camera::CameraModel;
+use crate::scene::file::{CameraSpec, RenderSpec, TargetSpec};
+use crate::scene::{RenderSettings, SceneError};
+use crate::target::Target;
+
+/// The spec format this build reads.
+pub const SPEC_VERSION: u32 = 1;
+
+/// Largest `count` (image names have six digits).
+pub const MAX_COUNT: u64 = 1_000_000;
+
+/// Errors of a dataset spec.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SpecError {
+    /// The text does not parse, or a field is missing, unknown or of the wrong type.
+    #[error("dataset spec does not parse: {0}")]
+    Parse(String),
+    /// `version` is not [`SPEC_VERSION`].
+    #[error("dataset spec field `version` is {found}, this build reads version {SPEC_VERSION}")]
+    Version {
+        /// The version in the file.
+        found: u32,
+    },
+    /// A field has an invalid value.
+    #[error("dataset spec field `{field}` is invalid: {reason}")]
+    InvalidField {
+        /// Dotted path of the field, e.g. `poses.distance_m`.
+        field: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The camera, target or render settings are invalid.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// No sampled pose meets a constraint.
+    #[error("constraint `{constraint}` is never met: 0 of {draws} sampled poses satisfy it ({hint})")]
+    Infeasible {
+        /// Dotted name of the constraint, e.g. `poses.full_target_visible`.
+        constraint: String,
+        /// Poses tried.
+        draws: usize,
+        /// What to change.
+        hint: String,
+    },
+}
+
+/// A whole dataset spec file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatasetSpec {
+    /// Format version, must be [`SPEC_VERSION`].
+    pub version: u32,
+    /// Number of images, k = 0..count.
+    pub count: u64,
+    /// Master seed: image k's pose and noise seed depend only on (seed, k).
+    pub seed: u64,
+    /// `[camera]`.
+    pub camera: CameraSpec,
+    /// `[target]`.
+    pub target: TargetSpec,
+    /// `[render]` (optional; `seed` is not allowed here).
+    #[serde(default)]
+    pub render: RenderSpec,
+    /// `[poses]`.
+    pub poses: PosesSpec,
+}
+
+/// `[poses]`: how `cam_from_target` is sampled.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "mode", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum PosesSpec {
+    /// A planar target in front of the camera: its centre (the centre of its feature points'
+    /// bounding box) at `(offset_x_m, offset_y_m, distance_m)` in the camera frame, its normal
+    /// (target +z) at `tilt_deg` from the optical axis about a uniformly random axis in the image
+    /// plane, then turned by `roll_deg` about the optical axis. Every range is `[lo, hi]`, sampled
+    /// uniformly (lo = hi gives a constant).
+    Board {
+        /// Distance of the target centre along the optical axis, metres.
+        distance_m: Vec<f64>,
+        /// Angle between the optical axis and the target normal, degrees, within [0, 90).
+        tilt_deg: Vec<f64>,
+        /// Rotation about the optical axis, degrees (default [0, 0]).
+        roll_deg: Option<Vec<f64>>,
+        /// Offset of the target centre along camera x, metres (default [0, 0]).
+        offset_x_m: Option<Vec<f64>>,
+        /// Offset of the target centre along camera y, metres (default [0, 0]).
+        offset_y_m: Option<Vec<f64>>,
+        /// Re-draw until every feature point projects inside the image (default true).
+        full_target_visible: Option<bool>,
+        /// Margin of the visibility constraint, pixels (default 0).
+        margin_px: Option<f64>,
+    },
+    /// The course's calibration views (sweep.rs): a rotation of uniform angle in [0, pi/10] about a
+    /// uniform random axis, camera position x, y in [-0.4, 0.4] m and z in [-6, -3] m relative to
+    /// the target centre, re-drawn until every feature point is in the image.
+    Course {
+        /// Margin of the visibility constraint, pixels (default 0).
+        margin_px: Option<f64>,
+    },
+    /// The hand-eye scenario's robot (the S-path target's frame is the world): joints
+    /// q = q0 + U(-spread, spread) per joint, `cam_from_target` = (world_from_base *
+    /// base_from_tool(q) * tool_from_cam)^-1; fields default to the course's variant A
+    /// (`assets/scenarios/course.toml`).
+    Robot {
+        /// Centre of the joint sampling, radians.
+        q0_rad: Option<[f64; 6]>,
+        /// Uniform perturbation per joint, radians.
+        spread_rad: Option<f64>,
+        /// Translation of `world_from_base` (rotation identity), metres.
+        base_t_m: Option<[f64; 3]>,
+        /// Translation of `tool_from_cam`, metres.
+        tool_from_cam_t_m: Option<[f64; 3]>,
+        /// Rotation of `tool_from_cam`, rows.
+        #[serde(rename = "tool_from_cam_R")]
+        tool_from_cam_r: Option<[[f64; 3]; 3]>,
+        /// Re-draw until every feature point projects inside the image (default true).
+        full_target_visible: Option<bool>,
+        /// Margin of the visibility constraint, pixels (default 0).
+        margin_px: Option<f64>,
+    },
+}
+
+/// Validated board-mode ranges (see [`PosesSpec::Board`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoardRanges {
+    /// Distance, metres.
+    pub distance_m: [f64; 2],
+    /// Tilt, degrees.
+    pub tilt_deg: [f64; 2],
+    /// Roll, degrees.
+    pub roll_deg: [f64; 2],
+    /// Offset along camera x, metres.
+    pub offset_x_m: [f64; 2],
+    /// Offset along camera y, metres.
+    pub offset_y_m: [f64; 2],
+}
+
+/// How poses are drawn, validated.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PoseMode {
+    /// [`PosesSpec::Board`].
+    Board(BoardRanges),
+    /// [`PosesSpec::Course`].
+    Course,
+    /// [`PosesSpec::Robot`].
+    Robot(Scenario),
+}
+
+/// A validated spec: everything the generator needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatasetPlan {
+    /// Number of images.
+    pub count: u64,
+    /// Master seed.
+    pub seed: u64,
+    /// Camera.
+    pub camera: CameraModel,
+    /// Target.
+    pub target: Target,
+    /// Render settings (the seed is replaced per image).
+    pub render: RenderSettings,
+    /// Pose sampling.
+    pub mode: PoseMode,
+    /// Whether every feature point must project inside the image.
+    pub full_target_visible: bool,
+    /// Margin of that constraint, pixels.
+    pub margin_px: f64,
+}
+
+fn invalid(field: &str, reason: impl Into<String>) -> SpecError {
+    SpecError::InvalidField { field: field.into(), reason: reason.into() }
+}
+
+/// Check a `[lo, hi]` range (absent: `[0, 0]`): two finite values, lo <= hi, within `[min, max]`.
+/// (Ranges are read as lists so that a wrong length is reported with the field's name.)
+fn check_range(field: &str, r: Option<&Vec<f64>>, min: f64, max: f64) -> Result<[f64; 2], SpecError> {
+    let r: [f64; 2] = match r.map(Vec::as_slice) {
+        None => [0.0; 2],
+        Some(&[lo, hi]) => [lo, hi],
+        Some(v) => return Err(invalid(field, format!("must be a range [lo, hi], got {} values", v.len()))),
+    };
+    if r.iter().any(|v| !v.is_finite()) {
+        return Err(invalid(field, format!("must be finite, got {r:?}")));
+    }
+    if r[0] > r[1] {
+        return Err(invalid(field, format!("is inverted: lo {} > hi {}", r[0], r[1])));
+    }
+    if r[0] < min || r[1] > max {
+        return Err(invalid(field, format!("must lie within [{min}, {max}], got {r:?}")));
+    }
+    Ok(r)
+}
+
+fn check_margin(field: &str, m: Option<f64>) -> Result<f64, SpecError> {
+    let m = m.unwrap_or(0.0);
+    if !(m >= 0.0) || !m.is_finite() {
+        return Err(invalid(field, format!("must be finite and >= 0, got {m}")));
+    }
+    Ok(m)
+}
+
+fn check_finite<const N: usize>(field: &str, v: &[f64; N]) -> Result<(), SpecError> {
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(invalid(field, format!("must be finite, got {v:?}")));
+    }
+    Ok(())
+}
+
+impl PosesSpec {
+    /// The validated mode, whether the visibility constraint applies, and its margin.
+    fn to_mode(&self, target: &Target) -> Result<(PoseMode, bool, f64), SpecError> {
+        match self {
+            PosesSpec::Board { distance_m, tilt_deg, roll_deg, offset_x_m, offset_y_m, full_target_visible, margin_px } => {
+                if !target.is_planar() {
+                    return Err(invalid("poses.mode", "\"board\" needs a planar target (chessboard or dot-grid); use \"robot\" for the s-path"));
+                }
+                let d = check_range("poses.distance_m", Some(distance_m), 0.0, f64::MAX)?;
+                if !(d[0] > 0.0) {
+                    return Err(invalid("poses.distance_m", format!("must be > 0, got {d:?}")));
+                }
+                let ranges = BoardRanges {
+                    distance_m: d,
+                    tilt_deg: check_range("poses.tilt_deg", Some(tilt_deg), 0.0, 89.0)?,
+                    roll_deg: check_range("poses.roll_deg", roll_deg.as_ref(), -360.0, 360.0)?,
+                    offset_x_m: check_range("poses.offset_x_m", offset_x_m.as_ref(), f64::MIN, f64::MAX)?,
+                    offset_y_m: check_range("poses.offset_y_m", offset_y_m.as_ref(), f64::MIN, f64::MAX)?,
+                };
+                Ok((PoseMode::Board(ranges), full_target_visible.unwrap_or(true), check_margin("poses.margin_px", *margin_px)?))
+            }
+            PosesSpec::Course { margin_px } => Ok((PoseMode::Course, true, check_margin("poses.margin_px", *margin_px)?)),
+            PosesSpec::Robot { q0_rad, spread_rad, base_t_m, tool_from_cam_t_m, tool_from_cam_r, full_target_visible, margin_px } => {
+                if !matches!(target, Target::SPath(_)) {
+                    return Err(invalid("poses.mode", "\"robot\" looks at the s-path target (kind = \"s-path\")"));
+                }
+                let d = Scenario::default();
+                let s = Scenario {
+                    q0_rad: q0_rad.unwrap_or(d.q0_rad),
+                    spread_rad: spread_rad.unwrap_or(d.spread_rad),
+                    base_t_m: base_t_m.unwrap_or(d.base_t_m),
+                    tool_from_cam_t_m: tool_from_cam_t_m.unwrap_or(d.tool_from_cam_t_m),
+                    tool_from_cam_r: tool_from_cam_r.unwrap_or(d.tool_from_cam_r),
+                };
+                check_finite("poses.q0_rad", &s.q0_rad)?;
+                if !(s.spread_rad >= 0.0) || !s.spread_rad.is_finite() {
+                    return Err(invalid("poses.spread_rad", format!("must be finite and >= 0, got {}", s.spread_rad)));
+                }
+                check_finite("poses.base_t_m", &s.base_t_m)?;
+                check_finite("poses.tool_from_cam_t_m", &s.tool_from_cam_t_m)?;
+                let m = nalgebra::Matrix3::from_fn(|i, j| s.tool_from_cam_r[i][j]);
+                let orth = (m.transpose() * m - nalgebra::Matrix3::identity()).abs().max();
+                if !(orth <= 1e-6) || !(m.determinant() > 0.0) {
+                    return Err(invalid("poses.tool_from_cam_R", format!("is not a rotation (|R^T R - I|max = {orth:.2e})")));
+                }
+                Ok((PoseMode::Robot(s), full_target_visible.unwrap_or(true), check_margin("poses.margin_px", *margin_px)?))
+            }
+        }
+    }
+}
+
+impl DatasetSpec {
+    /// Validate every field and build the plan (the feasibility of the pose constraint is checked
+    /// separately by [`super::poses::check_feasible`]).
+    ///
+    /// # Errors
+    /// The first invalid field.
+    pub fn to_plan(&self) -> Result<DatasetPlan, SpecError> {
+        if self.version != SPEC_VERSION {
+            return Err(SpecError::Version { found: self.version });
+        }
+        if self.count == 0 || self.count > MAX_COUNT {
+            return Err(invalid("count", format!("must be in 1..={MAX_COUNT}, got {}", self.count)));
+        }
+        if self.render.seed.is_some() {
+            return Err(invalid("render.seed", "per-image noise seeds derive from the top-level `seed`; remove it"));
+        }
+        let camera = self.camera.to_model();
+        let target = self.target.to_target();
+        let render = self.render.to_settings();
+        // Validate camera, target and render settings with the scene's own rules (a pose straight
+        // ahead keeps the depth check quiet; the sampled poses are checked per image).
+        let probe = crate::scene::Scene {
+            camera,
+            target: target.clone(),
+            cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3),
+            render,
+        };
+        probe.validate()?;
+        let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target)?;
+        Ok(DatasetPlan { count: self.count, seed: self.seed, camera, target, render, mode, full_target_visible, margin_px })
+    }
+}
+
+/// Parse and validate spec text (TOML).
+///
+/// # Errors
+/// [`SpecError::Parse`] (the parser's message names the field) or a validation error.
+pub fn parse_dataset_spec(text: &str) -> Result<DatasetPlan, SpecError> {
+    let spec: DatasetSpec = toml::from_str(text).map_err(|e| SpecError::Parse(e.to_string()))?;
+    spec.to_plan()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLES: [(&str, &str); 4] = [
+        ("tiny", include_str!("../../assets/specs/tiny.toml")),
+        ("chessboard_1280", include_str!("../../assets/specs/chessboard_1280.toml")),
+        ("course_calibration", include_str!("../../assets/specs/course_calibration.toml")),
+        ("s_path_robot", include_str!("../../assets/specs/s_path_robot.toml")),
+    ];
+
+    #[test]
+    fn example_specs_parse_and_are_feasible() {
+        for (name, text) in EXAMPLES {
+            let plan = parse_dataset_spec(text).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let rate = crate::dataset::poses::check_feasible(&plan).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(rate > 0.01, "{name}: acceptance {rate}");
+        }
+    }
+
+    #[test]
+    fn invalid_fields_are_named() {
+        let tiny = EXAMPLES[0].1;
+        let cases = [
+            (tiny.replace("offset_x_m = [-0.03, 0.03]", "offset_x_m = [0.03]"), "poses.offset_x_m"),
+            (tiny.replace("distance_m = [0.45, 0.7]", "distance_m = [0.0, 0.7]"), "poses.distance_m"),
+            (tiny.replace("tilt_deg = [0.0, 35.0]", "tilt_deg = [0.0, 95.0]"), "poses.tilt_deg"),
+            (tiny.replace("margin_px = 4.0", "margin_px = -1.0"), "poses.margin_px"),
+            (tiny.replace("count = 200", "count = 2000000"), "count"),
+            (tiny.replace("width = 320", "width = 0"), "width"),
+        ];
+        for (text, needle) in cases {
+            let e = parse_dataset_spec(&text).unwrap_err().to_string();
+            assert!(e.contains(needle), "{needle}: {e}");
+        }
+        let robot = EXAMPLES[3].1;
+        let e = parse_dataset_spec(&robot.replace("spread_rad = 0.25", "spread_rad = nan")).unwrap_err().to_string();
+        assert!(e.contains("poses.spread_rad"), "{e}");
+        let e = parse_dataset_spec(&robot.replace("[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]", "[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]")).unwrap_err().to_string();
+        assert!(e.contains("tool_from_cam_R"), "{e}");
+    }
+}

@@ -1,0 +1,204 @@
+//! `synthcam dataset`: sharded runs are byte-identical to the unsharded run, runs resume, merge
+//! verifies, and bad specs or failing writes give a typed error, a non-zero exit and no partial file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use crate::common::bin;
+
+const TINY: &str = include_str!("../../assets/specs/tiny.toml");
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("synthcam-ds-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("tmp");
+    d
+}
+
+fn write_spec(dir: &Path, text: &str) -> PathBuf {
+    let p = dir.join("spec-in.toml");
+    std::fs::write(&p, text).expect("write spec");
+    p
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(bin()).arg("dataset").args(args).output().expect("run")
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+fn ok(o: &Output) -> String {
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(o.status.success(), "failed: {}\n{stdout}", String::from_utf8_lossy(&o.stderr));
+    stdout
+}
+
+/// Every file under `dir/images`, name -> bytes.
+fn images(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir.join("images"))
+        .expect("images/")
+        .flatten()
+        .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).expect("read")))
+        .collect()
+}
+
+#[test]
+fn four_shards_are_byte_identical_to_the_unsharded_run() {
+    let root = tmp("shards");
+    let spec = write_spec(&root, TINY);
+    let (one, four) = (root.join("one"), root.join("four"));
+    let t0 = std::time::Instant::now();
+    ok(&run(&[s(&spec), "-o", s(&one), "--jobs", "2"]));
+    eprintln!("200 images unsharded: {:.2} s", t0.elapsed().as_secs_f64());
+    for i in 0..4 {
+        let shard = format!("{i}/4");
+        let jobs = if i % 2 == 0 { "1" } else { "2" };
+        ok(&run(&[s(&spec), "-o", s(&four), "--shard", &shard, "--jobs", jobs]));
+    }
+    // Before merging the four shards hold no complete manifest.
+    assert!(!four.join("manifest.jsonl").exists());
+    ok(&run(&["merge", s(&four)]));
+    let (a, b) = (images(&one), images(&four));
+    assert_eq!(a.len(), 400, "200 PNG + 200 JSON");
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    for (name, bytes) in &a {
+        assert!(bytes == &b[name], "{name} differs between the unsharded and the sharded run");
+    }
+    let ma = std::fs::read_to_string(one.join("manifest.jsonl")).expect("manifest");
+    let mb = std::fs::read_to_string(four.join("manifest.jsonl")).expect("manifest");
+    assert_eq!(ma.lines().count(), 200);
+    assert_eq!(ma, mb);
+    // Merging a complete unsharded folder verifies it and leaves its manifest byte-identical.
+    ok(&run(&["merge", s(&one)]));
+    assert_eq!(std::fs::read_to_string(one.join("manifest.jsonl")).expect("manifest"), ma);
+    assert_eq!(std::fs::read_to_string(four.join("spec.toml")).expect("spec copy"), TINY);
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn a_run_resumes_and_redoes_damaged_images() {
+    let root = tmp("resume");
+    let spec = write_spec(&root, &TINY.replace("count = 200", "count = 24"));
+    let out = root.join("out");
+    ok(&run(&[s(&spec), "-o", s(&out)]));
+    let first = images(&out);
+    let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).expect("manifest");
+    let img = out.join("images");
+    std::fs::remove_file(img.join("000003.png")).expect("rm");
+    std::fs::remove_file(img.join("000005.json")).expect("rm");
+    let png9 = &first["000009.png"];
+    std::fs::write(img.join("000009.png"), &png9[..png9.len() / 2]).expect("truncate");
+    std::fs::write(img.join(".000007.png.tmp99999"), b"partial").expect("plant tmp");
+    let stdout = ok(&run(&[s(&spec), "-o", s(&out), "--jobs", "2"]));
+    assert!(stdout.contains("24 images (21 kept, 3 rendered, 1 leftover temp files removed)"), "{stdout}");
+    assert_eq!(images(&out), first, "resumed files differ from the first run (or a temp file is left)");
+    assert_eq!(std::fs::read_to_string(out.join("manifest.jsonl")).expect("manifest"), manifest);
+    // A third run keeps everything.
+    let stdout = ok(&run(&[s(&spec), "-o", s(&out)]));
+    assert!(stdout.contains("(24 kept, 0 rendered"), "{stdout}");
+    // A different spec into the same folder is refused.
+    let other = write_spec(&root, &TINY.replace("count = 200", "count = 25"));
+    let o = run(&[s(&other), "-o", s(&out)]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("differs from this spec"));
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn merge_reports_missing_and_bad_images() {
+    let root = tmp("merge");
+    let spec = write_spec(&root, &TINY.replace("count = 200", "count = 12"));
+    let out = root.join("out");
+    for i in [0, 2] {
+        ok(&run(&[s(&spec), "-o", s(&out), "--shard", &format!("{i}/3")]));
+    }
+    let o = run(&["merge", s(&out)]);
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("4 missing (k = 1, 4, 7, 10)"), "{stderr}");
+    assert!(!out.join("manifest.jsonl").exists());
+    ok(&run(&[s(&spec), "-o", s(&out), "--shard", "1/3"]));
+    let mut png = std::fs::read(out.join("images/000005.png")).expect("png");
+    let n = png.len();
+    png[n - 20] ^= 0xff;
+    std::fs::write(out.join("images/000005.png"), &png).expect("corrupt");
+    let o = run(&["merge", s(&out)]);
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("0 missing, 1 bad") && stderr.contains("k = 5: images/000005.png: sha256"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn bad_specs_fail_cleanly() {
+    let cases: Vec<(&str, String, &str)> = vec![
+        ("unknown-field", TINY.replace("margin_px = 4.0", "margin_px = 4.0\nmargn = 1"), "margn"),
+        ("unknown-top", TINY.replace("seed = 11", "seed = 11\nsede = 1"), "sede"),
+        ("nan-distance", TINY.replace("distance_m = [0.45, 0.7]", "distance_m = [nan, 0.7]"), "poses.distance_m"),
+        ("inf-fx", TINY.replace("fx = 300.0", "fx = inf"), "fx"),
+        ("inverted", TINY.replace("tilt_deg = [0.0, 35.0]", "tilt_deg = [35.0, 0.0]"), "poses.tilt_deg"),
+        ("empty-range", TINY.replace("roll_deg = [-20.0, 20.0]", "roll_deg = []"), "roll_deg"),
+        ("count-0", TINY.replace("count = 200", "count = 0"), "count"),
+        ("version", TINY.replace("version = 1", "version = 2"), "version"),
+        ("no-version", TINY.replace("version = 1\n", ""), "version"),
+        ("render-seed", TINY.replace("noise_sigma = 1.0", "noise_sigma = 1.0\nseed = 3"), "render.seed"),
+        ("unknown-mode", TINY.replace("mode = \"board\"", "mode = \"orbit\""), "orbit"),
+        ("board-on-s-path", TINY.replace("kind = \"chessboard\"\nsquares = [7, 5]\nsquare_m = 0.03", "kind = \"s-path\""), "poses.mode"),
+        ("never-fits", TINY.replace("distance_m = [0.45, 0.7]", "distance_m = [0.05, 0.1]"), "full_target_visible"),
+    ];
+    for (name, text, needle) in cases {
+        let root = tmp(&format!("bad-{name}"));
+        let spec = write_spec(&root, &text);
+        let out = root.join("out");
+        let o = run(&[s(&spec), "-o", s(&out)]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{name}: exit status 0");
+        assert!(!stderr.contains("panicked"), "{name}: panicked: {stderr}");
+        assert!(stderr.contains(needle), "{name}: error does not name `{needle}`: {stderr}");
+        assert!(!out.exists(), "{name}: wrote the output folder");
+        let _ = std::fs::remove_dir_all(&root);
+    }
+}
+
+#[test]
+fn unwritable_output_fails_cleanly() {
+    let root = tmp("unwritable");
+    let spec = write_spec(&root, TINY);
+    let file = root.join("a-file");
+    std::fs::write(&file, b"x").expect("file");
+    let o = run(&[s(&spec), "-o", s(&file.join("out"))]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(stderr.contains("cannot write"), "{stderr}");
+    let o = run(&["merge", "/nonexistent-synthcam-dataset"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("spec.toml"));
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// A write that fails half-way (file size limit: EFBIG, like a full disk) stops the run with an
+/// error and leaves no temporary or truncated file behind.
+#[test]
+fn failing_writes_leave_no_partial_files() {
+    let root = tmp("efbig");
+    let spec = write_spec(&root, TINY);
+    let out = root.join("out");
+    // 4 KiB: the spec copy fits, the PNGs (about 9 KB) do not.
+    let script = format!("trap '' XFSZ; ulimit -f 4; exec {} dataset {} -o {} --jobs 2", bin(), s(&spec), s(&out));
+    let o = Command::new("bash").args(["-c", &script]).output().expect("bash");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "exit 0: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(stderr.contains("cannot write") && stderr.contains("File too large"), "{stderr}");
+    for (name, bytes) in images(&out) {
+        assert!(!name.contains(".tmp"), "temporary file {name} left behind");
+        if name.ends_with(".png") {
+            assert!(image::load_from_memory(&bytes).is_ok(), "{name} is truncated");
+        }
+    }
+    assert!(!out.join("manifest.jsonl").exists());
+    let _ = std::fs::remove_dir_all(&root);
+}
