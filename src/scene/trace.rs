@@ -102,6 +102,20 @@ impl<'a> Tracer<'a> {
 
     /// What the ray from the camera centre along `d_cam` (camera frame) sees.
     pub fn trace_ray(&self, d_cam: &Vector3<f64>) -> Hit {
+        self.trace_ray_among(d_cam, None)
+    }
+
+    /// What the sample at pixel position `q_px` sees when only the S-path dots `candidates` can
+    /// be in front of it (the caller knows the others project elsewhere); other targets ignore
+    /// `candidates`.
+    pub fn trace_px_among(&self, q_px: &Point2<f64>, candidates: &[usize]) -> Hit {
+        match self.scene.camera.unproject(q_px) {
+            Ok(ray) => self.trace_ray_among(&ray, Some(candidates)),
+            Err(_) => Hit { intensity: self.scene.target.background(), feature: None },
+        }
+    }
+
+    fn trace_ray_among(&self, d_cam: &Vector3<f64>, candidates: Option<&[usize]>) -> Hit {
         let target = &self.scene.target;
         let background = Hit { intensity: target.background(), feature: None };
         match target {
@@ -127,38 +141,49 @@ impl<'a> Tracer<'a> {
                 let Some(sphere) = self.sphere else { return background };
                 let dn = d_cam.normalize();
                 let t_sphere = sphere.intersect(&dn);
-                match s.style {
-                    DotStyle::Bead => {
-                        let mut best: Option<(f64, usize)> = None;
-                        for (i, b) in self.dots.iter().enumerate() {
-                            // Cheap reject: distance from the ray to the bead centre.
-                            let along = dn.dot(&b.centre.coords);
-                            if along <= 0.0 || (b.centre.coords - dn * along).norm_squared() >= b.radius * b.radius {
-                                continue;
-                            }
-                            if let Some(t) = b.intersect(&dn) {
-                                if best.is_none_or(|(tb, _)| t < tb) {
-                                    best = Some((t, i));
-                                }
-                            }
-                        }
-                        match (best, t_sphere) {
-                            (Some((tb, i)), ts) if ts.is_none_or(|ts| tb <= ts) => Hit { intensity: s.dark, feature: Some(i) },
-                            (_, Some(_)) => Hit { intensity: s.light, feature: None },
-                            _ => background,
-                        }
+                match candidates {
+                    Some(c) => self.s_path_hit(s, &dn, t_sphere, c.iter().copied()),
+                    None => self.s_path_hit(s, &dn, t_sphere, 0..self.dots.len()),
+                }
+            }
+        }
+    }
+
+    /// The S-path hit along the unit ray `dn` among dots `ids` (ascending).
+    fn s_path_hit(&self, s: &crate::target::SPathDots, dn: &Vector3<f64>, t_sphere: Option<f64>, ids: impl Iterator<Item = usize>) -> Hit {
+        let background = Hit { intensity: self.scene.target.background(), feature: None };
+        match s.style {
+            DotStyle::Bead => {
+                let mut best: Option<(f64, usize)> = None;
+                for i in ids {
+                    let b = &self.dots[i];
+                    // Cheap reject: distance from the ray to the bead centre.
+                    let along = dn.dot(&b.centre.coords);
+                    if along <= 0.0 || (b.centre.coords - dn * along).norm_squared() >= b.radius * b.radius {
+                        continue;
                     }
-                    DotStyle::Disc => {
-                        let Some(ts) = t_sphere else { return background };
-                        let h = dn * ts;
-                        for (i, c) in self.dots.iter().enumerate() {
-                            if (h - c.centre.coords).norm_squared() < c.radius * c.radius {
-                                return Hit { intensity: s.dark, feature: Some(i) };
-                            }
+                    if let Some(t) = b.intersect(dn) {
+                        if best.is_none_or(|(tb, _)| t < tb) {
+                            best = Some((t, i));
                         }
-                        Hit { intensity: s.light, feature: None }
                     }
                 }
+                match (best, t_sphere) {
+                    (Some((tb, i)), ts) if ts.is_none_or(|ts| tb <= ts) => Hit { intensity: s.dark, feature: Some(i) },
+                    (_, Some(_)) => Hit { intensity: s.light, feature: None },
+                    _ => background,
+                }
+            }
+            DotStyle::Disc => {
+                let Some(ts) = t_sphere else { return background };
+                let h = dn * ts;
+                for i in ids {
+                    let c = &self.dots[i];
+                    if (h - c.centre.coords).norm_squared() < c.radius * c.radius {
+                        return Hit { intensity: s.dark, feature: Some(i) };
+                    }
+                }
+                Hit { intensity: s.light, feature: None }
             }
         }
     }

@@ -127,14 +127,22 @@ pub struct Blob {
     pub area_centroid_px: [f64; 2],
 }
 
-/// Area and centroids of the rendered blob of dot `id` (see module docs).
-pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4]) -> Option<Blob> {
+/// Area and centroids of the rendered blob of dot `id` (see module docs). `candidates` (ascending,
+/// including `id`) are the dots that can cover any of `bbox`'s pixels; `None` tests all.
+pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates: Option<&[usize]>) -> Option<Blob> {
     let size = tracer.scene().camera.size;
     let x0 = bbox[0].floor().max(0.0) as i64;
     let y0 = bbox[1].floor().max(0.0) as i64;
     let x1 = (bbox[2].ceil() as i64).min(i64::from(size.width) - 1);
     let y1 = (bbox[3].ceil() as i64).min(i64::from(size.height) - 1);
-    let sees = |u: f64, v: f64| tracer.trace_px(&Point2::new(u, v)).feature == Some(id);
+    let sees = |u: f64, v: f64| {
+        let q = Point2::new(u, v);
+        let hit = match candidates {
+            Some(c) => tracer.trace_px_among(&q, c),
+            None => tracer.trace_px(&q),
+        };
+        hit.feature == Some(id)
+    };
     let (mut area, mut su, mut sv) = (0.0, 0.0, 0.0);
     let (mut pu, mut pv) = (0.0, 0.0);
     for y in y0..=y1 {
@@ -185,6 +193,17 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
         Target::SPath(s) => s.dot_radius(i),
         Target::Chessboard(_) => 0.0,
     };
+    // Each blob only needs the dots whose boxes overlap its own (conservative: a dot without a
+    // box, partly behind the camera, is always a candidate).
+    let boxes: Vec<Option<[f64; 4]>> = if kind == FeatureKind::Dot { pts.iter().enumerate().map(|(i, p)| dot_bbox_px(scene, p, radius(i), 1.5)).collect() } else { Vec::new() };
+    let overlapping = |id: usize, bb: &[f64; 4]| -> Vec<usize> {
+        boxes
+            .iter()
+            .enumerate()
+            .filter(|(j, b)| *j == id || b.is_none_or(|b| b[0] <= bb[2] && bb[0] <= b[2] && b[1] <= bb[3] && bb[1] <= b[3]))
+            .map(|(j, _)| j)
+            .collect()
+    };
     let features = pts
         .par_iter()
         .enumerate()
@@ -204,7 +223,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 area_centroid_px: None,
             };
             if kind == FeatureKind::Dot {
-                let blob = dot_bbox_px(scene, p, radius(id), 1.5).and_then(|bb| blob_centroid(&tracer, id, bb));
+                let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, Some(&overlapping(id, &bb))));
                 if let Some(b) = blob {
                     label.area_px = Some(b.area_px);
                     label.centroid_px = Some(b.centroid_px);
