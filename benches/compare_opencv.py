@@ -320,6 +320,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--subpix-win", type=positive_int, default=11, help="cornerSubPix half window (default 11, as the reference)")
     ap.add_argument("--subpix-eps", type=float, default=0.001, help="cornerSubPix EPS criterion (default 0.001, as the reference)")
     ap.add_argument("--no-default-threads", action="store_true", help="skip the timing pass with OpenCV's default threads")
+    ap.add_argument("--calibrate", action="store_true",
+                    help="also calibrate: cv2.calibrateCamera on classic's corners vs `synthcam calibrate` on synthcam's")
     args = ap.parse_args(argv)
 
     dets = [d.strip() for d in args.detectors.split(",") if d.strip()]
@@ -528,6 +530,9 @@ def main(argv: list[str] | None = None) -> int:
     if read_errors:
         print(f"- **{read_errors} image(s) could not be read** (see table)")
 
+    # ---- optional calibration, each side on its own detections (square = 1 board unit)
+    calib = calibrate_both(args, images, readable, (cols, rows)) if args.calibrate else None
+
     # ---- optional check against a stored OpenCV reference
     ref_check = check_reference(args.reference, images, readable, cv_dets, args) if args.reference else None
 
@@ -540,7 +545,7 @@ def main(argv: list[str] | None = None) -> int:
                      "synthcam_version": sc_version, "synthcam_note": sc_note, "argv": sys.argv,
                      "pixel_convention": "OpenCV: centre of the top-left pixel is (0,0)",
                      "timing": "ms; perf_counter around the OpenCV call(s), decode excluded; synthcam: its time_ms"},
-            "summary": summary, "reference_check": ref_check, "images": {}}
+            "summary": summary, "reference_check": ref_check, "calibration": calib, "images": {}}
         for p in files:
             rec = images[p.name]
             out = {"file": rec["file"], "size_wh": rec["size"], "error": rec["error"], "truth_note": rec["truth_note"],
@@ -557,6 +562,57 @@ def main(argv: list[str] | None = None) -> int:
             die(f"cannot write {args.json}: {exc}", 1)
         print(f"\nwrote {args.json}")
     return 1 if read_errors else 0
+
+
+def calibrate_both(args, images: dict, readable: list[Path], pattern: tuple[int, int]) -> dict | None:
+    """calibrateCamera (1 thread) on classic's corners vs `synthcam calibrate` on synthcam's corners,
+    median times over --repeat; prints a table and returns the numbers."""
+    cols, rows = pattern
+    objp = np.array([[c, r, 0.0] for r in range(rows) for c in range(cols)], np.float32)
+    out: dict = {}
+    cv_views = [images[p.name]["det"]["classic"]["points"] for p in readable
+                if images[p.name]["det"].get("classic", {}).get("found")]
+    if len(cv_views) >= 3:
+        h, w = images[readable[0].name]["gray"].shape[:2]
+        corners = [np.asarray(v, np.float32).reshape(-1, 1, 2) for v in cv_views]
+        cv2.setNumThreads(1)
+        times = []
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            rms, K, _, _, _ = cv2.calibrateCamera([objp] * len(corners), corners, (w, h), None, None)
+            times.append((time.perf_counter() - t0) * 1e3)
+        out["opencv"] = {"views": len(corners), "rms_px": rms, "fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2],
+                         "median_ms": statistics.median(times)}
+    sc = [(p, images[p.name]["det"].get("synthcam")) for p in readable]
+    sc = [(p, d) for p, d in sc if d and d.get("found")]
+    if len(sc) >= 3:
+        h, w = images[sc[0][0].name]["gray"].shape[:2]
+        det = {"images": [{"file": str(p), "width": w, "height": h, "found": True,
+                           "points_px": np.asarray(d["points"]).tolist()} for p, d in sc]}
+        with tempfile.TemporaryDirectory(prefix="synthcam_cal_") as tmp:
+            dj, res = Path(tmp) / "det.json", Path(tmp) / "cal.json"
+            dj.write_text(json.dumps(det))
+            times, doc = [], None
+            for _ in range(args.repeat):
+                proc = subprocess.run([args.synthcam, "calibrate", str(dj), "--target", f"chessboard:{cols}x{rows}",
+                                       "--square", "1", "--json", str(res)], capture_output=True, text=True)
+                if proc.returncode != 0:
+                    print(f"synthcam calibrate failed: {proc.stderr.strip()}")
+                    break
+                doc = json.loads(res.read_text())
+                times.append(doc["time_ms"])
+            if doc is not None:
+                K = doc["K"]
+                out["synthcam"] = {"views": len(sc), "rms_px": doc["rms_px"], "fx": K[0][0], "fy": K[1][1], "cx": K[0][2],
+                                   "cy": K[1][2], "median_ms": statistics.median(times)}
+    print("\n## Calibration (each on its own corners; 1 thread; median ms)\n")
+    print("| | views | RMS px | fx | fy | cx | cy | ms |\n|---|---|---|---|---|---|---|---|")
+    for name, r in out.items():
+        print(f"| {name} | {r['views']} | {r['rms_px']:.4f} | {r['fx']:.3f} | {r['fy']:.3f} | {r['cx']:.3f} | {r['cy']:.3f} | {r['median_ms']:.2f} |")
+    if "opencv" in out and "synthcam" in out:
+        out["ratio_synthcam_over_opencv"] = out["synthcam"]["median_ms"] / out["opencv"]["median_ms"]
+        print(f"\ntime ratio synthcam / OpenCV calibrateCamera: {out['ratio_synthcam_over_opencv']:.3f}")
+    return out
 
 
 def check_reference(path: str, images: dict, readable: list[Path], cv_dets: list[str], args) -> dict | None:
