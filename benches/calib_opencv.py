@@ -13,6 +13,8 @@ import argparse, json, os, statistics, subprocess, sys, tempfile, time
 import numpy as np
 import cv2
 
+from compare_opencv import opencv_calibrate
+
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -29,13 +31,7 @@ def main() -> int:
     cols, rows = ref["board"]["pattern_size_opencv"]
     objp = np.array([[c, r, 0.0] for r in range(rows) for c in range(cols)], np.float32)
     corners = [np.array(ref["per_image"][f]["corners"]["classic"], np.float32).reshape(-1, 1, 2) for f in files]
-    cv2.setNumThreads(1)
-    times = []
-    for _ in range(a.repeat):
-        t0 = time.perf_counter()
-        rms, K, dist, _, _ = cv2.calibrateCamera([objp] * len(files), corners, (w, h), None, None)
-        times.append((time.perf_counter() - t0) * 1e3)
-    cv_ms = statistics.median(times)
+    rms, K, cv_ms = opencv_calibrate(objp, corners, (w, h), a.repeat)
     print(f"OpenCV {cv2.__version__} calibrateCamera (1 thread): rms {rms:.6f} fx {K[0,0]:.4f} fy {K[1,1]:.4f} cx {K[0,2]:.4f} cy {K[1,2]:.4f}; median {cv_ms:.2f} ms over {a.repeat}")
     det = {"images": [{"file": f, "width": w, "height": h, "found": True, "points_px": ref["per_image"][f]["corners"]["classic"]} for f in files]}
     with tempfile.TemporaryDirectory() as d:

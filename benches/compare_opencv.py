@@ -564,6 +564,17 @@ def main(argv: list[str] | None = None) -> int:
     return 1 if read_errors else 0
 
 
+def opencv_calibrate(objp: np.ndarray, corners: list, size_wh: tuple[int, int], repeat: int):
+    """cv2.calibrateCamera with 1 thread, `repeat` times: (rms, K, median ms)."""
+    cv2.setNumThreads(1)
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        rms, K, _, _, _ = cv2.calibrateCamera([objp] * len(corners), corners, size_wh, None, None)
+        times.append((time.perf_counter() - t0) * 1e3)
+    return rms, K, statistics.median(times)
+
+
 def calibrate_both(args, images: dict, readable: list[Path], pattern: tuple[int, int]) -> dict | None:
     """calibrateCamera (1 thread) on classic's corners vs `synthcam calibrate` on synthcam's corners,
     median times over --repeat; prints a table and returns the numbers."""
@@ -575,14 +586,9 @@ def calibrate_both(args, images: dict, readable: list[Path], pattern: tuple[int,
     if len(cv_views) >= 3:
         h, w = images[readable[0].name]["gray"].shape[:2]
         corners = [np.asarray(v, np.float32).reshape(-1, 1, 2) for v in cv_views]
-        cv2.setNumThreads(1)
-        times = []
-        for _ in range(args.repeat):
-            t0 = time.perf_counter()
-            rms, K, _, _, _ = cv2.calibrateCamera([objp] * len(corners), corners, (w, h), None, None)
-            times.append((time.perf_counter() - t0) * 1e3)
+        rms, K, ms = opencv_calibrate(objp, corners, (w, h), args.repeat)
         out["opencv"] = {"views": len(corners), "rms_px": rms, "fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2],
-                         "median_ms": statistics.median(times)}
+                         "median_ms": ms}
     sc = [(p, images[p.name]["det"].get("synthcam")) for p in readable]
     sc = [(p, d) for p, d in sc if d and d.get("found")]
     if len(sc) >= 3:
