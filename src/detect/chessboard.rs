@@ -109,7 +109,7 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     if img.data.len() != expected {
         return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
     }
-    if img.data.iter().any(|v| !v.is_finite()) {
+    if !img.all_finite() {
         return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
     }
     if params.cols < 2 || params.rows < 2 {
@@ -124,7 +124,7 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     // Coarse to fine: halve the image once when it has at least PYRAMID_MIN_PIXELS pixels, look for the
     // grid from the coarsest level down (the response and candidate search cost 4x less per level),
     // and refine every corner at full resolution.
-    let half = (img.width * img.height >= PYRAMID_MIN_PIXELS).then(|| downsample2(img));
+    let half = (img.width * img.height >= PYRAMID_MIN_PIXELS).then(|| img.half());
     let levels: Vec<(usize, &ImageF32)> = half.iter().map(|h| (1, h)).chain([(0, img)]).collect();
     for &(level, im) in &levels {
         if let Some((mut grid, n_cands, seeds)) = search(im, params) {
@@ -140,19 +140,6 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
 
 /// Levels with at least this many pixels are halved for the coarse search (640 x 480 -> 320 x 240).
 pub const PYRAMID_MIN_PIXELS: usize = 300_000;
-
-/// 2 x 2 box downsampling (odd last row / column dropped).
-fn downsample2(img: &ImageF32) -> ImageF32 {
-    let (w, h) = (img.width / 2, img.height / 2);
-    let mut data = Vec::with_capacity(w * h);
-    for y in 0..h {
-        let (r0, r1) = (&img.data[2 * y * img.width..], &img.data[(2 * y + 1) * img.width..]);
-        for x in 0..w {
-            data.push(0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]));
-        }
-    }
-    ImageF32 { width: w, height: h, data }
-}
 
 /// Find the grid (unrefined) in `img`: the rows of corners, the candidate count and the seeds
 /// tried.

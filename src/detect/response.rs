@@ -112,7 +112,10 @@ pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
         };
         let (a, b, c, d, e) = (row(-2), row(-1), row(0), row(1), row(2));
         buf.clear();
-        buf.extend((0..w).map(|i| (a[i] + e[i]) + 4.0 * (b[i] + d[i]) + 6.0 * c[i]));
+        buf.resize(w, 0.0);
+        for (i, v) in buf.iter_mut().enumerate() {
+            *v = (a[i] + e[i]) + 4.0 * (b[i] + d[i]) + 6.0 * c[i];
+        }
         let s = &buf[..];
         let n = w - 4;
         let (a, b, c, d, e) = (&s[0..n], &s[1..n + 1], &s[2..n + 2], &s[3..n + 3], &s[4..n + 4]);
@@ -148,11 +151,16 @@ pub fn saddle_response(img: &ImageF32, sigma: f64) -> ResponseMap {
                 return;
             }
             let (a, b, c) = (&s[(y - 1) * w..y * w], &s[y * w..(y + 1) * w], &s[(y + 1) * w..(y + 2) * w]);
-            for x in 1..w - 1 {
-                let fxx = b[x + 1] - 2.0 * b[x] + b[x - 1];
-                let fyy = c[x] - 2.0 * b[x] + a[x];
-                let fxy = 0.25 * (c[x + 1] - c[x - 1] - a[x + 1] + a[x - 1]);
-                o[x] = fxy * fxy - fxx * fyy;
+            // shifted slices of equal length (x - 1, x, x + 1) so that the loop vectorises
+            let n = w - 2;
+            let (am, a0, ap) = (&a[..n], &a[1..n + 1], &a[2..]);
+            let (bm, b0, bp) = (&b[..n], &b[1..n + 1], &b[2..]);
+            let (cm, c0, cp) = (&c[..n], &c[1..n + 1], &c[2..]);
+            for (i, o) in o[1..w - 1].iter_mut().enumerate() {
+                let fxx = bp[i] - 2.0 * b0[i] + bm[i];
+                let fyy = c0[i] - 2.0 * b0[i] + a0[i];
+                let fxy = 0.25 * (cp[i] - cm[i] - ap[i] + am[i]);
+                *o = fxy * fxy - fxx * fyy;
             }
         };
         if w * h > 200_000 {
@@ -180,14 +188,29 @@ pub fn peak_subpixel(r: &ImageF32, x: usize, y: usize) -> Point2<f64> {
     Point2::new(x as f64 + dx, y as f64 + dy)
 }
 
+/// Maximum of `v` and 0 (NaN samples ignored), lane-wise with plain comparisons so that it
+/// vectorises.
+fn max_or_zero(v: &[f32]) -> f32 {
+    const L: usize = 16;
+    let mut acc = [0.0f32; L];
+    let chunks = v.chunks_exact(L);
+    let tail = chunks.remainder();
+    for c in chunks {
+        for (a, &x) in acc.iter_mut().zip(c) {
+            *a = if x > *a { x } else { *a };
+        }
+    }
+    acc.iter().chain(tail).copied().fold(0.0f32, f32::max)
+}
+
 /// Local maxima of the response over a (2 `nms_radius` + 1)^2 window above
 /// `rel_threshold` x the global maximum, strongest first, at most `max_count`.
 pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_count: usize) -> Vec<Candidate> {
     let (w, h) = (r.width, r.height);
     let maxv = if w * h > 200_000 {
-        r.data.par_chunks(w.max(1)).map(|c| c.iter().copied().fold(0.0f32, f32::max)).reduce(|| 0.0, f32::max)
+        r.data.par_chunks(w.max(1)).map(max_or_zero).reduce(|| 0.0, f32::max)
     } else {
-        r.data.iter().copied().fold(0.0f32, f32::max)
+        max_or_zero(&r.data)
     };
     if !(maxv > 0.0) || w < 3 || h < 3 {
         return Vec::new();

@@ -75,12 +75,18 @@ fn erf_exp(x: f64, inv_a: f64) -> (f64, f64) {
     let e = exp_neg(z * z);
     let s = if z < 0.0 { -1.0 } else { 1.0 };
     let t = 1.0 / (1.0 + 0.327_591_1 * z.abs());
-    let poly = t * (0.254_829_592 + t * (-0.284_496_736 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    // Abramowitz & Stegun 7.1.26 (|error| < 1.5e-7), the polynomial in Estrin form
+    let t2 = t * t;
+    let poly = t * ((0.254_829_592 + t * -0.284_496_736) + t2 * ((1.421_413_741 + t * -1.453_152_027) + t2 * 1.061_405_429));
     (s * (1.0 - poly * e), e)
 }
 
-/// exp(-y) for y >= 0 by range reduction to 2^f and a degree-10 polynomial (relative error
-/// below 1e-12); 0 beyond y = 700.
+/// exp(-y) for y >= 0 by range reduction to 2^n e^f, |f| <= ln 2 / 2, and the degree-8 Taylor
+/// polynomial of e^f evaluated in Estrin form (relative error below 1e-9, far below the 1.5e-7
+/// of the erf approximation it feeds); 0 beyond y = 700.
+///
+/// Reference: J.-M. Muller, "Elementary Functions: Algorithms and Implementation", 3rd ed., 2016
+/// (range reduction, Estrin's scheme).
 #[inline(always)]
 fn exp_neg(y: f64) -> f64 {
     if !(y < 700.0) {
@@ -89,14 +95,15 @@ fn exp_neg(y: f64) -> f64 {
     let t = -y * std::f64::consts::LOG2_E;
     let n = (t - 0.5) as i64 as f64; // nearest integer for t <= 0 without a libm floor call
     let f = (t - n) * std::f64::consts::LN_2; // in [-ln 2 / 2, ln 2 / 2]
-    // Taylor series of e^f to degree 10 (|f| < 0.7: truncation error < 3e-13 relative)
-    let p = 1.0
-        + f * (1.0
-            + f * (0.5
-                + f * (1.0 / 6.0
-                    + f * (1.0 / 24.0
-                        + f * (1.0 / 120.0
-                            + f * (1.0 / 720.0 + f * (1.0 / 5040.0 + f * (1.0 / 40320.0 + f * (1.0 / 362_880.0 + f / 3_628_800.0)))))))));
+    let f2 = f * f;
+    let f4 = f2 * f2;
+    // Estrin: pairs (c0 + c1 f), (c2 + c3 f), ... combined by f^2 and f^4 (short dependency chains)
+    let p01 = 1.0 + f;
+    let p23 = 0.5 + f * (1.0 / 6.0);
+    let p45 = 1.0 / 24.0 + f * (1.0 / 120.0);
+    let p67 = 1.0 / 720.0 + f * (1.0 / 5040.0);
+    let p8 = 1.0 / 40320.0;
+    let p = (p01 + f2 * p23) + f4 * ((p45 + f2 * p67) + f4 * p8);
     let bits = ((n as i64 + 1023) as u64) << 52;
     p * f64::from_bits(bits)
 }
@@ -465,7 +472,7 @@ pub(crate) mod tests {
     fn exp_and_erf_are_exact_enough() {
         for k in 0..2000 {
             let y = k as f64 * 0.01;
-            assert!(((exp_neg(y) - (-y).exp()) / (-y).exp()).abs() < 1e-12, "{y}");
+            assert!(((exp_neg(y) - (-y).exp()) / (-y).exp()).abs() < 1e-9, "{y}");
         }
         for (x, e) in [(0.0, 0.0), (0.5, 0.520_499_877_8), (1.0, 0.842_700_792_9), (-2.0, -0.995_322_265_0)] {
             assert!((erf_exp(x, 1.0).0 - e).abs() < 2e-7, "{x}");
