@@ -17,6 +17,7 @@ use nalgebra::{Point2, Vector2};
 use rayon::prelude::*;
 
 use super::grid::{grow_grid, GrowParams, Grid};
+use super::par::worth_parallel;
 use super::response::{find_candidates, saddle_response, Candidate};
 use super::saddle_fit::{refine_saddle, SaddleFitParams};
 use super::{DetectError, ImageF32};
@@ -46,7 +47,8 @@ pub struct ChessboardParams {
     pub refine: SaddleFitParams,
     /// Fit half-window as a fraction of the shortest local grid step.
     pub window_frac: f64,
-    /// Refine the corners in parallel (rayon) when there are at least this many.
+    /// Refine the corners in parallel (rayon) when there are at least this many and rayon's pool
+    /// has more than one thread.
     pub parallel_min_corners: usize,
 }
 
@@ -301,7 +303,7 @@ fn refine_all(img: &ImageF32, g: Vec<Vec<Point2<f64>>>, params: &ChessboardParam
     };
     let n = rows * cols;
     let res: Vec<(Point2<f64>, bool, f64)> =
-        if n >= params.parallel_min_corners { (0..n).into_par_iter().map(job).collect() } else { (0..n).map(job).collect() };
+        if worth_parallel(n, params.parallel_min_corners) { (0..n).into_par_iter().map(job).collect() } else { (0..n).map(job).collect() };
     let nref = res.iter().filter(|r| r.1).count();
     let rms = if nref > 0 { (res.iter().filter(|r| r.1).map(|r| r.2 * r.2).sum::<f64>() / nref as f64).sqrt() } else { 0.0 };
     ChessboardCorners {

@@ -9,6 +9,7 @@
 use nalgebra::Point2;
 use rayon::prelude::*;
 
+use super::par::{worth_parallel, PARALLEL_MIN_PIXELS};
 use super::ImageF32;
 
 /// Smoothed image and saddle response map of the same size.
@@ -45,7 +46,7 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
     }
     let k = gaussian_kernel(sigma);
     let r = k.len() / 2;
-    let par = w * h > 200_000;
+    let par = worth_parallel(w * h, PARALLEL_MIN_PIXELS);
     // horizontal
     let mut tmp = vec![0.0f32; w * h];
     let hpass = |(y, out): (usize, &mut [f32])| {
@@ -113,8 +114,8 @@ pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
         let (a, b, c, d, e) = (row(-2), row(-1), row(0), row(1), row(2));
         buf.clear();
         buf.resize(w, 0.0);
-        for (i, v) in buf.iter_mut().enumerate() {
-            *v = (a[i] + e[i]) + 4.0 * (b[i] + d[i]) + 6.0 * c[i];
+        for (((((v, a), b), c), d), e) in buf.iter_mut().zip(a).zip(b).zip(c).zip(d).zip(e) {
+            *v = (a + e) + 4.0 * (b + d) + 6.0 * c;
         }
         let s = &buf[..];
         let n = w - 4;
@@ -129,7 +130,7 @@ pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
         }
     };
     let mut out = vec![0.0f32; w * h];
-    if w * h > 200_000 {
+    if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
         out.par_chunks_mut(w).enumerate().for_each_init(|| Vec::with_capacity(w), row_job);
     } else {
         let mut buf = Vec::with_capacity(w);
@@ -163,7 +164,7 @@ pub fn saddle_response(img: &ImageF32, sigma: f64) -> ResponseMap {
                 *o = fxy * fxy - fxx * fyy;
             }
         };
-        if w * h > 200_000 {
+        if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
             resp.par_chunks_mut(w).enumerate().for_each(row);
         } else {
             resp.chunks_mut(w).enumerate().for_each(row);
@@ -188,6 +189,14 @@ pub fn peak_subpixel(r: &ImageF32, x: usize, y: usize) -> Point2<f64> {
     Point2::new(x as f64 + dx, y as f64 + dy)
 }
 
+/// Samples per block of the candidate scan's threshold pre-check.
+const BLOCK: usize = 16;
+
+/// Maximum of a short slice with plain comparisons (vectorises; NaN samples ignored).
+fn max_or_neg_inf(v: &[f32]) -> f32 {
+    v.iter().fold(f32::NEG_INFINITY, |m, &x| if x > m { x } else { m })
+}
+
 /// Maximum of `v` and 0 (NaN samples ignored), lane-wise with plain comparisons so that it
 /// vectorises.
 fn max_or_zero(v: &[f32]) -> f32 {
@@ -207,7 +216,7 @@ fn max_or_zero(v: &[f32]) -> f32 {
 /// `rel_threshold` x the global maximum, strongest first, at most `max_count`.
 pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_count: usize) -> Vec<Candidate> {
     let (w, h) = (r.width, r.height);
-    let maxv = if w * h > 200_000 {
+    let maxv = if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
         r.data.par_chunks(w.max(1)).map(max_or_zero).reduce(|| 0.0, f32::max)
     } else {
         max_or_zero(&r.data)
@@ -222,11 +231,21 @@ pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_
         let row = &r.data[y * w..(y + 1) * w];
         let up = &r.data[(y - 1) * w..y * w];
         let dn = &r.data[(y + 1) * w..(y + 2) * w];
-        for x in 1..w - 1 {
+        let mut x = 1;
+        while x < w - 1 {
+            // skip runs of BLOCK samples at or below the threshold (most of the image) at once
+            if let Some(block) = row.get(x..x + BLOCK) {
+                if max_or_neg_inf(block) <= thr {
+                    x += BLOCK;
+                    continue;
+                }
+            }
             let v = row[x];
+            x += 1;
             if v <= thr {
                 continue;
             }
+            let x = x - 1;
             if row[x - 1] > v || row[x + 1] > v || up[x] > v || dn[x] > v || up[x - 1] > v || up[x + 1] > v || dn[x - 1] > v || dn[x + 1] > v {
                 continue;
             }
@@ -248,7 +267,7 @@ pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_
         }
         found
     };
-    let mut out: Vec<Candidate> = if w * h > 200_000 {
+    let mut out: Vec<Candidate> = if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
         (1..h - 1).into_par_iter().flat_map_iter(scan_row).collect()
     } else {
         (1..h - 1).flat_map(scan_row).collect()
