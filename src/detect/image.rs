@@ -57,19 +57,31 @@ impl ImageF32 {
     /// 2 x 2 box downsampling to `width / 2` x `height / 2` (odd last row / column dropped); pixel i
     /// of the result covers pixels 2i and 2i + 1 (centre 2i + 0.5 in this image).
     pub fn half(&self) -> ImageF32 {
+        self.half_checked().0
+    }
+
+    /// [`ImageF32::half`] and [`ImageF32::all_finite`] in one pass over the samples (the check
+    /// rides along the memory-bound downsampling: x * 0 is 0 for finite x, NaN otherwise, summed
+    /// per output column).
+    pub fn half_checked(&self) -> (ImageF32, bool) {
         let (w, h) = (self.width / 2, self.height / 2);
         let mut data = vec![0.0f32; w * h];
-        if w == 0 {
-            return ImageF32 { width: w, height: h, data };
-        }
-        for (y, o) in data.chunks_exact_mut(w).enumerate() {
-            let r0 = &self.data[2 * y * self.width..][..2 * w];
-            let r1 = &self.data[(2 * y + 1) * self.width..][..2 * w];
-            for ((o, a), b) in o.iter_mut().zip(r0.chunks_exact(2)).zip(r1.chunks_exact(2)) {
-                *o = 0.25 * (a[0] + a[1] + b[0] + b[1]);
+        let mut nan = vec![0.0f32; w];
+        if w > 0 {
+            for (y, o) in data.chunks_exact_mut(w).enumerate() {
+                let r0 = &self.data[2 * y * self.width..][..2 * w];
+                let r1 = &self.data[(2 * y + 1) * self.width..][..2 * w];
+                for (((o, a), b), z) in o.iter_mut().zip(r0.chunks_exact(2)).zip(r1.chunks_exact(2)).zip(nan.iter_mut()) {
+                    *o = 0.25 * (a[0] + a[1] + b[0] + b[1]);
+                    *z += (a[0] * 0.0 + a[1] * 0.0) + (b[0] * 0.0 + b[1] * 0.0);
+                }
             }
         }
-        ImageF32 { width: w, height: h, data }
+        // samples outside the 2w x 2h block: the odd last column and row
+        let last_col_ok = self.width.is_multiple_of(2) || self.data.chunks_exact(self.width).all(|r| r[self.width - 1].is_finite());
+        let last_row_ok = self.height.is_multiple_of(2) || self.data[(self.height - 1) * self.width..].iter().all(|v| v.is_finite());
+        let finite = nan.iter().all(|z| *z == 0.0) && last_col_ok && last_row_ok;
+        (ImageF32 { width: w, height: h, data }, finite)
     }
 }
 
@@ -90,11 +102,12 @@ mod tests {
                 assert_eq!(half.at(x, y), e);
             }
         }
-        assert!(img.all_finite());
-        for (k, bad) in [(0, f32::NAN), (w * h - 1, f32::INFINITY), (40, f32::NEG_INFINITY)] {
+        assert!(img.all_finite() && img.half_checked().1);
+        for (k, bad) in [(0, f32::NAN), (w * h - 1, f32::INFINITY), (40, f32::NEG_INFINITY), (w - 1, f32::NAN), (3 * w + 5, f32::INFINITY)] {
             let mut b = img.clone();
             b.data[k] = bad;
             assert!(!b.all_finite(), "{k}");
+            assert!(!b.half_checked().1, "{k}");
         }
     }
 }

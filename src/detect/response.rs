@@ -189,6 +189,71 @@ pub fn peak_subpixel(r: &ImageF32, x: usize, y: usize) -> Point2<f64> {
     Point2::new(x as f64 + dx, y as f64 + dy)
 }
 
+/// Reach of the smoothing of [`saddle_response`] with `sigma`, pixels (kernel radius).
+fn blur_reach(sigma: f64) -> usize {
+    if sigma == 1.0 { 2 } else { (3.0 * sigma).ceil().max(1.0) as usize }
+}
+
+/// The saddle-response peak near `p` in `img`, with the response recomputed on a small patch only:
+/// the strongest response within `radius` px of `p`, hill-climbed to a local maximum and located
+/// to sub-pixel by [`peak_subpixel`]. Away from the patch border (blur reach + 2 px) the patch
+/// response equals that of [`saddle_response`] on the whole image, so the peak is the one a
+/// full-image search finds there. `None` near the image border, for a non-positive peak, or when
+/// the climb reaches the patch margin.
+pub fn local_peak(img: &ImageF32, p: Point2<f64>, radius: usize, sigma: f64) -> Option<Point2<f64>> {
+    const CLIMB: usize = 2;
+    if !p.x.is_finite() || !p.y.is_finite() {
+        return None;
+    }
+    let margin = blur_reach(sigma) + 2;
+    let half = (radius + CLIMB + margin) as i64;
+    let (cx, cy) = (p.x.round() as i64, p.y.round() as i64);
+    if cx - half < 1 || cy - half < 1 || cx + half + 1 >= img.width as i64 || cy + half + 1 >= img.height as i64 {
+        return None;
+    }
+    let n = (2 * half + 1) as usize;
+    let (x0, y0) = ((cx - half) as usize, (cy - half) as usize);
+    let mut data = Vec::with_capacity(n * n);
+    for y in y0..y0 + n {
+        data.extend_from_slice(&img.data[y * img.width + x0..][..n]);
+    }
+    let resp = saddle_response(&ImageF32 { width: n, height: n, data }, sigma).response;
+    let at = |x: usize, y: usize| resp.data[y * n + x];
+    // strongest pixel in the disc, then climb to a local maximum inside the valid region
+    let (px, py) = (p.x - x0 as f64, p.y - y0 as f64);
+    let r2 = (radius * radius) as f64;
+    let mut best: Option<(usize, usize, f32)> = None;
+    for y in margin..n - margin {
+        for x in margin..n - margin {
+            let d2 = (x as f64 - px).powi(2) + (y as f64 - py).powi(2);
+            if d2 <= r2 && best.is_none_or(|b| at(x, y) > b.2) {
+                best = Some((x, y, at(x, y)));
+            }
+        }
+    }
+    let (mut x, mut y, mut v) = best?;
+    loop {
+        if x <= margin || y <= margin || x + margin + 1 >= n || y + margin + 1 >= n {
+            return None;
+        }
+        let mut moved = false;
+        for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+            let (xx, yy) = ((x as i64 + dx) as usize, (y as i64 + dy) as usize);
+            if at(xx, yy) > v {
+                (x, y, v, moved) = (xx, yy, at(xx, yy), true);
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    if !(v > 0.0) {
+        return None;
+    }
+    let q = peak_subpixel(&resp, x, y);
+    Some(Point2::new(q.x + x0 as f64, q.y + y0 as f64))
+}
+
 /// Samples per block of the candidate scan's threshold pre-check.
 const BLOCK: usize = 16;
 
@@ -275,4 +340,21 @@ pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_
     out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
     out.truncate(max_count);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn local_peak_equals_the_full_image_peak() {
+        let img = crate::detect::saddle_fit::tests::saddle(15.3, 14.6, 0.3, 1.9);
+        let full = saddle_response(&img, 1.0);
+        let c = find_candidates(&full.response, 3, 0.5, 1)[0];
+        for seed in [Point2::new(15.0, 15.0), Point2::new(13.6, 16.2), Point2::new(16.9, 13.4)] {
+            let q = local_peak(&img, seed, 2, 1.0).expect("peak");
+            assert_eq!((q.x, q.y), (c.point.x, c.point.y), "seed {seed}");
+        }
+        assert!(local_peak(&img, Point2::new(2.0, 15.0), 2, 1.0).is_none());
+    }
 }
