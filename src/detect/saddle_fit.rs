@@ -301,6 +301,41 @@ fn accumulate_n<const N: usize>(
     (jtj, jtr, c)
 }
 
+/// Parameters whose Jacobian columns carry the amplitude a as a factor (edge geometry, blur,
+/// bends).
+const A_SCALED: [bool; NP] = [true, true, true, true, false, false, true, true, true, false, false];
+
+/// Given the normal equations `(J^T J, J^T r, r^T r)` linearised at m = 0, a = 1 (so the columns
+/// of m and a are 1 and the product profile f, and r = v - f), set `x[4]` = m and `x[5]` = a to
+/// their linear least-squares values for this geometry and return the normal equations at the
+/// updated `x`: with r' = r - m + (1 - a) f the sums are linear combinations of the given ones,
+/// the `a`-scaled columns scale by a. `None` when m and a are not determined (flat geometry).
+fn solve_linear_part(x: &mut SVector<f64, NP>, normal: (SMatrix<f64, NP, NP>, SVector<f64, NP>, f64), active: &[bool; NP]) -> Option<(SMatrix<f64, NP, NP>, SVector<f64, NP>, f64)> {
+    let (mut jtj, mut jtr, c) = normal;
+    let (cnt, sf, sff) = (jtj[(4, 4)], jtj[(4, 5)], jtj[(5, 5)]);
+    let (sv, sfv) = (jtr[4] + sf, jtr[5] + sff);
+    let det = cnt * sff - sf * sf;
+    if !(det.abs() > 1e-9) {
+        return None;
+    }
+    let a = (cnt * sfv - sf * sv) / det;
+    let m = (sv - a * sf) / cnt;
+    let b = 1.0 - a;
+    let cost = c + m * m * cnt + b * b * sff - 2.0 * m * jtr[4] + 2.0 * b * jtr[5] - 2.0 * m * b * sf;
+    let scale = |p: usize| if A_SCALED[p] { a } else { 1.0 };
+    let col_m = jtj.column(4).into_owned();
+    let col_a = jtj.column(5).into_owned();
+    for p in (0..NP).filter(|&p| active[p]) {
+        jtr[p] = scale(p) * (jtr[p] - m * col_m[p] + b * col_a[p]);
+        for q in (0..NP).filter(|&q| active[q]) {
+            jtj[(p, q)] *= scale(p) * scale(q);
+        }
+    }
+    x[4] = m;
+    x[5] = a;
+    Some((jtj, jtr, cost))
+}
+
 /// Refine a chessboard corner near `seed` by fitting the saddle model. `dir1`, `dir2` are rough
 /// directions of the two edges through the corner (e.g. towards the grid neighbours).
 ///
@@ -338,32 +373,6 @@ pub fn refine_saddle(
     x[2] = dir1.y.atan2(dir1.x);
     x[3] = dir2.y.atan2(dir2.x);
     x[6] = 0.7_f64.ln();
-    // Linear init of m and a given the geometry.
-    {
-        let (mut s11, mut s1, mut sy, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-        let mut jac = SVector::<f64, NP>::zeros();
-        let mut k = 0;
-        x[5] = 1.0;
-        let geo = Geo::new(&x);
-        for j in -h..=h {
-            for i in -h..=h {
-                let _ = model(&x, &geo, i as f64, j as f64, &mut jac, false);
-                let f = jac[5];
-                s11 += f * f;
-                s1 += f;
-                sy += vals[k];
-                sxy += f * vals[k];
-                k += 1;
-            }
-        }
-        let cnt = (n * n) as f64;
-        let det = cnt * s11 - s1 * s1;
-        if !(det.abs() > 1e-9) {
-            return Err(fail("degenerate initial geometry"));
-        }
-        x[5] = (cnt * sxy - s1 * sy) / det;
-        x[4] = (sy - x[5] * s1) / cnt;
-    }
     let active: [bool; NP] = [
         true, true, true, true, true, true, true, params.fit_curvature, params.fit_curvature, params.fit_gradient,
         params.fit_gradient,
@@ -377,6 +386,15 @@ pub fn refine_saddle(
         9 => accumulate_n::<9>(x, exact, jac, idx, &vals, h),
         _ => accumulate_n::<NP>(x, exact, jac, idx, &vals, h),
     };
+    // First linearisation at m = 0, a = 1; m and a then follow by linear least squares given the
+    // geometry, and the normal equations are re-expressed at them (one pass over the window).
+    x[4] = 0.0;
+    x[5] = 1.0;
+    let first = accumulate(&x, false, &mut jac);
+    let Some(first) = solve_linear_part(&mut x, first, &active) else {
+        return Err(fail("degenerate initial geometry"));
+    };
+    let mut pending = Some(first);
     // Fast-profile iterations until converged, then exact-profile iterations (at most 3).
     let mut exact = false;
     let mut exact_iters = 0;
@@ -387,7 +405,10 @@ pub fn refine_saddle(
     let max_total = params.max_iterations + 3;
     while iterations < max_total {
         iterations += 1;
-        let (jtj, jtr, c) = accumulate(&x, exact, &mut jac);
+        let (jtj, jtr, c) = match pending.take() {
+            Some(normal) => normal,
+            None => accumulate(&x, exact, &mut jac),
+        };
         let base = match &saved {
             Some((xs, js, rs, cs)) if !(c <= *cs) => {
                 // last step made it worse: back to the saved point, more damping
