@@ -17,7 +17,8 @@ use nalgebra::{Point2, Vector2};
 use rayon::prelude::*;
 
 use super::grid::{grow_grid, GrowParams, Grid};
-use super::response::{find_candidates, saddle_response, Candidate};
+use super::par::worth_parallel;
+use super::response::{find_candidates, local_peak, saddle_response, Candidate};
 use super::saddle_fit::{refine_saddle, SaddleFitParams};
 use super::{DetectError, ImageF32};
 
@@ -46,7 +47,8 @@ pub struct ChessboardParams {
     pub refine: SaddleFitParams,
     /// Fit half-window as a fraction of the shortest local grid step.
     pub window_frac: f64,
-    /// Refine the corners in parallel (rayon) when there are at least this many.
+    /// Refine the corners in parallel (rayon) when there are at least this many and rayon's pool
+    /// has more than one thread.
     pub parallel_min_corners: usize,
 }
 
@@ -109,9 +111,16 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     if img.data.len() != expected {
         return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
     }
-    if img.data.iter().any(|v| !v.is_finite()) {
+    // the first pyramid level (see below) and the finiteness check share one pass over the image
+    let first_half = if expected >= PYRAMID_MIN_PIXELS {
+        let (half, finite) = img.half_checked();
+        finite.then_some(Some(half))
+    } else {
+        img.all_finite().then_some(None)
+    };
+    let Some(first_half) = first_half else {
         return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
-    }
+    };
     if params.cols < 2 || params.rows < 2 {
         return Err(DetectError::BadParams { reason: "cols and rows must be at least 2" });
     }
@@ -121,16 +130,26 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     if img.width < 8 || img.height < 8 {
         return Ok(None);
     }
-    // Coarse to fine: halve the image once when it has at least PYRAMID_MIN_PIXELS pixels, look for the
+    // Coarse to fine: halve the image while it has at least PYRAMID_MIN_PIXELS pixels, look for the
     // grid from the coarsest level down (the response and candidate search cost 4x less per level),
-    // and refine every corner at full resolution.
-    let half = (img.width * img.height >= PYRAMID_MIN_PIXELS).then(|| downsample2(img));
-    let levels: Vec<(usize, &ImageF32)> = half.iter().map(|h| (1, h)).chain([(0, img)]).collect();
+    // carry the corners down to level 1 by local response peaks, and refine every corner at full
+    // resolution.
+    let mut pyramid: Vec<ImageF32> = first_half.into_iter().collect(); // pyramid[k] is level k + 1
+    while let Some(top) = pyramid.last().filter(|t| t.width * t.height >= PYRAMID_MIN_PIXELS) {
+        let next = top.half();
+        pyramid.push(next);
+    }
+    let levels: Vec<(usize, &ImageF32)> = pyramid.iter().enumerate().rev().map(|(k, h)| (k + 1, h)).chain([(0, img)]).collect();
     for &(level, im) in &levels {
         if let Some((mut grid, n_cands, seeds)) = search(im, params) {
-            // A pixel i of one level covers pixels 2i and 2i + 1 of the next finer: centre 2i + 0.5.
-            for _ in 0..level {
-                grid = grid.into_iter().map(|row| row.into_iter().map(|p| Point2::new(2.0 * p.x + 0.5, 2.0 * p.y + 0.5)).collect()).collect();
+            for finer in (0..level).rev() {
+                // A pixel i of one level covers pixels 2i and 2i + 1 of the next finer: centre 2i + 0.5.
+                let up = |p: Point2<f64>| Point2::new(2.0 * p.x + 0.5, 2.0 * p.y + 0.5);
+                let snap = |p: Point2<f64>| match finer {
+                    0 => p,
+                    _ => local_peak(&pyramid[finer - 1], p, LOCAL_PEAK_RADIUS, params.smoothing_sigma_px).unwrap_or(p),
+                };
+                grid = grid.into_iter().map(|row| row.into_iter().map(|p| snap(up(p))).collect()).collect();
             }
             return Ok(Some(refine_all(img, orient(grid, params.cols, params.rows), params, n_cands, seeds)));
         }
@@ -138,21 +157,13 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     Ok(None)
 }
 
-/// Levels with at least this many pixels are halved for the coarse search (640 x 480 -> 320 x 240).
-pub const PYRAMID_MIN_PIXELS: usize = 300_000;
+/// Search radius of the local response peak when carrying a corner one level down, pixels of the
+/// finer level (the coarse peak maps to within about 1 px of it).
+const LOCAL_PEAK_RADIUS: usize = 2;
 
-/// 2 x 2 box downsampling (odd last row / column dropped).
-fn downsample2(img: &ImageF32) -> ImageF32 {
-    let (w, h) = (img.width / 2, img.height / 2);
-    let mut data = Vec::with_capacity(w * h);
-    for y in 0..h {
-        let (r0, r1) = (&img.data[2 * y * img.width..], &img.data[(2 * y + 1) * img.width..]);
-        for x in 0..w {
-            data.push(0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]));
-        }
-    }
-    ImageF32 { width: w, height: h, data }
-}
+/// Levels with at least this many pixels are halved for the coarse search (640 x 480 -> 320 x 240;
+/// 1280 x 1024 -> 640 x 512 -> 320 x 256).
+pub const PYRAMID_MIN_PIXELS: usize = 300_000;
 
 /// Find the grid (unrefined) in `img`: the rows of corners, the candidate count and the seeds
 /// tried.
@@ -314,7 +325,7 @@ fn refine_all(img: &ImageF32, g: Vec<Vec<Point2<f64>>>, params: &ChessboardParam
     };
     let n = rows * cols;
     let res: Vec<(Point2<f64>, bool, f64)> =
-        if n >= params.parallel_min_corners { (0..n).into_par_iter().map(job).collect() } else { (0..n).map(job).collect() };
+        if worth_parallel(n, params.parallel_min_corners) { (0..n).into_par_iter().map(job).collect() } else { (0..n).map(job).collect() };
     let nref = res.iter().filter(|r| r.1).count();
     let rms = if nref > 0 { (res.iter().filter(|r| r.1).map(|r| r.2 * r.2).sum::<f64>() / nref as f64).sqrt() } else { 0.0 };
     ChessboardCorners {

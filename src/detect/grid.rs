@@ -7,7 +7,8 @@
 //! Reference: A. Geiger et al., "Automatic camera and range sensor calibration using a single
 //! shot", ICRA 2012 (structure recovery by growing); OpenCV `findChessboardCorners`.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use nalgebra::{Point2, Vector2};
 
@@ -40,13 +41,45 @@ impl Default for GrowParams {
 /// Predicted position, local step length, and the step vectors along i and j.
 type Prediction = (Point2<f64>, f64, Vector2<f64>, Vector2<f64>);
 
+/// Hasher for grid-cell keys (pairs of small integers): each written word is mixed in by a
+/// multiply with the 64-bit golden-ratio constant (Fibonacci hashing, Knuth TAOCP vol. 3, 6.4).
+/// Much cheaper than the default SipHash, whose flooding resistance buys nothing here.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.mix(u64::from(b));
+        }
+    }
+
+    fn write_i32(&mut self, v: i32) {
+        self.mix(u64::from(v as u32));
+    }
+}
+
+impl CellHasher {
+    #[inline]
+    fn mix(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(29) ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+/// Map from grid cell (i, j) to a value.
+pub type CellMap<V> = HashMap<(i32, i32), V, BuildHasherDefault<CellHasher>>;
+
 /// A grown grid: integer grid coordinates to corner positions.
 #[derive(Debug, Clone, Default)]
 pub struct Grid {
     /// Corner position per grid cell (i along the first seed direction, j along the second).
-    pub cells: HashMap<(i32, i32), Point2<f64>>,
+    pub cells: CellMap<Point2<f64>>,
     /// Response strength per grid cell.
-    pub strength: HashMap<(i32, i32), f32>,
+    pub strength: CellMap<f32>,
     /// Polarity of the corner at (0, 0); corner (i, j) has polarity `polarity0 * (-1)^(i + j)`.
     pub polarity0: i8,
 }
@@ -249,7 +282,7 @@ pub fn grow_grid(resp: &ResponseMap, seed: &Candidate, near: &[Candidate], param
                 continue;
             }
             let Some(pol) = xcorner_polarity(&resp.smooth, c, u, v, params.min_contrast) else { continue };
-            let mut g = Grid { cells: HashMap::new(), strength: HashMap::new(), polarity0: pol };
+            let mut g = Grid { cells: CellMap::default(), strength: CellMap::default(), polarity0: pol };
             g.strength.insert((0, 0), seed.strength);
             g.strength.insert((1, 0), near[a_idx].strength);
             g.strength.insert((0, 1), near[b_idx].strength);
@@ -305,7 +338,7 @@ fn try_add(g: &mut Grid, resp: &ResponseMap, i: i32, j: i32, min_r: f32, params:
 
 /// Grow until no empty 4-neighbour of the grid can be added.
 fn grow(g: &mut Grid, resp: &ResponseMap, min_r: f32, params: &GrowParams) {
-    let mut tried_fail: std::collections::HashSet<(i32, i32)> = std::collections::HashSet::new();
+    let mut tried_fail: HashSet<(i32, i32), BuildHasherDefault<CellHasher>> = HashSet::default();
     loop {
         let mut frontier: Vec<(i32, i32)> = Vec::new();
         for &(i, j) in g.cells.keys() {

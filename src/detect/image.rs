@@ -38,4 +38,76 @@ impl ImageF32 {
     pub fn at(&self, x: usize, y: usize) -> f32 {
         self.data[y * self.width + x]
     }
+
+    /// True when every sample is finite. Branch-free lane-wise accumulation (x * 0 is NaN exactly
+    /// for non-finite x) so that the loop vectorises.
+    pub fn all_finite(&self) -> bool {
+        const L: usize = 16;
+        let mut acc = [0.0f32; L];
+        let chunks = self.data.chunks_exact(L);
+        let tail = chunks.remainder();
+        for c in chunks {
+            for (a, v) in acc.iter_mut().zip(c) {
+                *a += v * 0.0;
+            }
+        }
+        acc.iter().chain(tail).all(|v| v.is_finite())
+    }
+
+    /// 2 x 2 box downsampling to `width / 2` x `height / 2` (odd last row / column dropped); pixel i
+    /// of the result covers pixels 2i and 2i + 1 (centre 2i + 0.5 in this image).
+    pub fn half(&self) -> ImageF32 {
+        self.half_checked().0
+    }
+
+    /// [`ImageF32::half`] and [`ImageF32::all_finite`] in one pass over the samples (the check
+    /// rides along the memory-bound downsampling: x * 0 is 0 for finite x, NaN otherwise, summed
+    /// per output column).
+    pub fn half_checked(&self) -> (ImageF32, bool) {
+        let (w, h) = (self.width / 2, self.height / 2);
+        let mut data = vec![0.0f32; w * h];
+        let mut nan = vec![0.0f32; w];
+        if w > 0 {
+            for (y, o) in data.chunks_exact_mut(w).enumerate() {
+                let r0 = &self.data[2 * y * self.width..][..2 * w];
+                let r1 = &self.data[(2 * y + 1) * self.width..][..2 * w];
+                for (((o, a), b), z) in o.iter_mut().zip(r0.chunks_exact(2)).zip(r1.chunks_exact(2)).zip(nan.iter_mut()) {
+                    *o = 0.25 * (a[0] + a[1] + b[0] + b[1]);
+                    *z += (a[0] * 0.0 + a[1] * 0.0) + (b[0] * 0.0 + b[1] * 0.0);
+                }
+            }
+        }
+        // samples outside the 2w x 2h block: the odd last column and row
+        let last_col_ok = self.width.is_multiple_of(2) || self.data.chunks_exact(self.width).all(|r| r[self.width - 1].is_finite());
+        let last_row_ok = self.height.is_multiple_of(2) || self.data[(self.height - 1) * self.width..].iter().all(|v| v.is_finite());
+        let finite = nan.iter().all(|z| *z == 0.0) && last_col_ok && last_row_ok;
+        (ImageF32 { width: w, height: h, data }, finite)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn half_averages_2x2_blocks_and_finite_check_sees_every_sample() {
+        let (w, h) = (37, 5);
+        let data: Vec<f32> = (0..w * h).map(|i| ((i * 13) % 17) as f32).collect();
+        let img = ImageF32::new(w, h, data).unwrap();
+        let half = img.half();
+        assert_eq!((half.width, half.height), (18, 2));
+        for y in 0..2 {
+            for x in 0..18 {
+                let e = 0.25 * (img.at(2 * x, 2 * y) + img.at(2 * x + 1, 2 * y) + img.at(2 * x, 2 * y + 1) + img.at(2 * x + 1, 2 * y + 1));
+                assert_eq!(half.at(x, y), e);
+            }
+        }
+        assert!(img.all_finite() && img.half_checked().1);
+        for (k, bad) in [(0, f32::NAN), (w * h - 1, f32::INFINITY), (40, f32::NEG_INFINITY), (w - 1, f32::NAN), (3 * w + 5, f32::INFINITY)] {
+            let mut b = img.clone();
+            b.data[k] = bad;
+            assert!(!b.all_finite(), "{k}");
+            assert!(!b.half_checked().1, "{k}");
+        }
+    }
 }

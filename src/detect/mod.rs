@@ -14,6 +14,7 @@ pub mod filters;
 pub mod grid;
 pub mod grid_order;
 pub mod image;
+pub mod par;
 pub mod response;
 pub mod s_path_order;
 pub mod saddle_fit;

@@ -9,6 +9,7 @@
 use nalgebra::Point2;
 use rayon::prelude::*;
 
+use super::par::{worth_parallel, PARALLEL_MIN_PIXELS};
 use super::ImageF32;
 
 /// Smoothed image and saddle response map of the same size.
@@ -45,7 +46,7 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
     }
     let k = gaussian_kernel(sigma);
     let r = k.len() / 2;
-    let par = w * h > 200_000;
+    let par = worth_parallel(w * h, PARALLEL_MIN_PIXELS);
     // horizontal
     let mut tmp = vec![0.0f32; w * h];
     let hpass = |(y, out): (usize, &mut [f32])| {
@@ -112,7 +113,10 @@ pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
         };
         let (a, b, c, d, e) = (row(-2), row(-1), row(0), row(1), row(2));
         buf.clear();
-        buf.extend((0..w).map(|i| (a[i] + e[i]) + 4.0 * (b[i] + d[i]) + 6.0 * c[i]));
+        buf.resize(w, 0.0);
+        for (((((v, a), b), c), d), e) in buf.iter_mut().zip(a).zip(b).zip(c).zip(d).zip(e) {
+            *v = (a + e) + 4.0 * (b + d) + 6.0 * c;
+        }
         let s = &buf[..];
         let n = w - 4;
         let (a, b, c, d, e) = (&s[0..n], &s[1..n + 1], &s[2..n + 2], &s[3..n + 3], &s[4..n + 4]);
@@ -126,7 +130,7 @@ pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
         }
     };
     let mut out = vec![0.0f32; w * h];
-    if w * h > 200_000 {
+    if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
         out.par_chunks_mut(w).enumerate().for_each_init(|| Vec::with_capacity(w), row_job);
     } else {
         let mut buf = Vec::with_capacity(w);
@@ -148,14 +152,19 @@ pub fn saddle_response(img: &ImageF32, sigma: f64) -> ResponseMap {
                 return;
             }
             let (a, b, c) = (&s[(y - 1) * w..y * w], &s[y * w..(y + 1) * w], &s[(y + 1) * w..(y + 2) * w]);
-            for x in 1..w - 1 {
-                let fxx = b[x + 1] - 2.0 * b[x] + b[x - 1];
-                let fyy = c[x] - 2.0 * b[x] + a[x];
-                let fxy = 0.25 * (c[x + 1] - c[x - 1] - a[x + 1] + a[x - 1]);
-                o[x] = fxy * fxy - fxx * fyy;
+            // shifted slices of equal length (x - 1, x, x + 1) so that the loop vectorises
+            let n = w - 2;
+            let (am, a0, ap) = (&a[..n], &a[1..n + 1], &a[2..]);
+            let (bm, b0, bp) = (&b[..n], &b[1..n + 1], &b[2..]);
+            let (cm, c0, cp) = (&c[..n], &c[1..n + 1], &c[2..]);
+            for (i, o) in o[1..w - 1].iter_mut().enumerate() {
+                let fxx = bp[i] - 2.0 * b0[i] + bm[i];
+                let fyy = c0[i] - 2.0 * b0[i] + a0[i];
+                let fxy = 0.25 * (cp[i] - cm[i] - ap[i] + am[i]);
+                *o = fxy * fxy - fxx * fyy;
             }
         };
-        if w * h > 200_000 {
+        if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
             resp.par_chunks_mut(w).enumerate().for_each(row);
         } else {
             resp.chunks_mut(w).enumerate().for_each(row);
@@ -180,14 +189,102 @@ pub fn peak_subpixel(r: &ImageF32, x: usize, y: usize) -> Point2<f64> {
     Point2::new(x as f64 + dx, y as f64 + dy)
 }
 
+/// Reach of the smoothing of [`saddle_response`] with `sigma`, pixels (kernel radius).
+fn blur_reach(sigma: f64) -> usize {
+    if sigma == 1.0 { 2 } else { (3.0 * sigma).ceil().max(1.0) as usize }
+}
+
+/// The saddle-response peak near `p` in `img`, with the response recomputed on a small patch only:
+/// the strongest response within `radius` px of `p`, hill-climbed to a local maximum and located
+/// to sub-pixel by [`peak_subpixel`]. Away from the patch border (blur reach + 2 px) the patch
+/// response equals that of [`saddle_response`] on the whole image, so the peak is the one a
+/// full-image search finds there. `None` near the image border, for a non-positive peak, or when
+/// the climb reaches the patch margin.
+pub fn local_peak(img: &ImageF32, p: Point2<f64>, radius: usize, sigma: f64) -> Option<Point2<f64>> {
+    const CLIMB: usize = 2;
+    if !p.x.is_finite() || !p.y.is_finite() {
+        return None;
+    }
+    let margin = blur_reach(sigma) + 2;
+    let half = (radius + CLIMB + margin) as i64;
+    let (cx, cy) = (p.x.round() as i64, p.y.round() as i64);
+    if cx - half < 1 || cy - half < 1 || cx + half + 1 >= img.width as i64 || cy + half + 1 >= img.height as i64 {
+        return None;
+    }
+    let n = (2 * half + 1) as usize;
+    let (x0, y0) = ((cx - half) as usize, (cy - half) as usize);
+    let mut data = Vec::with_capacity(n * n);
+    for y in y0..y0 + n {
+        data.extend_from_slice(&img.data[y * img.width + x0..][..n]);
+    }
+    let resp = saddle_response(&ImageF32 { width: n, height: n, data }, sigma).response;
+    let at = |x: usize, y: usize| resp.data[y * n + x];
+    // strongest pixel in the disc, then climb to a local maximum inside the valid region
+    let (px, py) = (p.x - x0 as f64, p.y - y0 as f64);
+    let r2 = (radius * radius) as f64;
+    let mut best: Option<(usize, usize, f32)> = None;
+    for y in margin..n - margin {
+        for x in margin..n - margin {
+            let d2 = (x as f64 - px).powi(2) + (y as f64 - py).powi(2);
+            if d2 <= r2 && best.is_none_or(|b| at(x, y) > b.2) {
+                best = Some((x, y, at(x, y)));
+            }
+        }
+    }
+    let (mut x, mut y, mut v) = best?;
+    loop {
+        if x <= margin || y <= margin || x + margin + 1 >= n || y + margin + 1 >= n {
+            return None;
+        }
+        let mut moved = false;
+        for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+            let (xx, yy) = ((x as i64 + dx) as usize, (y as i64 + dy) as usize);
+            if at(xx, yy) > v {
+                (x, y, v, moved) = (xx, yy, at(xx, yy), true);
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    if !(v > 0.0) {
+        return None;
+    }
+    let q = peak_subpixel(&resp, x, y);
+    Some(Point2::new(q.x + x0 as f64, q.y + y0 as f64))
+}
+
+/// Samples per block of the candidate scan's threshold pre-check.
+const BLOCK: usize = 16;
+
+/// Maximum of a short slice with plain comparisons (vectorises; NaN samples ignored).
+fn max_or_neg_inf(v: &[f32]) -> f32 {
+    v.iter().fold(f32::NEG_INFINITY, |m, &x| if x > m { x } else { m })
+}
+
+/// Maximum of `v` and 0 (NaN samples ignored), lane-wise with plain comparisons so that it
+/// vectorises.
+fn max_or_zero(v: &[f32]) -> f32 {
+    const L: usize = 16;
+    let mut acc = [0.0f32; L];
+    let chunks = v.chunks_exact(L);
+    let tail = chunks.remainder();
+    for c in chunks {
+        for (a, &x) in acc.iter_mut().zip(c) {
+            *a = if x > *a { x } else { *a };
+        }
+    }
+    acc.iter().chain(tail).copied().fold(0.0f32, f32::max)
+}
+
 /// Local maxima of the response over a (2 `nms_radius` + 1)^2 window above
 /// `rel_threshold` x the global maximum, strongest first, at most `max_count`.
 pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_count: usize) -> Vec<Candidate> {
     let (w, h) = (r.width, r.height);
-    let maxv = if w * h > 200_000 {
-        r.data.par_chunks(w.max(1)).map(|c| c.iter().copied().fold(0.0f32, f32::max)).reduce(|| 0.0, f32::max)
+    let maxv = if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
+        r.data.par_chunks(w.max(1)).map(max_or_zero).reduce(|| 0.0, f32::max)
     } else {
-        r.data.iter().copied().fold(0.0f32, f32::max)
+        max_or_zero(&r.data)
     };
     if !(maxv > 0.0) || w < 3 || h < 3 {
         return Vec::new();
@@ -199,11 +296,21 @@ pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_
         let row = &r.data[y * w..(y + 1) * w];
         let up = &r.data[(y - 1) * w..y * w];
         let dn = &r.data[(y + 1) * w..(y + 2) * w];
-        for x in 1..w - 1 {
+        let mut x = 1;
+        while x < w - 1 {
+            // skip runs of BLOCK samples at or below the threshold (most of the image) at once
+            if let Some(block) = row.get(x..x + BLOCK) {
+                if max_or_neg_inf(block) <= thr {
+                    x += BLOCK;
+                    continue;
+                }
+            }
             let v = row[x];
+            x += 1;
             if v <= thr {
                 continue;
             }
+            let x = x - 1;
             if row[x - 1] > v || row[x + 1] > v || up[x] > v || dn[x] > v || up[x - 1] > v || up[x + 1] > v || dn[x - 1] > v || dn[x + 1] > v {
                 continue;
             }
@@ -225,7 +332,7 @@ pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_
         }
         found
     };
-    let mut out: Vec<Candidate> = if w * h > 200_000 {
+    let mut out: Vec<Candidate> = if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
         (1..h - 1).into_par_iter().flat_map_iter(scan_row).collect()
     } else {
         (1..h - 1).flat_map(scan_row).collect()
@@ -233,4 +340,21 @@ pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_
     out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
     out.truncate(max_count);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn local_peak_equals_the_full_image_peak() {
+        let img = crate::detect::saddle_fit::tests::saddle(15.3, 14.6, 0.3, 1.9);
+        let full = saddle_response(&img, 1.0);
+        let c = find_candidates(&full.response, 3, 0.5, 1)[0];
+        for seed in [Point2::new(15.0, 15.0), Point2::new(13.6, 16.2), Point2::new(16.9, 13.4)] {
+            let q = local_peak(&img, seed, 2, 1.0).expect("peak");
+            assert_eq!((q.x, q.y), (c.point.x, c.point.y), "seed {seed}");
+        }
+        assert!(local_peak(&img, Point2::new(2.0, 15.0), 2, 1.0).is_none());
+    }
 }

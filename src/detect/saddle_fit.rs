@@ -68,36 +68,55 @@ struct Profile {
     dp_da: f64,
 }
 
-/// erf(x / a) and exp(-x^2 / a^2) sharing one exponential.
+/// erf(x / a) and exp(-x^2 / a^2) sharing one exponential; branch-free so that calls on
+/// independent arguments vectorise.
 #[inline(always)]
 fn erf_exp(x: f64, inv_a: f64) -> (f64, f64) {
     let z = x * inv_a;
     let e = exp_neg(z * z);
-    let s = if z < 0.0 { -1.0 } else { 1.0 };
     let t = 1.0 / (1.0 + 0.327_591_1 * z.abs());
-    let poly = t * (0.254_829_592 + t * (-0.284_496_736 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
-    (s * (1.0 - poly * e), e)
+    // Abramowitz & Stegun 7.1.26 (|error| < 1.5e-7), the polynomial in Estrin form
+    let t2 = t * t;
+    let poly = t * ((0.254_829_592 + t * -0.284_496_736) + t2 * ((1.421_413_741 + t * -1.453_152_027) + t2 * 1.061_405_429));
+    ((1.0 - poly * e).copysign(z), e)
 }
 
-/// exp(-y) for y >= 0 by range reduction to 2^f and a degree-10 polynomial (relative error
-/// below 1e-12); 0 beyond y = 700.
+/// [`erf_exp`] on `N` independent arguments (SIMD lanes).
+#[inline(always)]
+fn erf_exp_lanes<const N: usize>(x: [f64; N], inv_a: f64) -> ([f64; N], [f64; N]) {
+    let (mut f, mut e) = ([0.0; N], [0.0; N]);
+    for k in 0..N {
+        (f[k], e[k]) = erf_exp(x[k], inv_a);
+    }
+    (f, e)
+}
+
+/// exp(-y) for y >= 0 by range reduction to 2^n e^f, |f| <= ln 2 / 2, and the degree-8 Taylor
+/// polynomial of e^f evaluated in Estrin form (relative error below 1e-9, far below the 1.5e-7
+/// of the erf approximation it feeds); about 1e-304 (i.e. 0) beyond y = 700. Branch-free: the
+/// nearest integer n comes from the 1.5 * 2^52 rounding constant, whose low mantissa bits then
+/// hold n and give 2^n directly.
+///
+/// Reference: J.-M. Muller, "Elementary Functions: Algorithms and Implementation", 3rd ed., 2016
+/// (range reduction, Estrin's scheme).
 #[inline(always)]
 fn exp_neg(y: f64) -> f64 {
-    if !(y < 700.0) {
-        return 0.0;
-    }
-    let t = -y * std::f64::consts::LOG2_E;
-    let n = (t - 0.5) as i64 as f64; // nearest integer for t <= 0 without a libm floor call
+    const ROUND: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52
+    let t = -y.min(700.0) * std::f64::consts::LOG2_E;
+    let kf = t + ROUND;
+    let n = kf - ROUND; // t rounded to the nearest integer, in [-1010, 0]
     let f = (t - n) * std::f64::consts::LN_2; // in [-ln 2 / 2, ln 2 / 2]
-    // Taylor series of e^f to degree 10 (|f| < 0.7: truncation error < 3e-13 relative)
-    let p = 1.0
-        + f * (1.0
-            + f * (0.5
-                + f * (1.0 / 6.0
-                    + f * (1.0 / 24.0
-                        + f * (1.0 / 120.0
-                            + f * (1.0 / 720.0 + f * (1.0 / 5040.0 + f * (1.0 / 40320.0 + f * (1.0 / 362_880.0 + f / 3_628_800.0)))))))));
-    let bits = ((n as i64 + 1023) as u64) << 52;
+    let f2 = f * f;
+    let f4 = f2 * f2;
+    // Estrin: pairs (c0 + c1 f), (c2 + c3 f), ... combined by f^2 and f^4 (short dependency chains)
+    let p01 = 1.0 + f;
+    let p23 = 0.5 + f * (1.0 / 6.0);
+    let p45 = 1.0 / 24.0 + f * (1.0 / 120.0);
+    let p67 = 1.0 / 720.0 + f * (1.0 / 5040.0);
+    let p8 = 1.0 / 40320.0;
+    let p = (p01 + f2 * p23) + f4 * ((p45 + f2 * p67) + f4 * p8);
+    // low mantissa bits of kf are 2^51 + n; adding the bias and shifting keeps n + 1023 mod 2^12
+    let bits = kf.to_bits().wrapping_add(1023) << 52;
     p * f64::from_bits(bits)
 }
 
@@ -114,39 +133,45 @@ fn profile(d: f64, wa: f64, wb: f64, a: f64) -> Profile {
     let inv_a = 1.0 / a;
     if wb < 1e-3 {
         let h = 0.5 * wa;
-        let (f1, e1) = erf_exp(d + h, inv_a);
-        let (f0, e0) = erf_exp(d - h, inv_a);
+        let ([f1, f0], [e1, e0]) = erf_exp_lanes([d + h, d - h], inv_a);
         let big1 = (d + h) * f1 + a * INV_SQRT_PI * e1;
         let big0 = (d - h) * f0 + a * INV_SQRT_PI * e0;
         return Profile { p: (big1 - big0) / wa, dp_dd: (f1 - f0) / wa, dp_da: INV_SQRT_PI * (e1 - e0) / wa };
     }
-    let offs = [(0.5 * (wa + wb), 1.0), (0.5 * (wa - wb), -1.0), (-0.5 * (wa - wb), -1.0), (-0.5 * (wa + wb), 1.0)];
+    let (hp, hm) = (0.5 * (wa + wb), 0.5 * (wa - wb));
+    let xs = [d + hp, d + hm, d - hm, d - hp];
+    let sg = [1.0, -1.0, -1.0, 1.0];
+    let (f, e) = erf_exp_lanes(xs, inv_a);
     let (mut p, mut dd, mut da) = (0.0, 0.0, 0.0);
-    for (o, sg) in offs {
-        let x = d + o;
-        let (f, e) = erf_exp(x, inv_a);
-        let e1 = x * f + a * INV_SQRT_PI * e;
-        let e2 = (0.5 * x * x + 0.25 * a * a) * f + 0.5 * a * x * INV_SQRT_PI * e;
-        p += sg * e2;
-        dd += sg * e1;
-        da += sg * 0.5 * a * f;
+    for k in 0..4 {
+        let x = xs[k];
+        let e1 = x * f[k] + a * INV_SQRT_PI * e[k];
+        let e2 = (0.5 * x * x + 0.25 * a * a) * f[k] + 0.5 * a * x * INV_SQRT_PI * e[k];
+        p += sg[k] * e2;
+        dd += sg[k] * e1;
+        da += sg[k] * 0.5 * a * f[k];
     }
     let k = 1.0 / (wa * wb);
     Profile { p: p * k, dp_dd: dd * k, dp_da: da * k }
 }
 
-/// Cheap approximation of [`profile`]: one erf whose spread `ae` stands for footprint and blur
-/// together (used for the first iterations only; the final ones use the exact footprint).
+/// Cheap approximation of [`profile`] for both edge lines at once: one erf per line whose spread
+/// `ae` stands for footprint and blur together (used for the first iterations only; the final
+/// ones use the exact footprint). Both erfs are evaluated (SIMD lanes), then lines farther than
+/// 3 `ae` are replaced by the flat step.
 #[inline(always)]
-fn profile_fast(d: f64, ae: f64) -> Profile {
-    if d.abs() > 3.0 * ae {
-        return Profile { p: d.signum(), dp_dd: 0.0, dp_da: 0.0 };
-    }
+fn profile_fast_pair(d: [f64; 2], ae: f64) -> [Profile; 2] {
     let inv = 1.0 / ae;
-    let (f, e) = erf_exp(d, inv);
-    let dd = std::f64::consts::FRAC_2_SQRT_PI * inv * e;
-    // derivative by the spread itself: dP/dae = -d/ae * dP/dd
-    Profile { p: f, dp_dd: dd, dp_da: -d * inv * dd }
+    let (f, e) = erf_exp_lanes(d, inv);
+    [0, 1].map(|k| {
+        if d[k].abs() > 3.0 * ae {
+            Profile { p: d[k].signum(), dp_dd: 0.0, dp_da: 0.0 }
+        } else {
+            let dd = std::f64::consts::FRAC_2_SQRT_PI * inv * e[k];
+            // derivative by the spread itself: dP/dae = -d/ae * dP/dd
+            Profile { p: f[k], dp_dd: dd, dp_da: -d[k] * inv * dd }
+        }
+    })
 }
 
 /// Per-iteration constants of the model (edge directions, pixel footprints, blur).
@@ -160,10 +185,9 @@ struct Geo {
     wa2: f64,
     wb2: f64,
     a_: f64,
-    /// erf scale of each line for the fast profile (there sigma is the total edge spread,
+    /// erf scale of both lines for the fast profile (there sigma is the total edge spread,
     /// footprint included).
-    ae1: f64,
-    ae2: f64,
+    ae: f64,
 }
 
 impl Geo {
@@ -182,8 +206,7 @@ impl Geo {
             wa2: ac2.max(as2),
             wb2: ac2.min(as2),
             a_: std::f64::consts::SQRT_2 * x[6].exp(),
-            ae1: std::f64::consts::SQRT_2 * x[6].exp(),
-            ae2: std::f64::consts::SQRT_2 * x[6].exp(),
+            ae: std::f64::consts::SQRT_2 * x[6].exp(),
         }
     }
 }
@@ -208,7 +231,8 @@ fn model(x: &SVector<f64, NP>, g: &Geo, dx: f64, dy: f64, jac: &mut SVector<f64,
     let (p1, p2) = if exact {
         (profile(d1, g.wa1, g.wb1, a_), profile(d2, g.wa2, g.wb2, a_))
     } else {
-        (profile_fast(d1, g.ae1), profile_fast(d2, g.ae2))
+        let [p1, p2] = profile_fast_pair([d1, d2], g.ae);
+        (p1, p2)
     };
     let (e1, e2) = (p1.p, p2.p);
     let a = x[5];
@@ -277,6 +301,41 @@ fn accumulate_n<const N: usize>(
     (jtj, jtr, c)
 }
 
+/// Parameters whose Jacobian columns carry the amplitude a as a factor (edge geometry, blur,
+/// bends).
+const A_SCALED: [bool; NP] = [true, true, true, true, false, false, true, true, true, false, false];
+
+/// Given the normal equations `(J^T J, J^T r, r^T r)` linearised at m = 0, a = 1 (so the columns
+/// of m and a are 1 and the product profile f, and r = v - f), set `x[4]` = m and `x[5]` = a to
+/// their linear least-squares values for this geometry and return the normal equations at the
+/// updated `x`: with r' = r - m + (1 - a) f the sums are linear combinations of the given ones,
+/// the `a`-scaled columns scale by a. `None` when m and a are not determined (flat geometry).
+fn solve_linear_part(x: &mut SVector<f64, NP>, normal: (SMatrix<f64, NP, NP>, SVector<f64, NP>, f64), active: &[bool; NP]) -> Option<(SMatrix<f64, NP, NP>, SVector<f64, NP>, f64)> {
+    let (mut jtj, mut jtr, c) = normal;
+    let (cnt, sf, sff) = (jtj[(4, 4)], jtj[(4, 5)], jtj[(5, 5)]);
+    let (sv, sfv) = (jtr[4] + sf, jtr[5] + sff);
+    let det = cnt * sff - sf * sf;
+    if !(det.abs() > 1e-9) {
+        return None;
+    }
+    let a = (cnt * sfv - sf * sv) / det;
+    let m = (sv - a * sf) / cnt;
+    let b = 1.0 - a;
+    let cost = c + m * m * cnt + b * b * sff - 2.0 * m * jtr[4] + 2.0 * b * jtr[5] - 2.0 * m * b * sf;
+    let scale = |p: usize| if A_SCALED[p] { a } else { 1.0 };
+    let col_m = jtj.column(4).into_owned();
+    let col_a = jtj.column(5).into_owned();
+    for p in (0..NP).filter(|&p| active[p]) {
+        jtr[p] = scale(p) * (jtr[p] - m * col_m[p] + b * col_a[p]);
+        for q in (0..NP).filter(|&q| active[q]) {
+            jtj[(p, q)] *= scale(p) * scale(q);
+        }
+    }
+    x[4] = m;
+    x[5] = a;
+    Some((jtj, jtr, cost))
+}
+
 /// Refine a chessboard corner near `seed` by fitting the saddle model. `dir1`, `dir2` are rough
 /// directions of the two edges through the corner (e.g. towards the grid neighbours).
 ///
@@ -314,32 +373,6 @@ pub fn refine_saddle(
     x[2] = dir1.y.atan2(dir1.x);
     x[3] = dir2.y.atan2(dir2.x);
     x[6] = 0.7_f64.ln();
-    // Linear init of m and a given the geometry.
-    {
-        let (mut s11, mut s1, mut sy, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-        let mut jac = SVector::<f64, NP>::zeros();
-        let mut k = 0;
-        x[5] = 1.0;
-        let geo = Geo::new(&x);
-        for j in -h..=h {
-            for i in -h..=h {
-                let _ = model(&x, &geo, i as f64, j as f64, &mut jac, false);
-                let f = jac[5];
-                s11 += f * f;
-                s1 += f;
-                sy += vals[k];
-                sxy += f * vals[k];
-                k += 1;
-            }
-        }
-        let cnt = (n * n) as f64;
-        let det = cnt * s11 - s1 * s1;
-        if !(det.abs() > 1e-9) {
-            return Err(fail("degenerate initial geometry"));
-        }
-        x[5] = (cnt * sxy - s1 * sy) / det;
-        x[4] = (sy - x[5] * s1) / cnt;
-    }
     let active: [bool; NP] = [
         true, true, true, true, true, true, true, params.fit_curvature, params.fit_curvature, params.fit_gradient,
         params.fit_gradient,
@@ -353,6 +386,15 @@ pub fn refine_saddle(
         9 => accumulate_n::<9>(x, exact, jac, idx, &vals, h),
         _ => accumulate_n::<NP>(x, exact, jac, idx, &vals, h),
     };
+    // First linearisation at m = 0, a = 1; m and a then follow by linear least squares given the
+    // geometry, and the normal equations are re-expressed at them (one pass over the window).
+    x[4] = 0.0;
+    x[5] = 1.0;
+    let first = accumulate(&x, false, &mut jac);
+    let Some(first) = solve_linear_part(&mut x, first, &active) else {
+        return Err(fail("degenerate initial geometry"));
+    };
+    let mut pending = Some(first);
     // Fast-profile iterations until converged, then exact-profile iterations (at most 3).
     let mut exact = false;
     let mut exact_iters = 0;
@@ -363,7 +405,10 @@ pub fn refine_saddle(
     let max_total = params.max_iterations + 3;
     while iterations < max_total {
         iterations += 1;
-        let (jtj, jtr, c) = accumulate(&x, exact, &mut jac);
+        let (jtj, jtr, c) = match pending.take() {
+            Some(normal) => normal,
+            None => accumulate(&x, exact, &mut jac),
+        };
         let base = match &saved {
             Some((xs, js, rs, cs)) if !(c <= *cs) => {
                 // last step made it worse: back to the saved point, more damping
@@ -465,7 +510,7 @@ pub(crate) mod tests {
     fn exp_and_erf_are_exact_enough() {
         for k in 0..2000 {
             let y = k as f64 * 0.01;
-            assert!(((exp_neg(y) - (-y).exp()) / (-y).exp()).abs() < 1e-12, "{y}");
+            assert!(((exp_neg(y) - (-y).exp()) / (-y).exp()).abs() < 1e-9, "{y}");
         }
         for (x, e) in [(0.0, 0.0), (0.5, 0.520_499_877_8), (1.0, 0.842_700_792_9), (-2.0, -0.995_322_265_0)] {
             assert!((erf_exp(x, 1.0).0 - e).abs() < 2e-7, "{x}");
