@@ -25,6 +25,7 @@
 use imageproc::region_labelling::{connected_components, Connectivity};
 use nalgebra::Point2;
 
+use super::edge_surround::EdgeSurround;
 use super::filters::extreme_filter;
 use super::{DetectError, ImageF32};
 
@@ -90,6 +91,15 @@ fn median(v: &mut [f32]) -> f32 {
     }
     let mid = v.len() / 2;
     v.select_nth_unstable_by(mid, f32::total_cmp);
+    v[mid]
+}
+
+fn median_f64(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mid = v.len() / 2;
+    v.select_nth_unstable_by(mid, f64::total_cmp);
     v[mid]
 }
 
@@ -184,18 +194,26 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
             data: (cy0..=cy1).flat_map(|y| img.data[y * w + cx0..=y * w + cx1].iter().copied()).collect(),
         };
         let closed = extreme_filter(&extreme_filter(&crop, r, true), r, false);
-        let surround_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
-        let s_core = f64::from(median(&mut core.iter().map(|&(x, y)| surround_at(x, y)).collect::<Vec<_>>()));
+        let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
+        // A two-level edge (the sphere's outline) through the window: modelled, not closed.
+        let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &|x, y| owner[y * w + x] != 0, f64::from(params.min_contrast));
         // Lift of the closing over the image in the ring around the grown core (noise peaks).
         let mut lift = Vec::new();
-        for y in by0..=by1 {
-            for x in bx0..=bx1 {
-                if owner[y * w + x] == 0 {
-                    lift.push(surround_at(x, y) - img.data[y * w + x]);
+        if edge.is_none() {
+            for y in by0..=by1 {
+                for x in bx0..=bx1 {
+                    if owner[y * w + x] == 0 {
+                        lift.push(closed_at(x, y) - img.data[y * w + x]);
+                    }
                 }
             }
         }
         let lift = f64::from(median(&mut lift));
+        let surround_at = |x: usize, y: usize| match &edge {
+            Some(e) => e.level_at(x, y),
+            None => f64::from(closed_at(x, y)) - lift,
+        };
+        let s_core = median_f64(core.iter().map(|&(x, y)| surround_at(x, y)).collect());
         if !(s_core - d > f64::from(params.min_contrast) * 0.5) {
             continue;
         }
@@ -205,7 +223,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
                 if owner[y * w + x] != id {
                     continue;
                 }
-                let s = f64::from(surround_at(x, y)) - lift;
+                let s = surround_at(x, y);
                 // Not clamped at 0: noise in the surround then averages out instead of biasing.
                 let wgt = ((s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6)).clamp(-params.min_weight, 1.0);
                 sw += wgt;

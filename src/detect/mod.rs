@@ -10,6 +10,7 @@
 
 pub mod chessboard;
 pub mod dots;
+pub mod edge_surround;
 pub mod filters;
 pub mod grid;
 pub mod grid_order;

@@ -74,7 +74,7 @@ fn run(style: DotStyle, views: usize, seed: u64) -> Stats {
     st
 }
 
-fn summary(name: &str, st: &Stats) -> (f64, f64) {
+fn summary(name: &str, st: &Stats) -> (f64, f64, f64) {
     let rms = |v: &[f64]| (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt();
     let max = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
     let mut sorted = st.centroid_err.clone();
@@ -92,26 +92,34 @@ fn summary(name: &str, st: &Stats) -> (f64, f64) {
         rms(&st.projected_err),
         max(&st.projected_err)
     );
-    (st.recalled as f64 / st.eligible.max(1) as f64, rms(&st.centroid_err))
+    (st.recalled as f64 / st.eligible.max(1) as f64, rms(&st.centroid_err), max(&st.centroid_err))
 }
 
 #[test]
 fn s_path_beads_from_course_like_poses() {
     let st = run(DotStyle::Bead, 6, 11);
-    let (recall, rms) = summary("beads", &st);
-    // Issue targets: recall >= 99 %, RMS <= 0.015 px, max <= 0.06 px. Measured 2026-11-24: recall
-    // 100 %, RMS 0.071 px, max 0.30 px (dots touching the sphere's outline dominate).
+    let (recall, rms, max) = summary("beads", &st);
+    // Issue targets: recall >= 99 %, RMS <= 0.015 px, max <= 0.06 px. Measured: recall 100 %, RMS
+    // 0.020 px, p99 0.089 px, max 0.28 px. Beads over the sphere's outline are weighed against a
+    // fitted edge model (RMS 0.071 -> 0.020); what is left: pixels where a bead's edge and the
+    // outline cross (their mixed level is not a coverage), and beads pressed against a neighbour
+    // (pixels shared by both grown cores are left out of both).
     assert_eq!(st.false_dots, 0);
     assert!(recall >= 0.99, "recall {recall}");
-    assert!(rms <= 0.1, "RMS {rms}");
+    assert!(rms <= 0.025, "RMS {rms}");
+    assert!(max <= 0.3, "max {max}");
 }
 
 #[test]
 fn s_path_discs_from_course_like_poses() {
     let st = run(DotStyle::Disc, 6, 12);
-    let (recall, rms) = summary("discs", &st);
-    // Painted discs become 2-px slivers near the outline and the chain breaks from oblique views:
-    // measured recall 34.9 %, 103 mis-indexed dots over 6 views. Regression bounds only.
-    assert!(recall >= 0.3, "recall {recall}");
+    let (recall, rms, _) = summary("discs", &st);
+    // Painted discs become 2-px slivers near the outline; from oblique views the start dot or a
+    // stretch of the middle is hidden, and the chain from the start cannot index the rest: the
+    // detector returns the correctly indexed part. Measured with the edge-surround model: recall
+    // 17.7 %, 0 mis-indexed dots over 6 views (before it: 34.9 % counted with 103 mis-indexed
+    // dots, i.e. the old figure counted wrong indices as recall). Regression bounds only.
+    assert_eq!(st.false_dots, 0, "mis-indexed or false dots");
+    assert!(recall >= 0.15, "recall {recall}");
     assert!(rms <= 0.1, "RMS {rms}");
 }
