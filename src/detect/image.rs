@@ -1,4 +1,5 @@
-//! A minimal owned grey image in f32, row-major, OpenCV pixel convention.
+//! Minimal owned grey images (f32 and u8 samples), row-major, OpenCV pixel convention, and the
+//! window access the sub-pixel fits share.
 
 use super::DetectError;
 
@@ -85,6 +86,88 @@ impl ImageF32 {
     }
 }
 
+/// Grey image with 8-bit samples: the chessboard detector works on it directly (the pyramid is
+/// built from it and the sub-pixel fits read their windows from it), so a decoded 8-bit image
+/// never has to be converted to f32 as a whole.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageU8 {
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// Row-major samples.
+    pub data: Vec<u8>,
+}
+
+impl ImageU8 {
+    /// Wrap a buffer.
+    ///
+    /// # Errors
+    /// [`DetectError::BadBuffer`] when `data.len() != width * height`.
+    pub fn new(width: usize, height: usize, data: Vec<u8>) -> Result<Self, DetectError> {
+        if data.len() != width * height {
+            return Err(DetectError::BadBuffer { expected: width * height, actual: data.len() });
+        }
+        Ok(Self { width, height, data })
+    }
+
+    /// The same image with f32 samples.
+    pub fn to_f32(&self) -> ImageF32 {
+        ImageF32 { width: self.width, height: self.height, data: self.data.iter().map(|v| f32::from(*v)).collect() }
+    }
+
+    /// 2 x 2 box downsampling into f32, bit-identical to `self.to_f32().half()` (the sum of four
+    /// 8-bit samples is exact in f32) at a quarter of the memory traffic.
+    pub fn half(&self) -> ImageF32 {
+        let (w, h) = (self.width / 2, self.height / 2);
+        let mut data = vec![0.0f32; w * h];
+        if w > 0 {
+            for (y, o) in data.chunks_exact_mut(w).enumerate() {
+                let r0 = &self.data[2 * y * self.width..][..2 * w];
+                let r1 = &self.data[(2 * y + 1) * self.width..][..2 * w];
+                for ((o, a), b) in o.iter_mut().zip(r0.chunks_exact(2)).zip(r1.chunks_exact(2)) {
+                    *o = 0.25 * f32::from(u16::from(a[0]) + u16::from(a[1]) + u16::from(b[0]) + u16::from(b[1]));
+                }
+            }
+        }
+        ImageF32 { width: w, height: h, data }
+    }
+}
+
+/// Read access to a grey image's samples as f64, for fits that copy a small window.
+pub trait GreyWindow: Sync {
+    /// Width, pixels.
+    fn width(&self) -> usize;
+    /// Height, pixels.
+    fn height(&self) -> usize;
+    /// Append the `n` samples of row `y` starting at column `x0` (all inside the image) to `out`.
+    fn push_row(&self, y: usize, x0: usize, n: usize, out: &mut Vec<f64>);
+}
+
+impl GreyWindow for ImageF32 {
+    fn width(&self) -> usize {
+        self.width
+    }
+    fn height(&self) -> usize {
+        self.height
+    }
+    fn push_row(&self, y: usize, x0: usize, n: usize, out: &mut Vec<f64>) {
+        out.extend(self.data[y * self.width + x0..][..n].iter().map(|v| f64::from(*v)));
+    }
+}
+
+impl GreyWindow for ImageU8 {
+    fn width(&self) -> usize {
+        self.width
+    }
+    fn height(&self) -> usize {
+        self.height
+    }
+    fn push_row(&self, y: usize, x0: usize, n: usize, out: &mut Vec<f64>) {
+        out.extend(self.data[y * self.width + x0..][..n].iter().map(|v| f64::from(*v)));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -109,5 +192,19 @@ mod tests {
             assert!(!b.all_finite(), "{k}");
             assert!(!b.half_checked().1, "{k}");
         }
+    }
+
+    #[test]
+    fn u8_half_and_windows_match_the_f32_image() {
+        let (w, h) = (37, 6);
+        let data: Vec<u8> = (0..w * h).map(|i| ((i * 97) % 256) as u8).collect();
+        let u = ImageU8::new(w, h, data).unwrap();
+        let f = u.to_f32();
+        assert_eq!(u.half(), f.half());
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        u.push_row(4, 3, 7, &mut a);
+        f.push_row(4, 3, 7, &mut b);
+        assert_eq!(a, b);
+        assert!(ImageU8::new(3, 3, vec![0; 8]).is_err());
     }
 }

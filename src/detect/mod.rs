@@ -22,7 +22,7 @@ pub mod subpixel;
 pub mod target;
 pub mod xcorner;
 
-pub use self::image::ImageF32;
+pub use self::image::{GreyWindow, ImageF32, ImageU8};
 pub use chessboard::{find_chessboard, ChessboardCorners, ChessboardParams};
 pub use saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};
 pub use subpixel::{refine_corner, SubpixelParams};
