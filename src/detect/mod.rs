@@ -15,6 +15,7 @@ pub mod grid;
 pub mod grid_order;
 pub mod image;
 pub mod par;
+pub mod pool;
 pub mod response;
 pub mod s_path_order;
 pub mod saddle_fit;
