@@ -73,7 +73,7 @@ impl ImageF32 {
     /// per output column).
     pub fn half_checked(&self) -> (ImageF32, bool) {
         let (w, h) = (self.width / 2, self.height / 2);
-        let mut data = super::pool::zeroed(w * h);
+        let mut data = super::pool::scratch(w * h);
         let mut nan = vec![0.0f32; w];
         if w > 0 {
             for (y, o) in data.chunks_exact_mut(w).enumerate() {
@@ -120,7 +120,7 @@ impl ImageU8 {
 
     /// The same image with f32 samples.
     pub fn to_f32(&self) -> ImageF32 {
-        let mut data = super::pool::zeroed(self.data.len());
+        let mut data = super::pool::scratch(self.data.len());
         for (o, v) in data.iter_mut().zip(&self.data) {
             *o = f32::from(*v);
         }
@@ -131,7 +131,7 @@ impl ImageU8 {
     /// 8-bit samples is exact in f32) at a quarter of the memory traffic.
     pub fn half(&self) -> ImageF32 {
         let (w, h) = (self.width / 2, self.height / 2);
-        let mut data = super::pool::zeroed(w * h);
+        let mut data = super::pool::scratch(w * h);
         if w > 0 {
             for (y, o) in data.chunks_exact_mut(w).enumerate() {
                 let r0 = &self.data[2 * y * self.width..][..2 * w];

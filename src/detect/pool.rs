@@ -22,7 +22,32 @@ thread_local! {
 
 /// A buffer of `len` zeros: the smallest pooled one that is large enough, else a new one.
 pub fn zeroed(len: usize) -> Vec<f32> {
-    let reused = if len >= MIN_SAMPLES {
+    match take(len) {
+        Some(mut v) => {
+            v.clear();
+            v.resize(len, 0.0);
+            v
+        }
+        None => vec![0.0; len],
+    }
+}
+
+/// A buffer of `len` samples with unspecified values (a reused buffer keeps an earlier image's
+/// samples), for outputs that overwrite every sample: saves [`zeroed`]'s pass over the memory.
+pub fn scratch(len: usize) -> Vec<f32> {
+    match take(len) {
+        Some(mut v) => {
+            v.resize(len, 0.0);
+            v.truncate(len);
+            v
+        }
+        None => vec![0.0; len],
+    }
+}
+
+/// The smallest pooled buffer with room for `len` samples, removed from the pool.
+fn take(len: usize) -> Option<Vec<f32>> {
+    if len >= MIN_SAMPLES {
         POOL.try_with(|p| {
             let mut p = p.try_borrow_mut().ok()?;
             let best = (0..p.len()).filter(|&i| p[i].capacity() >= len).min_by_key(|&i| p[i].capacity())?;
@@ -32,14 +57,6 @@ pub fn zeroed(len: usize) -> Vec<f32> {
         .flatten()
     } else {
         None
-    };
-    match reused {
-        Some(mut v) => {
-            v.clear();
-            v.resize(len, 0.0);
-            v
-        }
-        None => vec![0.0; len],
     }
 }
 
@@ -71,6 +88,8 @@ mod tests {
         let w = zeroed(MIN_SAMPLES);
         assert_eq!(w.as_ptr(), ptr);
         assert!(w.len() == MIN_SAMPLES && w.iter().all(|x| *x == 0.0));
+        recycle(w);
+        assert_eq!(scratch(MIN_SAMPLES + 20).len(), MIN_SAMPLES + 20);
         // small buffers are not pooled; the count is bounded
         recycle(vec![1.0; 10]);
         for _ in 0..MAX_BUFFERS + 3 {

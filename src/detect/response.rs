@@ -130,7 +130,7 @@ pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
             o[x] = ((at(xi - 2) + at(xi + 2)) + 4.0 * (at(xi - 1) + at(xi + 1)) + 6.0 * at(xi)) * (1.0 / 256.0);
         }
     };
-    let mut out = super::pool::zeroed(w * h);
+    let mut out = super::pool::scratch(w * h);
     if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
         out.par_chunks_mut(w).enumerate().for_each_init(|| Vec::with_capacity(w), row_job);
     } else {
