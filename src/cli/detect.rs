@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use serde::Serialize;
 use synthcam::dataset::overlay::draw_points;
-use synthcam::dataset::{load_grey, write_atomic};
-use synthcam::detect::target::{detect, TargetSpec};
+use synthcam::dataset::{load_grey_u8, write_atomic};
+use synthcam::detect::target::{detect_u8, TargetSpec};
 
 /// Arguments of `detect`.
 #[derive(Debug, clap::Args)]
@@ -90,7 +90,7 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
     let mut errors = 0;
     for f in &files {
         let name = file_name(f);
-        let img = match load_grey(f) {
+        let img = match load_grey_u8(f) {
             Ok(i) => i,
             Err(e) => {
                 eprintln!("error: {e}");
@@ -109,14 +109,16 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
                 continue;
             }
         };
+        // time_ms: detection on the decoded 8-bit image (as OpenCV's call on a uint8 array); any
+        // conversion to f32 the detector needs is included
         let t0 = std::time::Instant::now();
-        let det = detect(&img, &args.target).with_context(|| format!("detecting in {}", f.display()))?;
+        let det = detect_u8(&img, &args.target).with_context(|| format!("detecting in {}", f.display()))?;
         let time_ms = t0.elapsed().as_secs_f64() * 1e3;
         if args.json.is_none() {
             println!("{name}: {} ({} points, {time_ms:.2} ms){}", if det.found { "found" } else { "not found" }, det.points_px.len(), det.note.as_ref().map(|n| format!(": {n}")).unwrap_or_default());
         }
         if let Some(dir) = &args.draw {
-            let overlay = draw_points(&img, &det.points_px);
+            let overlay = draw_points(&img.to_f32(), &det.points_px);
             let mut png = Vec::new();
             image::DynamicImage::ImageRgb8(overlay)
                 .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)

@@ -92,9 +92,17 @@ pub fn write_png_and_json(png_path: &Path, png: &[u8], json: &[u8]) -> Result<()
 /// # Errors
 /// [`DatasetError::Read`] for a missing, unreadable, truncated or unsupported file.
 pub fn load_grey(path: &Path) -> Result<crate::detect::ImageF32, DatasetError> {
+    load_grey_u8(path).map(|g| g.to_f32())
+}
+
+/// Decode an image file to 8-bit grey (as [`load_grey`], without the conversion to f32).
+///
+/// # Errors
+/// [`DatasetError::Read`] when the file cannot be opened or decoded.
+pub fn load_grey_u8(path: &Path) -> Result<crate::detect::ImageU8, DatasetError> {
     let err = |reason: String| DatasetError::Read { path: path.display().to_string(), reason };
     let img = image::ImageReader::open(path).map_err(|e| err(e.to_string()))?.with_guessed_format().map_err(|e| err(e.to_string()))?;
     let grey = img.decode().map_err(|e| err(e.to_string()))?.to_luma8();
     let (w, h) = grey.dimensions();
-    crate::detect::ImageF32::from_u8(w as usize, h as usize, grey.as_raw()).map_err(|e| err(e.to_string()))
+    crate::detect::ImageU8::new(w as usize, h as usize, grey.into_raw()).map_err(|e| err(e.to_string()))
 }

@@ -15,7 +15,7 @@ pub mod servo_run;
 pub mod spec;
 pub mod sweep;
 
-pub use io::{encode_png, load_grey, write_atomic, write_image_and_truth, write_png_and_json};
+pub use io::{encode_png, load_grey, load_grey_u8, write_atomic, write_image_and_truth, write_png_and_json};
 pub use spec::SpecError;
 
 /// File errors.

@@ -13,6 +13,8 @@
 //! calibration using a single shot", ICRA 2012; D. Bennett, J. Lasenby, "ChESS - Quick and robust
 //! detection of chess-board features", CVIU 2014.
 
+use std::borrow::Cow;
+
 use nalgebra::{Point2, Vector2};
 use rayon::prelude::*;
 
@@ -20,7 +22,7 @@ use super::grid::{grow_grid, GrowParams, Grid};
 use super::par::worth_parallel;
 use super::response::{find_candidates, local_peak, saddle_response, Candidate};
 use super::saddle_fit::{refine_saddle, SaddleFitParams};
-use super::{DetectError, ImageF32};
+use super::{DetectError, GreyWindow, ImageF32, ImageU8};
 
 /// Parameters of [`find_chessboard`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -104,14 +106,8 @@ pub struct ChessboardCorners {
 /// [`DetectError::EmptyImage`], [`DetectError::BadBuffer`] (size mismatch or non-finite samples)
 /// and [`DetectError::BadParams`] (fewer than 2 corners per side).
 pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Option<ChessboardCorners>, DetectError> {
-    if img.width == 0 || img.height == 0 {
-        return Err(DetectError::EmptyImage { width: img.width, height: img.height });
-    }
-    let expected = img.width.saturating_mul(img.height);
-    if img.data.len() != expected {
-        return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
-    }
-    // the first pyramid level (see below) and the finiteness check share one pass over the image
+    let expected = check_buffer(img.width, img.height, img.data.len())?;
+    // the first pyramid level (see `find_in`) and the finiteness check share one pass over the image
     let first_half = if expected >= PYRAMID_MIN_PIXELS {
         let (half, finite) = img.half_checked();
         finite.then_some(Some(half))
@@ -121,27 +117,72 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
     let Some(first_half) = first_half else {
         return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
     };
+    check_params(params)?;
+    Ok(find_in(img, first_half, || Cow::Borrowed(img), params))
+}
+
+/// [`find_chessboard`] on 8-bit samples, with identical results: the pyramid is built from the
+/// bytes and the sub-pixel fits read their windows from them, so the full image is converted to
+/// f32 only if the search has to fall back to full resolution.
+///
+/// # Errors
+/// As [`find_chessboard`] (8-bit samples are always finite).
+pub fn find_chessboard_u8(img: &ImageU8, params: &ChessboardParams) -> Result<Option<ChessboardCorners>, DetectError> {
+    let expected = check_buffer(img.width, img.height, img.data.len())?;
+    check_params(params)?;
+    let first_half = (expected >= PYRAMID_MIN_PIXELS).then(|| img.half());
+    Ok(find_in(img, first_half, || Cow::Owned(img.to_f32()), params))
+}
+
+/// Non-empty image whose buffer matches its size: the pixel count.
+fn check_buffer(width: usize, height: usize, len: usize) -> Result<usize, DetectError> {
+    if width == 0 || height == 0 {
+        return Err(DetectError::EmptyImage { width, height });
+    }
+    let expected = width.saturating_mul(height);
+    if len != expected {
+        return Err(DetectError::BadBuffer { expected, actual: len });
+    }
+    Ok(expected)
+}
+
+fn check_params(params: &ChessboardParams) -> Result<(), DetectError> {
     if params.cols < 2 || params.rows < 2 {
         return Err(DetectError::BadParams { reason: "cols and rows must be at least 2" });
     }
     if !(params.smoothing_sigma_px > 0.0 && params.smoothing_sigma_px < 50.0) {
         return Err(DetectError::BadParams { reason: "smoothing_sigma_px must be in (0, 50)" });
     }
-    if img.width < 8 || img.height < 8 {
-        return Ok(None);
+    Ok(())
+}
+
+/// The detector proper on a checked image: `first_half` is its first pyramid level (when it has
+/// at least [`PYRAMID_MIN_PIXELS`] pixels), `full` gives it in f32 for a full-resolution search.
+///
+/// Coarse to fine: halve the image while it has at least PYRAMID_MIN_PIXELS pixels, look for the
+/// grid from the coarsest level down (the response and candidate search cost 4x less per level),
+/// carry the corners down to level 1 by local response peaks, and refine every corner at full
+/// resolution.
+fn find_in<'a, I: GreyWindow>(
+    img: &I,
+    first_half: Option<ImageF32>,
+    full: impl Fn() -> Cow<'a, ImageF32>,
+    params: &ChessboardParams,
+) -> Option<ChessboardCorners> {
+    if img.width() < 8 || img.height() < 8 {
+        return None;
     }
-    // Coarse to fine: halve the image while it has at least PYRAMID_MIN_PIXELS pixels, look for the
-    // grid from the coarsest level down (the response and candidate search cost 4x less per level),
-    // carry the corners down to level 1 by local response peaks, and refine every corner at full
-    // resolution.
     let mut pyramid: Vec<ImageF32> = first_half.into_iter().collect(); // pyramid[k] is level k + 1
     while let Some(top) = pyramid.last().filter(|t| t.width * t.height >= PYRAMID_MIN_PIXELS) {
         let next = top.half();
         pyramid.push(next);
     }
-    let levels: Vec<(usize, &ImageF32)> = pyramid.iter().enumerate().rev().map(|(k, h)| (k + 1, h)).chain([(0, img)]).collect();
-    for &(level, im) in &levels {
-        if let Some((mut grid, n_cands, seeds)) = search(im, params) {
+    for level in (0..=pyramid.len()).rev() {
+        let found = match level {
+            0 => search(&full(), params),
+            _ => search(&pyramid[level - 1], params),
+        };
+        if let Some((mut grid, n_cands, seeds)) = found {
             for finer in (0..level).rev() {
                 // A pixel i of one level covers pixels 2i and 2i + 1 of the next finer: centre 2i + 0.5.
                 let up = |p: Point2<f64>| Point2::new(2.0 * p.x + 0.5, 2.0 * p.y + 0.5);
@@ -151,10 +192,10 @@ pub fn find_chessboard(img: &ImageF32, params: &ChessboardParams) -> Result<Opti
                 };
                 grid = grid.into_iter().map(|row| row.into_iter().map(|p| snap(up(p))).collect()).collect();
             }
-            return Ok(Some(refine_all(img, orient(grid, params.cols, params.rows), params, n_cands, seeds)));
+            return Some(refine_all(img, orient(grid, params.cols, params.rows), params, n_cands, seeds));
         }
     }
-    Ok(None)
+    None
 }
 
 /// Search radius of the local response peak when carrying a corner one level down, pixels of the
@@ -301,7 +342,7 @@ fn rot90(g: &[Vec<Point2<f64>>]) -> Vec<Vec<Point2<f64>>> {
 }
 
 /// Refine every corner with the saddle fit; window from the local grid step.
-fn refine_all(img: &ImageF32, g: Vec<Vec<Point2<f64>>>, params: &ChessboardParams, candidates: usize, seeds_tried: usize) -> ChessboardCorners {
+fn refine_all(img: &impl GreyWindow, g: Vec<Vec<Point2<f64>>>, params: &ChessboardParams, candidates: usize, seeds_tried: usize) -> ChessboardCorners {
     let (rows, cols) = (params.rows, params.cols);
     let at = |r: usize, c: usize| g[r][c];
     let job = |k: usize| {
@@ -398,6 +439,19 @@ mod tests {
             let last = b.points_px[47].coords.norm();
             assert!(first < last);
         }
+    }
+
+    #[test]
+    fn u8_input_gives_the_f32_result() {
+        // 640 x 480 has a pyramid level; 200 x 160 is searched at full resolution
+        for (w, h, sq, off) in [(640, 480, 40.0, (130.0, 90.0)), (200, 160, 16.0, (25.0, 20.0))] {
+            let f = board(w, h, sq, (9, 7), 0.2, off);
+            let u = ImageU8::new(w, h, f.data.iter().map(|v| v.round() as u8).collect()).unwrap();
+            let p = ChessboardParams::new(8, 6);
+            let a = find_chessboard(&u.to_f32(), &p).unwrap().unwrap();
+            assert_eq!(find_chessboard_u8(&u, &p).unwrap(), Some(a), "{w}x{h}");
+        }
+        assert!(find_chessboard_u8(&ImageU8 { width: 9, height: 9, data: vec![0; 80] }, &ChessboardParams::default()).is_err());
     }
 
     #[test]

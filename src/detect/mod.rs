@@ -16,6 +16,7 @@ pub mod grid;
 pub mod grid_order;
 pub mod image;
 pub mod par;
+pub mod pool;
 pub mod response;
 pub mod s_path_order;
 pub mod saddle_fit;
@@ -23,7 +24,7 @@ pub mod subpixel;
 pub mod target;
 pub mod xcorner;
 
-pub use self::image::ImageF32;
+pub use self::image::{GreyWindow, ImageF32, ImageU8};
 pub use chessboard::{find_chessboard, ChessboardCorners, ChessboardParams};
 pub use saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};
 pub use subpixel::{refine_corner, SubpixelParams};

@@ -48,7 +48,7 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
     let r = k.len() / 2;
     let par = worth_parallel(w * h, PARALLEL_MIN_PIXELS);
     // horizontal
-    let mut tmp = vec![0.0f32; w * h];
+    let mut tmp = super::pool::zeroed(w * h);
     let hpass = |(y, out): (usize, &mut [f32])| {
         let src = &img.data[y * w..(y + 1) * w];
         if w > 2 * r {
@@ -79,7 +79,7 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
         tmp.chunks_mut(w).enumerate().for_each(hpass);
     }
     // vertical
-    let mut out = vec![0.0f32; w * h];
+    let mut out = super::pool::zeroed(w * h);
     let vpass = |(y, o): (usize, &mut [f32])| {
         for (i, kv) in k.iter().enumerate() {
             let yy = (y as i64 + i as i64 - r as i64).clamp(0, h as i64 - 1) as usize;
@@ -94,6 +94,7 @@ pub fn gaussian_blur(img: &ImageF32, sigma: f64) -> ImageF32 {
     } else {
         out.chunks_mut(w).enumerate().for_each(vpass);
     }
+    super::pool::recycle(tmp);
     ImageF32 { width: w, height: h, data: out }
 }
 
@@ -129,7 +130,7 @@ pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
             o[x] = ((at(xi - 2) + at(xi + 2)) + 4.0 * (at(xi - 1) + at(xi + 1)) + 6.0 * at(xi)) * (1.0 / 256.0);
         }
     };
-    let mut out = vec![0.0f32; w * h];
+    let mut out = super::pool::scratch(w * h);
     if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
         out.par_chunks_mut(w).enumerate().for_each_init(|| Vec::with_capacity(w), row_job);
     } else {
@@ -144,7 +145,7 @@ pub fn binomial_blur(img: &ImageF32) -> ImageF32 {
 pub fn saddle_response(img: &ImageF32, sigma: f64) -> ResponseMap {
     let smooth = if sigma == 1.0 { binomial_blur(img) } else { gaussian_blur(img, sigma) };
     let (w, h) = (img.width, img.height);
-    let mut resp = vec![0.0f32; w * h];
+    let mut resp = super::pool::zeroed(w * h);
     if w >= 3 && h >= 3 {
         let s = &smooth.data;
         let row = |(y, o): (usize, &mut [f32])| {

@@ -11,7 +11,7 @@
 
 use nalgebra::{Point2, SMatrix, SVector, Vector2};
 
-use super::{DetectError, ImageF32};
+use super::{DetectError, GreyWindow};
 
 /// Number of model parameters: qx, qy, theta1, theta2, m, a, sigma, kappa1, kappa2, bx, by.
 const NP: usize = 11;
@@ -343,7 +343,7 @@ fn solve_linear_part(x: &mut SVector<f64, NP>, normal: (SMatrix<f64, NP, NP>, SV
 /// [`DetectError::RefineFailed`] when the window leaves the image, the seed is not finite, the
 /// fit is singular, or the corner ends more than `max_shift_px` from the seed.
 pub fn refine_saddle(
-    img: &ImageF32,
+    img: &(impl GreyWindow + ?Sized),
     seed: Point2<f64>,
     dir1: Vector2<f64>,
     dir2: Vector2<f64>,
@@ -356,16 +356,13 @@ pub fn refine_saddle(
     let h = params.half_window.max(2) as i64;
     let cx = seed.x.round() as i64;
     let cy = seed.y.round() as i64;
-    if cx - h < 0 || cy - h < 0 || cx + h >= img.width as i64 || cy + h >= img.height as i64 {
+    if cx - h < 0 || cy - h < 0 || cx + h >= img.width() as i64 || cy + h >= img.height() as i64 {
         return Err(fail("window leaves the image"));
     }
     let n = (2 * h + 1) as usize;
     let mut vals = Vec::with_capacity(n * n);
     for y in (cy - h)..=(cy + h) {
-        let row = y as usize * img.width;
-        for x in (cx - h)..=(cx + h) {
-            vals.push(f64::from(img.data[row + x as usize]));
-        }
+        img.push_row(y as usize, (cx - h) as usize, n, &mut vals);
     }
     let mut x = SVector::<f64, NP>::zeros();
     x[0] = seed.x - cx as f64;
@@ -481,6 +478,7 @@ pub fn refine_saddle(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::detect::ImageF32;
 
     /// Area-sampled (n x n supersampled) rotated saddle, lines at angles t1, t2 through (cx, cy).
     pub(crate) fn saddle(cx: f64, cy: f64, t1: f64, t2: f64) -> ImageF32 {

@@ -5,11 +5,11 @@ use std::str::FromStr;
 
 use nalgebra::Point2;
 
-use super::chessboard::{find_chessboard, ChessboardParams};
+use super::chessboard::{find_chessboard, find_chessboard_u8, ChessboardCorners, ChessboardParams};
 use super::dots::{find_dots, DotParams};
 use super::grid_order::order_grid;
 use super::s_path_order::{order_s_path, SPathOrderParams};
-use super::{DetectError, ImageF32};
+use super::{DetectError, ImageF32, ImageU8};
 
 /// What to look for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -78,13 +78,7 @@ pub struct Detection {
 /// Bad image buffers; "not found" is `Ok` with `found: false`.
 pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectError> {
     match *spec {
-        TargetSpec::Chessboard { cols, rows } => {
-            let found = find_chessboard(img, &ChessboardParams::new(cols, rows))?;
-            Ok(match found {
-                Some(c) => Detection { found: true, points_px: c.points_px, ..Default::default() },
-                None => Detection { note: Some("no complete board of that size".into()), ..Default::default() },
-            })
-        }
+        TargetSpec::Chessboard { cols, rows } => Ok(board_detection(find_chessboard(img, &ChessboardParams::new(cols, rows))?)),
         TargetSpec::DotGrid { n } => {
             let dots = find_dots(img, &DotParams::default())?;
             Ok(match order_grid(&dots, n) {
@@ -105,6 +99,25 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
                 Err(e) => Err(e),
             }
         }
+    }
+}
+
+/// [`detect`] on 8-bit samples, with identical results: the chessboard detector works on them
+/// directly ([`find_chessboard_u8`]), the dot detectors on the image converted to f32.
+///
+/// # Errors
+/// As [`detect`].
+pub fn detect_u8(img: &ImageU8, spec: &TargetSpec) -> Result<Detection, DetectError> {
+    match *spec {
+        TargetSpec::Chessboard { cols, rows } => Ok(board_detection(find_chessboard_u8(img, &ChessboardParams::new(cols, rows))?)),
+        _ => detect(&img.to_f32(), spec),
+    }
+}
+
+fn board_detection(found: Option<ChessboardCorners>) -> Detection {
+    match found {
+        Some(c) => Detection { found: true, points_px: c.points_px, ..Default::default() },
+        None => Detection { note: Some("no complete board of that size".into()), ..Default::default() },
     }
 }
 
