@@ -175,29 +175,23 @@ pub trait GreyWindow: Sync {
     fn push_row(&self, y: usize, x0: usize, n: usize, out: &mut Vec<f64>);
 }
 
-impl GreyWindow for ImageF32 {
-    fn width(&self) -> usize {
-        self.width
-    }
-    fn height(&self) -> usize {
-        self.height
-    }
-    fn push_row(&self, y: usize, x0: usize, n: usize, out: &mut Vec<f64>) {
-        out.extend(self.data[y * self.width + x0..][..n].iter().map(|v| f64::from(*v)));
-    }
+/// The same row access for both sample types (row-major `data`, `width` samples per row).
+macro_rules! grey_window {
+    ($($t:ty),*) => {$(
+        impl GreyWindow for $t {
+            fn width(&self) -> usize {
+                self.width
+            }
+            fn height(&self) -> usize {
+                self.height
+            }
+            fn push_row(&self, y: usize, x0: usize, n: usize, out: &mut Vec<f64>) {
+                out.extend(self.data[y * self.width + x0..][..n].iter().map(|v| f64::from(*v)));
+            }
+        }
+    )*};
 }
-
-impl GreyWindow for ImageU8 {
-    fn width(&self) -> usize {
-        self.width
-    }
-    fn height(&self) -> usize {
-        self.height
-    }
-    fn push_row(&self, y: usize, x0: usize, n: usize, out: &mut Vec<f64>) {
-        out.extend(self.data[y * self.width + x0..][..n].iter().map(|v| f64::from(*v)));
-    }
-}
+grey_window!(ImageF32, ImageU8);
 
 #[cfg(test)]
 mod tests {
