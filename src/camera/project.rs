@@ -35,6 +35,16 @@ impl Projection {
 }
 
 impl CameraModel {
+    /// Whether every point of `points` (in frame x) projects visibly, at least `margin_px` inside
+    /// the image border (0: the image rectangle of [`Projection::in_image`]).
+    pub fn sees_all(&self, cam_from_x: &nalgebra::Isometry3<f64>, points: &[Point3<f64>], margin_px: f64) -> bool {
+        let (w, h) = (f64::from(self.size.width), f64::from(self.size.height));
+        points.iter().all(|p| {
+            let q = self.project(&(cam_from_x * p));
+            q.visible() && q.pixel_px.x >= margin_px - 0.5 && q.pixel_px.x <= w - 0.5 - margin_px && q.pixel_px.y >= margin_px - 0.5 && q.pixel_px.y <= h - 0.5 - margin_px
+        })
+    }
+
     /// Projects a camera-frame point, reporting whether it is in front of the
     /// camera and inside the image. Never panics; see [`Projection`] for what
     /// `pixel_px` holds for points on or behind the camera plane.

@@ -95,7 +95,7 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
             let options = ServoOptions { observation: obs, ..ServoOptions::new(law) };
             let r = (obs == Observation::Rendered).then_some(&renderer);
             let t = run_servo(r, &ServoScenario::default(), &options, &mut |_, _| {}).with_context(|| format!("{name} run"))?;
-            write_atomic(&dir.join(if obs == Observation::Rendered { "trace.json" } else { "trace_ideal.json" }), &serde_json::to_vec(&t)?)?;
+            super::servo::write_trace(&dir, if obs == Observation::Rendered { "trace" } else { "trace_ideal" }, &t)?;
             traces.push((label, t));
         }
         let budget = super::servo::write_report(&dir, name, &traces)?;

@@ -9,7 +9,7 @@ use synthcam::dataset::handeye_run::Observation;
 use synthcam::dataset::servo_report::{budget_markdown, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
 use synthcam::dataset::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
 use synthcam::dataset::{encode_png, write_atomic};
-use synthcam::servo::{Gain, IbvsParams, InteractionFrom};
+use synthcam::servo::{IbvsParams, InteractionFrom};
 
 /// The law on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -81,7 +81,7 @@ fn options(args: &ServoArgs, observation: Observation) -> ServoOptions {
     o.observation = observation;
     o.seed = args.seed;
     if args.course {
-        o.ibvs = IbvsParams { gain: Gain::Constant(0.03), ..IbvsParams::course() };
+        o.ibvs = IbvsParams::course();
         o.max_steps = if law == Law::Pbvs { 30 } else { 200 };
         o.stop = None;
     }
@@ -105,7 +105,11 @@ fn options(args: &ServoArgs, observation: Observation) -> ServoOptions {
     o
 }
 
-fn write_trace(out: &Path, stem: &str, trace: &ServoTrace) -> anyhow::Result<()> {
+/// Write `stem.csv` and `stem.json` of `trace` into `out`.
+///
+/// # Errors
+/// Serialisation or writing failed.
+pub fn write_trace(out: &Path, stem: &str, trace: &ServoTrace) -> anyhow::Result<()> {
     write_atomic(&out.join(format!("{stem}.csv")), csv(trace).as_bytes())?;
     write_atomic(&out.join(format!("{stem}.json")), &serde_json::to_vec(trace)?)?;
     Ok(())

@@ -151,7 +151,7 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Sce
         let base_from_tool_q = base_from_tool(&q);
         let world_from_cam = wb_true * base_from_tool_q * x_true;
         let cam_from_world = world_from_cam.inverse();
-        if !pts.iter().all(|p| cam.project(&(cam_from_world * p)).visible()) {
+        if !cam.sees_all(&cam_from_world, &pts, 0.0) {
             continue;
         }
         let view = bt.len();

@@ -86,11 +86,7 @@ fn meets_constraint(plan: &DatasetPlan, pts: &[Point3<f64>], cam_from_target: &I
     if !plan.full_target_visible {
         return true;
     }
-    let (w, h, m) = (f64::from(plan.camera.size.width), f64::from(plan.camera.size.height), plan.margin_px);
-    pts.iter().all(|p| {
-        let q = plan.camera.project(&(cam_from_target * p));
-        q.visible() && q.pixel_px.x >= m - 0.5 && q.pixel_px.x <= w - 0.5 - m && q.pixel_px.y >= m - 0.5 && q.pixel_px.y <= h - 0.5 - m
-    })
+    plan.camera.sees_all(cam_from_target, pts, plan.margin_px)
 }
 
 fn constraint_name(plan: &DatasetPlan) -> &'static str {

@@ -332,10 +332,6 @@ fn pose_err(a: &Isometry3<f64>, b: &Isometry3<f64>) -> PoseError {
     PoseError { mm: 1e3 * (a.translation.vector - b.translation.vector).norm(), deg: (a.rotation * b.rotation.inverse()).angle().to_degrees() }
 }
 
-fn fully_visible(cam: &CameraModel, cam_from_world: &Isometry3<f64>, pts: &[Point3<f64>]) -> bool {
-    pts.iter().all(|p| cam.project(&(cam_from_world * p)).visible())
-}
-
 /// Observations of one step, before the law.
 struct Measured {
     dots: Option<Dots>,
@@ -454,7 +450,7 @@ pub fn run_servo(renderer: Option<&Renderer>, scenario: &ServoScenario, options:
         loop_s: 0.0,
     };
     // Desired features: taught by showing (rendered) or projected (ideal, the course).
-    if !fully_visible(&cam, &goal.inverse(), &setup.pts) {
+    if !cam.sees_all(&goal.inverse(), &setup.pts, 0.0) {
         trace.status = ServoStatus::GoalNotVisible { reason: "some path points project outside the image or behind the camera".into() };
         return Ok(trace);
     }
@@ -481,7 +477,7 @@ pub fn run_servo(renderer: Option<&Renderer>, scenario: &ServoScenario, options:
     let unit = Normal::new(0.0, 1.0).map_err(|e| ServoRunError::Scenario(e.to_string()))?;
     let tries = 1000;
     let mut tried = 0;
-    while !fully_visible(&cam, &(world_from_base * base_from_tool(&q) * tool_from_cam).inverse(), &setup.pts) {
+    while !cam.sees_all(&(world_from_base * base_from_tool(&q) * tool_from_cam).inverse(), &setup.pts, 0.0) {
         if tried == tries {
             trace.status = ServoStatus::TargetNeverVisible { tries };
             return Ok(trace);

@@ -94,10 +94,7 @@ impl<'a> Tracer<'a> {
 
     /// What the sample at pixel position `q_px` sees.
     pub fn trace_px(&self, q_px: &Point2<f64>) -> Hit {
-        match self.scene.camera.unproject(q_px) {
-            Ok(ray) => self.trace_ray(&ray),
-            Err(_) => Hit { intensity: self.scene.target.background(), feature: None },
-        }
+        self.trace_px_in(q_px, None)
     }
 
     /// What the ray from the camera centre along `d_cam` (camera frame) sees.
@@ -109,8 +106,12 @@ impl<'a> Tracer<'a> {
     /// be in front of it (the caller knows the others project elsewhere); other targets ignore
     /// `candidates`.
     pub fn trace_px_among(&self, q_px: &Point2<f64>, candidates: &[usize]) -> Hit {
+        self.trace_px_in(q_px, Some(candidates))
+    }
+
+    fn trace_px_in(&self, q_px: &Point2<f64>, candidates: Option<&[usize]>) -> Hit {
         match self.scene.camera.unproject(q_px) {
-            Ok(ray) => self.trace_ray_among(&ray, Some(candidates)),
+            Ok(ray) => self.trace_ray_among(&ray, candidates),
             Err(_) => Hit { intensity: self.scene.target.background(), feature: None },
         }
     }

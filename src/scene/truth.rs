@@ -128,21 +128,14 @@ pub struct Blob {
 }
 
 /// Area and centroids of the rendered blob of dot `id` (see module docs). `candidates` (ascending,
-/// including `id`) are the dots that can cover any of `bbox`'s pixels; `None` tests all.
-pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates: Option<&[usize]>) -> Option<Blob> {
+/// including `id`) are the dots that can cover any of `bbox`'s pixels.
+pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates: &[usize]) -> Option<Blob> {
     let size = tracer.scene().camera.size;
     let x0 = bbox[0].floor().max(0.0) as i64;
     let y0 = bbox[1].floor().max(0.0) as i64;
     let x1 = (bbox[2].ceil() as i64).min(i64::from(size.width) - 1);
     let y1 = (bbox[3].ceil() as i64).min(i64::from(size.height) - 1);
-    let sees = |u: f64, v: f64| {
-        let q = Point2::new(u, v);
-        let hit = match candidates {
-            Some(c) => tracer.trace_px_among(&q, c),
-            None => tracer.trace_px(&q),
-        };
-        hit.feature == Some(id)
-    };
+    let sees = |u: f64, v: f64| tracer.trace_px_among(&Point2::new(u, v), candidates).feature == Some(id);
     let (mut area, mut su, mut sv) = (0.0, 0.0, 0.0);
     let (mut pu, mut pv) = (0.0, 0.0);
     for y in y0..=y1 {
@@ -223,7 +216,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 area_centroid_px: None,
             };
             if kind == FeatureKind::Dot {
-                let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, Some(&overlapping(id, &bb))));
+                let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));
                 if let Some(b) = blob {
                     label.area_px = Some(b.area_px);
                     label.centroid_px = Some(b.centroid_px);
