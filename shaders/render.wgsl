@@ -431,6 +431,24 @@ fn bead_values(xu: vec2<f32>, b: vec4<f32>) -> vec2<f32> {
     return vec2<f32>(sqrt(p2) - b.w, select(tb - ts, -1.0, ts <= 0.0));
 }
 
+// Is the painted cap's rim function (dot_boundary 2) linear over the pixel? Its values at the four
+// corners must match the linearisation at the centre within 0.1 px. Near the sphere's outline the
+// sphere hit point, and so the cap function, bends sharply: there a sliver cap's two sides can fall
+// in one pixel, which the single-boundary closed form cannot represent.
+fn cap_rim_linear(ray: Ray, b: vec4<f32>) -> bool {
+    let g0 = dot_boundary(2u, ray.xu, b);
+    let gx = dot_boundary(2u, ray.xu + 0.5 * ray.dxu_dq[0], b) - dot_boundary(2u, ray.xu - 0.5 * ray.dxu_dq[0], b);
+    let gy = dot_boundary(2u, ray.xu + 0.5 * ray.dxu_dq[1], b) - dot_boundary(2u, ray.xu - 0.5 * ray.dxu_dq[1], b);
+    let tol = 0.1 * len2(vec2<f32>(gx, gy));
+    var ok = true;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let o = vec2<f32>(select(-0.5, 0.5, (k & 1u) == 1u), select(-0.5, 0.5, k >= 2u));
+        let g = dot_boundary(2u, ray.xu + ray.dxu_dq * o, b);
+        ok = ok && abs(g - (g0 + gx * o.x + gy * o.y)) <= tol;
+    }
+    return ok;
+}
+
 // Coverage of the pixel by {dot_boundary < 0}: gradient by central differences over the pixel,
 // second derivative along the tangent from two more samples.
 fn dot_coverage(which: u32, ray: Ray, b: vec4<f32>) -> f32 {
@@ -500,17 +518,20 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     let dist_cut = v0.y / max(len2(vec2<f32>(gxv.y, gyv.y)), 1e-30);
     let disc = P.tiles.z == 1u;
     // The bead is in front wherever it is hit: its silhouette is the only boundary.
-    let sil_only = dist_cut < -MARGIN_PX;
+    let sil_only = !disc && dist_cut < -MARGIN_PX;
     // The whole pixel is inside the silhouette: the cut is the only boundary.
-    let cut_only = dist_sil < -MARGIN_PX && !sil_only;
+    let cut_only = !disc && dist_sil < -MARGIN_PX && !sil_only;
     // The sphere hides the bead across the whole pixel.
     let hidden = !disc && dist_cut > MARGIN_PX;
     let which = select(select(0u, 1u, cut_only), 2u, disc);
-    let single = n_touch == 1u && !limb && (disc || sil_only || cut_only || hidden);
-    let cov = dot_coverage(which, ray, b);
-    // The other side of the boundary: the sphere (or the background) as the centre ray sees it.
     let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
-    let other = select(P.grey.w, P.grey.y, ts > 0.0 || cut_only || disc);
+    // A cap off the outline's neighbourhood: the whole pixel misses the sphere (background), or
+    // the cap's rim is close enough to a straight line over the pixel for the closed form.
+    let off_sphere = disc && ts <= 0.0;
+    let single = n_touch == 1u && !limb && (sil_only || cut_only || hidden || off_sphere || (disc && cap_rim_linear(ray, b)));
+    let cov = select(dot_coverage(which, ray, b), 0.0, off_sphere);
+    // The other side of the boundary: the sphere (or the background) as the centre ray sees it.
+    let other = select(P.grey.w, P.grey.y, ts > 0.0 || cut_only);
     let analytic = select(P.grey.x * cov + other * (1.0 - cov), other, hidden);
     // The sphere's outline with no dot near: as in the tiles without dots.
     let limb_only = limb && n_touch == 0u;

@@ -142,6 +142,15 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         }
         cores[l - 1].push((x as usize, y as usize));
     }
+    // A dot straddling the sphere's outline can join the mid-grey background into one huge core
+    // (where the local minimum is the dot's mixed pixels, the background passes the threshold):
+    // its darker pixels are thresholded again against the component's own level.
+    let mut split: Vec<Vec<(usize, usize)>> = cores.iter().filter(|c| c.len() > params.max_core_px).flat_map(|c| split_large(img, c, params)).collect();
+    cores.append(&mut split);
+    merge_fragments(&mut cores, w, h, params, &|x, y| {
+        let i = (y / POOL) * pw + x / POOL;
+        (hi.data[i] - img.data[y * w + x]) / (hi.data[i] - lo.data[i]).max(1e-6)
+    });
     let keep: Vec<usize> = (0..cores.len()).filter(|&k| (params.min_core_px..=params.max_core_px).contains(&cores[k].len())).collect();
     // Owner map of the grown cores (label of the grown core covering a pixel, or 0).
     let g = params.grow_px as i64;
@@ -217,25 +226,189 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         if !(s_core - d > f64::from(params.min_contrast) * 0.5) {
             continue;
         }
+        let darkness = |x: usize, y: usize| {
+            let s = surround_at(x, y);
+            (s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6)
+        };
+        // Only thin cores (about two pixels across at most: a sliver seen edge-on) are flooded.
+        let thin = core.len() <= 2 * (x1 - x0 + 1).max(y1 - y0 + 1);
+        let reach = if thin { params.window_px / 3 } else { 0 };
+        let region = blob_region(&owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &darkness);
         let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
-        for y in by0..=by1 {
-            for x in bx0..=bx1 {
-                if owner[y * w + x] != id {
-                    continue;
-                }
-                let s = surround_at(x, y);
-                // Not clamped at 0: noise in the surround then averages out instead of biasing.
-                let wgt = ((s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6)).clamp(-params.min_weight, 1.0);
-                sw += wgt;
-                su += wgt * x as f64;
-                sv += wgt * y as f64;
-            }
+        for &(x, y) in &region {
+            // Not clamped at 0: noise in the surround then averages out instead of biasing.
+            let wgt = darkness(x, y).clamp(-params.min_weight, 1.0);
+            sw += wgt;
+            su += wgt * x as f64;
+            sv += wgt * y as f64;
         }
         if sw > 0.0 {
             dots.push(Dot { centre_px: Point2::new(su / sw, sv / sw), area_px: sw, core_px: core.len(), contrast: s_core - d });
         }
     }
     Ok(dots)
+}
+
+/// The cores inside a too-large component: its pixels darker than halfway between its darkest
+/// level and its median (the background it swallowed), 8-connected.
+fn split_large(img: &ImageF32, comp: &[(usize, usize)], params: &DotParams) -> Vec<Vec<(usize, usize)>> {
+    let w = img.width;
+    let mut vals: Vec<f32> = comp.iter().map(|&(x, y)| img.data[y * w + x]).collect();
+    let lo = vals.iter().copied().fold(f32::INFINITY, f32::min);
+    let m = median(&mut vals);
+    if !(m - lo > 0.5 * params.min_contrast) {
+        return Vec::new();
+    }
+    let t = lo + 0.5 * (m - lo);
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for &(x, y) in comp {
+        x0 = x0.min(x);
+        y0 = y0.min(y);
+        x1 = x1.max(x);
+        y1 = y1.max(y);
+    }
+    let bw = x1 - x0 + 1;
+    let mut dark = vec![false; bw * (y1 - y0 + 1)];
+    for &(x, y) in comp {
+        dark[(y - y0) * bw + (x - x0)] = img.data[y * w + x] < t;
+    }
+    let mut out = Vec::new();
+    for &(x, y) in comp {
+        if !dark[(y - y0) * bw + (x - x0)] {
+            continue;
+        }
+        dark[(y - y0) * bw + (x - x0)] = false;
+        let mut part = vec![(x, y)];
+        let mut k = 0;
+        while k < part.len() {
+            let (px, py) = part[k];
+            k += 1;
+            for yy in py.saturating_sub(1).max(y0)..=(py + 1).min(y1) {
+                for xx in px.saturating_sub(1).max(x0)..=(px + 1).min(x1) {
+                    let i = (yy - y0) * bw + (xx - x0);
+                    if dark[i] {
+                        dark[i] = false;
+                        part.push((xx, yy));
+                    }
+                }
+            }
+        }
+        out.push(part);
+    }
+    out
+}
+
+/// Cores of at most this many pixels are fragment candidates for [`merge_fragments`].
+const FRAGMENT_PX: usize = 6;
+
+/// Join each small core (at most [`FRAGMENT_PX`] pixels) to a core one pixel away when a pixel
+/// between them is darker than [`JOIN_DARKNESS`] against the local levels: the threshold breaks a
+/// one-pixel-thin sliver (a dot seen edge-on) into pieces along its staircase.
+fn merge_fragments(cores: &mut [Vec<(usize, usize)>], w: usize, h: usize, params: &DotParams, darkness: &dyn Fn(usize, usize) -> f32) {
+    let in_range = |c: &Vec<(usize, usize)>| (1..=params.max_core_px).contains(&c.len());
+    let mut id = vec![u32::MAX; w * h];
+    for (k, c) in cores.iter().enumerate().filter(|(_, c)| in_range(c)) {
+        for &(x, y) in c {
+            id[y * w + x] = k as u32;
+        }
+    }
+    for k in 0..cores.len() {
+        if cores[k].is_empty() || cores[k].len() > FRAGMENT_PX {
+            continue;
+        }
+        let mut target = None;
+        'search: for &(x, y) in &cores[k] {
+            for dy in -2i64..=2 {
+                for dx in -2i64..=2 {
+                    let (qx, qy) = (x as i64 + dx, y as i64 + dy);
+                    if dx.abs().max(dy.abs()) != 2 || qx < 0 || qy < 0 || qx as usize >= w || qy as usize >= h {
+                        continue;
+                    }
+                    let o = id[qy as usize * w + qx as usize];
+                    if o == u32::MAX || o as usize == k {
+                        continue;
+                    }
+                    // A pixel next to both.
+                    let (mx, my) = ((x as i64 + qx).div_euclid(2) as usize, (y as i64 + qy).div_euclid(2) as usize);
+                    if f64::from(darkness(mx, my)) > JOIN_DARKNESS {
+                        target = Some(o as usize);
+                        break 'search;
+                    }
+                }
+            }
+        }
+        if let Some(o) = target {
+            let moved = std::mem::take(&mut cores[k]);
+            for &(x, y) in &moved {
+                id[y * w + x] = o as u32;
+            }
+            cores[o].extend(moved);
+        }
+    }
+}
+
+/// Darkness above which a pixel next to a blob's region joins it.
+const JOIN_DARKNESS: f64 = 0.4;
+
+/// The pixels a blob's centre is computed over: its grown core (`owner == id` in `bbox`), extended
+/// by flooding into free pixels darker than [`JOIN_DARKNESS`] (the rest of a sliver whose core
+/// the threshold broke up or cut short) at most `reach` pixels beyond `bbox` and inside `limits`,
+/// plus a one-pixel ring of free pixels around what the flood added (their anti-aliased rim).
+fn blob_region(
+    owner: &[u32],
+    w: usize,
+    id: u32,
+    bbox: [usize; 4],
+    limits: [usize; 4],
+    reach: usize,
+    darkness: &dyn Fn(usize, usize) -> f64,
+) -> Vec<(usize, usize)> {
+    let [bx0, by0, bx1, by1] = bbox;
+    let x0 = bx0.saturating_sub(reach).max(limits[0]);
+    let y0 = by0.saturating_sub(reach).max(limits[1]);
+    let x1 = (bx1 + reach).min(limits[2]);
+    let y1 = (by1 + reach).min(limits[3]);
+    let bw = x1 - x0 + 1;
+    let mut inside = vec![false; bw * (y1 - y0 + 1)];
+    let mut region = Vec::new();
+    for y in by0..=by1 {
+        for x in bx0..=bx1 {
+            if owner[y * w + x] == id {
+                inside[(y - y0) * bw + (x - x0)] = true;
+                region.push((x, y));
+            }
+        }
+    }
+    let neighbours = |x: usize, y: usize| {
+        (-1i64..=1).flat_map(move |dy| (-1i64..=1).map(move |dx| (x as i64 + dx, y as i64 + dy))).filter_map(move |(xx, yy)| {
+            (xx >= x0 as i64 && yy >= y0 as i64 && xx <= x1 as i64 && yy <= y1 as i64).then_some((xx as usize, yy as usize))
+        })
+    };
+    let core_len = region.len();
+    let mut k = 0;
+    while k < region.len() {
+        let (x, y) = region[k];
+        k += 1;
+        for (xx, yy) in neighbours(x, y) {
+            let i = (yy - y0) * bw + (xx - x0);
+            if reach > 0 && !inside[i] && owner[yy * w + xx] == 0 && darkness(xx, yy) > JOIN_DARKNESS {
+                inside[i] = true;
+                region.push((xx, yy));
+            }
+        }
+    }
+    let flooded = region.len();
+    for k in core_len..flooded {
+        let (x, y) = region[k];
+        for (xx, yy) in neighbours(x, y) {
+            let i = (yy - y0) * bw + (xx - x0);
+            if !inside[i] && owner[yy * w + xx] == 0 {
+                inside[i] = true;
+                region.push((xx, yy));
+            }
+        }
+    }
+    region
 }
 
 #[cfg(test)]

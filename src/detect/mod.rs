@@ -3,7 +3,8 @@
 //! Holds the sub-pixel corner refiners (gradient-orthogonality [`refine_corner`] and the unbiased
 //! saddle-model fit [`refine_saddle`]), the chessboard detector [`find_chessboard`] (saddle
 //! response in [`response`], grid growing in [`grid`], X-junction test in [`xcorner`]), the dot
-//! detector and orderings, and the target dispatch.
+//! detector and orderings (S-path: chain from the start dot in [`s_path_order`], indexing by the
+//! known 3-D path in [`s_path_fit`]), and the target dispatch.
 //!
 //! Reference: OpenCV `findChessboardCorners` / `cornerSubPix`; Geiger et al. 2012, "Automatic
 //! camera and range sensor calibration using a single shot".
@@ -18,6 +19,7 @@ pub mod image;
 pub mod par;
 pub mod pool;
 pub mod response;
+pub mod s_path_fit;
 pub mod s_path_order;
 pub mod saddle_fit;
 pub mod subpixel;

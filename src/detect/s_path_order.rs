@@ -59,6 +59,103 @@ fn two_nearest(dots: &[Dot], i: usize) -> Vec<(usize, f64)> {
     d
 }
 
+/// Extend `chain` ((path index, dot) pairs, at least two, in path order) forward from its last
+/// two entries: constant-curvature prediction (the last step turned by the angle between the last
+/// two steps), the nearest unused dot within `tolerance` of the step length, bridging up to
+/// [`MAX_SKIP`] steps; stops at `index_limit` or when no dot fits. Marks the dots it takes in `used`.
+pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>, tolerance: f64, index_limit: i64) {
+    let radius = |d: &Dot| (d.area_px / std::f64::consts::PI).sqrt();
+    let nearest_unused = |p: Point2<f64>, used: &[bool]| {
+        dots.iter()
+            .enumerate()
+            .filter(|(j, _)| !used[*j])
+            .map(|(j, d)| (j, (d.centre_px - p).norm()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    while chain.len() >= 2 {
+        let n = chain.len();
+        let ((i_prev, j_prev), (i_cur, j_cur)) = (chain[n - 2], chain[n - 1]);
+        let (prev, cur) = (dots[j_prev].centre_px, dots[j_cur].centre_px);
+        let step = (cur - prev) / (i_cur - i_prev) as f64;
+        // Constant curvature: turn the step by the angle between the last two steps.
+        let turn = if n >= 3 {
+            let (i_before, j_before) = chain[n - 3];
+            let before = (prev - dots[j_before].centre_px) / (i_prev - i_before) as f64;
+            let ang = before.x * step.y - before.y * step.x;
+            ang.atan2(before.dot(&step)).clamp(-0.6, 0.6)
+        } else {
+            0.0
+        };
+        let rot = nalgebra::Rotation2::new(turn);
+        let mut found = None;
+        for skip in 1..=MAX_SKIP {
+            // Predict skip steps ahead along the arc.
+            let mut pred = cur;
+            let mut s = step;
+            for _ in 0..skip {
+                s = rot * s;
+                pred += s;
+            }
+            if let Some((j, dist)) = nearest_unused(pred, used) {
+                // Path dots do not overlap (25.7 mm apart, 12 mm beads): two blobs closer than most of
+                // their radii are clutter, not consecutive dots.
+                let apart = (dots[j].centre_px - cur).norm() >= 0.8 * (radius(&dots[j]) + radius(&dots[j_cur]));
+                if apart && dist <= tolerance * step.norm() * skip as f64 + 1.0 {
+                    found = Some((j, i_cur + skip as i64));
+                    break;
+                }
+            }
+        }
+        let Some((j, index)) = found else { break };
+        if index >= index_limit {
+            break;
+        }
+        used[j] = true;
+        chain.push((index, j));
+    }
+}
+
+/// Chains of dots without a known start: from each unused dot (largest first) and its nearest
+/// unused neighbour, grown both ways with [`grow_chain`]. Indices are relative to the seed dot
+/// (0) and may be negative. Chains of fewer than `min_len` dots are dropped; longest first.
+pub fn anonymous_chains(dots: &[Dot], tolerance: f64, points: usize, min_len: usize) -> Vec<Vec<(i64, usize)>> {
+    let mut used = vec![false; dots.len()];
+    let mut seeds: Vec<usize> = (0..dots.len()).collect();
+    seeds.sort_by(|a, b| dots[*b].area_px.total_cmp(&dots[*a].area_px));
+    let mut chains = Vec::new();
+    for seed in seeds {
+        if used[seed] {
+            continue;
+        }
+        let next = dots
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != seed && !used[*j])
+            .map(|(j, d)| (j, (d.centre_px - dots[seed].centre_px).norm()))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((next, _)) = next else { break };
+        used[seed] = true;
+        used[next] = true;
+        let limit = points as i64;
+        let mut forward = vec![(0, seed), (1, next)];
+        grow_chain(dots, &mut used, &mut forward, tolerance, limit);
+        // Backward: the same growth on the reversed chain (indices negated).
+        let mut backward: Vec<(i64, usize)> = forward.iter().rev().map(|&(i, j)| (-i, j)).collect();
+        grow_chain(dots, &mut used, &mut backward, tolerance, limit);
+        let chain: Vec<(i64, usize)> = backward.iter().rev().map(|&(i, j)| (-i, j)).collect();
+        if chain.len() >= min_len {
+            chains.push(chain);
+        } else {
+            // Too short to place: free its dots for other chains (the seed stays used).
+            for &(_, j) in chain.iter().filter(|(_, j)| *j != seed) {
+                used[j] = false;
+            }
+        }
+    }
+    chains.sort_by_key(|c| std::cmp::Reverse(c.len()));
+    chains
+}
+
 /// Order detected dots along the S-path.
 ///
 /// # Errors
@@ -80,60 +177,13 @@ pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<Index
     }
     let mut used = vec![false; dots.len()];
     used[start] = true;
-    let mut out = vec![IndexedDot { index: 0, centre_px: dots[start].centre_px }];
-    let Some(&(second, _)) = two_nearest(dots, start).first() else { return Ok(out) };
-    used[second] = true;
-    out.push(IndexedDot { index: 1, centre_px: dots[second].centre_px });
-    // The detected dot at the end of the chain.
-    let mut cur_j = second;
-    let radius = |d: &Dot| (d.area_px / std::f64::consts::PI).sqrt();
-    let nearest_unused = |p: Point2<f64>, used: &[bool]| {
-        dots.iter()
-            .enumerate()
-            .filter(|(j, _)| !used[*j])
-            .map(|(j, d)| (j, (d.centre_px - p).norm()))
-            .min_by(|a, b| a.1.total_cmp(&b.1))
+    let Some(&(second, _)) = two_nearest(dots, start).first() else {
+        return Ok(vec![IndexedDot { index: 0, centre_px: dots[start].centre_px }]);
     };
-    while out.len() < dots.len() {
-        let n = out.len();
-        let (prev, cur) = (out[n - 2], out[n - 1]);
-        let step = (cur.centre_px - prev.centre_px) / (cur.index - prev.index) as f64;
-        // Constant curvature: turn the step by the angle between the last two steps.
-        let turn = if n >= 3 {
-            let before = (prev.centre_px - out[n - 3].centre_px) / (prev.index - out[n - 3].index) as f64;
-            let ang = before.x * step.y - before.y * step.x;
-            ang.atan2(before.dot(&step)).clamp(-0.6, 0.6)
-        } else {
-            0.0
-        };
-        let rot = nalgebra::Rotation2::new(turn);
-        let mut found = None;
-        for skip in 1..=MAX_SKIP {
-            // Predict skip steps ahead along the arc.
-            let mut pred = cur.centre_px;
-            let mut s = step;
-            for _ in 0..skip {
-                s = rot * s;
-                pred += s;
-            }
-            if let Some((j, dist)) = nearest_unused(pred, &used) {
-                // Path dots do not overlap (25.7 mm apart, 12 mm beads): two blobs closer than most of
-                // their radii are clutter, not consecutive dots.
-                let apart = (dots[j].centre_px - cur.centre_px).norm() >= 0.8 * (radius(&dots[j]) + radius(&dots[cur_j]));
-                if apart && dist <= params.tolerance * step.norm() * skip as f64 + 1.0 {
-                    found = Some((j, cur.index + skip));
-                    break;
-                }
-            }
-        }
-        let Some((j, index)) = found else { break };
-        if index >= params.points {
-            break;
-        }
-        used[j] = true;
-        cur_j = j;
-        out.push(IndexedDot { index, centre_px: dots[j].centre_px });
-    }
+    used[second] = true;
+    let mut chain = vec![(0, start), (1, second)];
+    grow_chain(dots, &mut used, &mut chain, params.tolerance, params.points as i64);
+    let out: Vec<IndexedDot> = chain.iter().map(|&(i, j)| IndexedDot { index: i as usize, centre_px: dots[j].centre_px }).collect();
     let need = params.min_chain.min(params.points).max((params.min_chain_share * dots.len() as f64).ceil() as usize);
     if out.len() < need {
         return Err(DetectError::NotFound {

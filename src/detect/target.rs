@@ -8,8 +8,10 @@ use nalgebra::Point2;
 use super::chessboard::{find_chessboard, find_chessboard_u8, ChessboardCorners, ChessboardParams};
 use super::dots::{find_dots, DotParams};
 use super::grid_order::order_grid;
-use super::s_path_order::{order_s_path, SPathOrderParams};
+use super::s_path_fit::{index_s_path, SPathFitParams};
 use super::{DetectError, ImageF32, ImageU8};
+use crate::target::s_path::{build_s_path, course_planar_s};
+use crate::target::{course_s_path, SPath};
 
 /// What to look for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -88,7 +90,10 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
         }
         TargetSpec::SPath { points } => {
             let dots = find_dots(img, &DotParams::default())?;
-            match order_s_path(&dots, &SPathOrderParams { points, ..Default::default() }) {
+            let Some(path) = course_path(points) else {
+                return Err(DetectError::BadParams { reason: "the S-path needs at least 2 points" });
+            };
+            match index_s_path(&dots, &path, &SPathFitParams::default()) {
                 Ok(ordered) => Ok(Detection {
                     found: true,
                     points_px: ordered.iter().map(|d| d.centre_px).collect(),
@@ -100,6 +105,18 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
             }
         }
     }
+}
+
+/// The course's S on its sphere, resampled to `points` points (cached for the course's 101).
+fn course_path(points: usize) -> Option<std::borrow::Cow<'static, SPath>> {
+    static COURSE: std::sync::OnceLock<SPath> = std::sync::OnceLock::new();
+    let course = COURSE.get_or_init(course_s_path);
+    if points == course.len() {
+        return Some(std::borrow::Cow::Borrowed(course));
+    }
+    let planar = course_planar_s().ok()?;
+    let points_m = build_s_path(&planar, points).ok()?;
+    Some(std::borrow::Cow::Owned(SPath { points_m, ..course.clone() }))
 }
 
 /// [`detect`] on 8-bit samples, with identical results: the chessboard detector works on them

@@ -127,3 +127,58 @@ fn truth_centroid_matches_brute_force() {
     eprintln!("truth centroid vs 32x32 brute force: worst {worst:.5} px");
     assert!(worst <= 0.01, "{worst}");
 }
+
+/// Painted discs seen edge-on at the sphere's outline (slivers): the rendered pixels against a
+/// 16 x 16 supersampled trace over every dot's box. Before the fix of 2026-11-24 the renderer
+/// drew each outline disc's ball beyond the sphere in the sphere's grey and split slivers in two
+/// (135 grey levels off); what is left is the fine pass's 8 x 8 sampling of slivers.
+#[test]
+fn s_path_disc_slivers_match_the_traced_image() {
+    let mut scene = parse_scene(include_str!("../../assets/scenes/course_s_path.toml")).expect("scene");
+    let world_from_cam = scene.cam_from_target.inverse();
+    // The desired view orbited 12 degrees about the sphere's centre: the S runs along the outline.
+    let centre = nalgebra::Vector3::new(0.0, 0.0, 0.5);
+    let orbit = nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, 0.21);
+    let about = nalgebra::Translation3::from(centre) * nalgebra::Isometry3::from_parts(nalgebra::Translation3::identity(), orbit) * nalgebra::Translation3::from(-centre);
+    scene.cam_from_target = (about * world_from_cam).inverse();
+    if let Target::SPath(s) = &mut scene.target {
+        s.style = DotStyle::Disc;
+    }
+    let Target::SPath(s) = &scene.target else { return };
+    let img = renderer().render_linear(&scene).expect("render");
+    let tracer = Tracer::new(&scene);
+    let w = scene.camera.size.width as i64;
+    let h = scene.camera.size.height as i64;
+    let (mut worst, mut sum, mut count, mut slivers) = (0.0f64, 0.0, 0usize, 0);
+    let truth = truth_labels(&scene);
+    for f in truth.features.iter().filter(|f| f.visible) {
+        let Some(bb) = dot_bbox_px(&scene, &s.path.points_m[f.id], s.dot_radius(f.id), 2.0) else { continue };
+        let (x0, y0, x1, y1) = (bb[0].floor() as i64, bb[1].floor() as i64, bb[2].ceil() as i64, bb[3].ceil() as i64);
+        if x0 < 0 || y0 < 0 || x1 >= w || y1 >= h {
+            continue;
+        }
+        // Slivers: less than a third of the box is dot.
+        slivers += usize::from(f.area_px.unwrap_or(0.0) < ((x1 - x0 + 1) * (y1 - y0 + 1)) as f64 / 3.0);
+        let n = 16;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let mut acc = 0.0;
+                for j in 0..n {
+                    for i in 0..n {
+                        let q = Point2::new(x as f64 - 0.5 + (f64::from(i) + 0.5) / f64::from(n), y as f64 - 0.5 + (f64::from(j) + 0.5) / f64::from(n));
+                        acc += tracer.trace_px(&q).intensity;
+                    }
+                }
+                let d = (acc / f64::from(n * n) - f64::from(img[(y * w + x) as usize])).abs();
+                worst = worst.max(d);
+                sum += d;
+                count += 1;
+            }
+        }
+    }
+    let mean = sum / count.max(1) as f64;
+    eprintln!("disc slivers: {slivers} thin dots, {count} pixels: |render - traced| mean {mean:.3}, max {worst:.2} grey levels");
+    assert!(slivers >= 10, "only {slivers} slivers in view");
+    assert!(worst <= 20.0, "max {worst}");
+    assert!(mean <= 0.3, "mean {mean}");
+}

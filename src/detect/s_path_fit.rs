@@ -1,0 +1,359 @@
+//! Indexing S-path dots by the path's known 3-D shape.
+//!
+//! The chain from the start dot ([`super::s_path_order`]) indexes the dots only up to the first
+//! stretch it cannot bridge, and not at all when the start dot is hidden. The path's points are
+//! known in 3-D (the course's S on its sphere), so a labelled stretch fixes a projective camera:
+//!
+//! 1. *Seed*: the chain from the start dot when there is one; otherwise chains grown from any dot
+//!    ([`anonymous_chains`], longest first), each tried at every index offset and in both
+//!    directions. A direct linear transform (DLT) from its dots to the path points gives a
+//!    reprojection RMS per labelling; the best must be small and clearly better than the runner-up
+//!    (the S is nearly point-symmetric, so the reversed labelling is the usual runner-up).
+//! 2. *Grow*: project all path points with the fitted camera, keep those on the side of the sphere
+//!    the camera sees, match each to the nearest detected dot within a fraction of the local
+//!    projected spacing (one dot per point, nearest pairs first), refit, repeat until stable.
+//!
+//! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera; lens
+//! distortion is absorbed by the matching tolerance.
+//!
+//! Reference: Hartley and Zisserman, *Multiple View Geometry*, 2nd ed., section 7.1 (normalised
+//! DLT for camera resectioning).
+
+use nalgebra::{Matrix3x4, Matrix4, Point2, Point3, SMatrix, SymmetricEigen, Vector3, Vector4};
+
+use super::dots::Dot;
+use super::s_path_order::{anonymous_chains, order_s_path, IndexedDot, SPathOrderParams};
+use super::DetectError;
+use crate::target::SPath;
+
+/// Parameters of [`index_s_path`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SPathFitParams {
+    /// Chain growing and acceptance (start dot, tolerances, minimum chain and share).
+    pub order: SPathOrderParams,
+    /// Fewest dots of a chain to try labellings on.
+    pub min_seed: usize,
+    /// Largest reprojection RMS of an accepted seed labelling, pixels.
+    pub max_seed_rms_px: f64,
+    /// The runner-up labelling's RMS must exceed the best's by this factor.
+    pub ambiguity_ratio: f64,
+    /// Matching radius around a projected point, as a fraction of the projected spacing there.
+    pub match_fraction: f64,
+    /// A dot whose reprojection residual differs from its path neighbours' by more is dropped, px.
+    pub max_local_deviation_px: f64,
+}
+
+impl Default for SPathFitParams {
+    fn default() -> Self {
+        Self { order: SPathOrderParams::default(), min_seed: 10, max_seed_rms_px: 4.0, ambiguity_ratio: 2.5, match_fraction: 0.4, max_local_deviation_px: 1.5 }
+    }
+}
+
+/// A projective camera fitted by the DLT.
+#[derive(Debug, Clone, Copy)]
+struct Dlt {
+    p: Matrix3x4<f64>,
+}
+
+impl Dlt {
+    /// Normalised DLT from at least 6 correspondences; `None` when they are degenerate.
+    fn fit(world: &[Point3<f64>], image: &[Point2<f64>]) -> Option<Self> {
+        let n = world.len();
+        if n < 6 || image.len() != n {
+            return None;
+        }
+        let m2 = image.iter().fold(Vector3::zeros(), |a, p| a + p.coords.push(1.0)) / n as f64;
+        let s2 = image.iter().map(|p| (p.coords - m2.xy()).norm()).sum::<f64>() / n as f64;
+        let m3 = world.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n as f64;
+        let s3 = world.iter().map(|p| (p.coords - m3).norm()).sum::<f64>() / n as f64;
+        if !(s2 > 1e-9 && s3 > 1e-12) {
+            return None;
+        }
+        let (k2, k3) = (std::f64::consts::SQRT_2 / s2, 3f64.sqrt() / s3);
+        let mut ata = SMatrix::<f64, 12, 12>::zeros();
+        for (x, u) in world.iter().zip(image) {
+            let xs = ((x.coords - m3) * k3).push(1.0);
+            let us = (u.coords - m2.xy()) * k2;
+            let mut r1 = SMatrix::<f64, 1, 12>::zeros();
+            let mut r2 = SMatrix::<f64, 1, 12>::zeros();
+            for c in 0..4 {
+                r1[c] = xs[c];
+                r1[8 + c] = -us.x * xs[c];
+                r2[4 + c] = xs[c];
+                r2[8 + c] = -us.y * xs[c];
+            }
+            ata += r1.transpose() * r1 + r2.transpose() * r2;
+        }
+        let eig = SymmetricEigen::new(ata);
+        let mut order: Vec<usize> = (0..12).collect();
+        order.sort_by(|a, b| eig.eigenvalues[*a].total_cmp(&eig.eigenvalues[*b]));
+        let (l0, l1, lmax) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]], eig.eigenvalues[order[11]]);
+        // A one-dimensional null space: the second-smallest eigenvalue well above round-off.
+        if !(l1 > 1e-10 * lmax) || !l0.is_finite() {
+            return None;
+        }
+        let v = eig.eigenvectors.column(order[0]);
+        let ps = Matrix3x4::from_row_slice(v.as_slice());
+        let t2_inv = nalgebra::Matrix3::new(1.0 / k2, 0.0, m2.x, 0.0, 1.0 / k2, m2.y, 0.0, 0.0, 1.0);
+        let t3 = Matrix4::new(k3, 0.0, 0.0, -k3 * m3.x, 0.0, k3, 0.0, -k3 * m3.y, 0.0, 0.0, k3, -k3 * m3.z, 0.0, 0.0, 0.0, 1.0);
+        let mut p = t2_inv * ps * t3;
+        // Points in front: positive third coordinate for most of them.
+        let front = world.iter().filter(|x| (p * x.to_homogeneous())[2] > 0.0).count();
+        if 2 * front < n {
+            p = -p;
+        }
+        p.iter().all(|v| v.is_finite()).then_some(Self { p })
+    }
+
+    fn project(&self, x: &Point3<f64>) -> Option<Point2<f64>> {
+        let y = self.p * x.to_homogeneous();
+        (y[2] > 0.0).then(|| Point2::new(y[0] / y[2], y[1] / y[2]))
+    }
+
+    /// Reprojection RMS, pixels (points behind the camera count as 1e6 px).
+    fn rms(&self, world: &[Point3<f64>], image: &[Point2<f64>]) -> f64 {
+        let ss: f64 = world.iter().zip(image).map(|(x, u)| self.project(x).map_or(1e12, |q| (q - u).norm_squared())).sum();
+        (ss / world.len().max(1) as f64).sqrt()
+    }
+
+    /// The camera centre (homogeneous null vector of P), when finite.
+    fn centre(&self) -> Option<Point3<f64>> {
+        let col = |i: usize| self.p.column(i).into_owned();
+        let det = |a: usize, b: usize, c: usize| nalgebra::Matrix3::from_columns(&[col(a), col(b), col(c)]).determinant();
+        let c = Vector4::new(det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2));
+        (c[3].abs() > 1e-12).then(|| Point3::new(c[0] / c[3], c[1] / c[3], c[2] / c[3]))
+    }
+}
+
+/// (path index, dot index) pairs.
+type Labels = Vec<(usize, usize)>;
+
+/// Best labelling of an unlabelled chain ((relative index, dot) pairs), when it is clearly the
+/// best.
+fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Option<Labels> {
+    let n = path.len() as i64;
+    let image: Vec<Point2<f64>> = chain.iter().map(|&(_, j)| dots[j].centre_px).collect();
+    let (lo, hi) = chain.iter().fold((i64::MAX, i64::MIN), |(a, b), &(i, _)| (a.min(i), b.max(i)));
+    let mut fits: Vec<(f64, Labels)> = Vec::new();
+    for dir in [1i64, -1] {
+        // Absolute index = offset + dir * relative, all in 0..n.
+        let (omin, omax) = if dir == 1 { (-lo, n - 1 - hi) } else { (hi, n - 1 + lo) };
+        for offset in omin..=omax {
+            let labels: Vec<(usize, usize)> = chain.iter().map(|&(i, j)| ((offset + dir * i) as usize, j)).collect();
+            let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
+            if let Some(dlt) = Dlt::fit(&world, &image) {
+                fits.push((dlt.rms(&world, &image), labels));
+            }
+        }
+    }
+    fits.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let best = fits.first()?;
+    let runner_up = fits.get(1).map_or(f64::INFINITY, |f| f.0);
+    log::debug!("s-path seed of {} dots: best RMS {:.3} px, runner-up {:.3} px", chain.len(), best.0, runner_up);
+    (best.0 <= params.max_seed_rms_px && runner_up > params.ambiguity_ratio * best.0.max(0.05)).then(|| fits.swap_remove(0).1)
+}
+
+/// Match projected path points to dots: (path index, dot) pairs, nearest first, one each.
+fn match_projection(dlt: &Dlt, dots: &[Dot], path: &SPath, fraction: f64) -> Vec<(usize, usize)> {
+    let centre = dlt.centre();
+    let proj: Vec<Option<Point2<f64>>> = (0..path.len())
+        .map(|i| {
+            let x = path.points_m[i];
+            // Dots on the far side of the sphere are hidden.
+            let facing = centre.is_none_or(|c| path.normal_at(i).dot(&(c - x)) > 0.0);
+            if facing {
+                dlt.project(&x)
+            } else {
+                None
+            }
+        })
+        .collect();
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for (i, q) in proj.iter().enumerate() {
+        let Some(q) = q else { continue };
+        // Projected spacing to the neighbours (hidden neighbours projected anyway).
+        let spacing = [i.checked_sub(1), Some(i + 1)]
+            .into_iter()
+            .flatten()
+            .filter(|&k| k < path.len())
+            .filter_map(|k| dlt.project(&path.points_m[k]).map(|p| (p - q).norm()))
+            .fold(f64::INFINITY, f64::min);
+        let tol = fraction * spacing;
+        for (j, d) in dots.iter().enumerate() {
+            let e = (d.centre_px - q).norm();
+            if e <= tol {
+                pairs.push((e, i, j));
+            }
+        }
+    }
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (mut point_used, mut dot_used) = (vec![false; path.len()], vec![false; dots.len()]);
+    let mut out = Vec::new();
+    for (_, i, j) in pairs {
+        if !point_used[i] && !dot_used[j] {
+            point_used[i] = true;
+            dot_used[j] = true;
+            out.push((i, j));
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Fit to labelled pairs, then alternate projection matching and refitting until stable.
+fn grow(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
+    for _ in 0..6 {
+        let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
+        let image: Vec<Point2<f64>> = labels.iter().map(|&(_, j)| dots[j].centre_px).collect();
+        let Some(dlt) = Dlt::fit(&world, &image) else { break };
+        let next = match_projection(&dlt, dots, path, params.match_fraction);
+        if next.len() < labels.len() || next == labels {
+            break;
+        }
+        labels = next;
+    }
+    labels
+}
+
+/// Drop matches whose reprojection residual differs from the median residual of their path
+/// neighbours (up to 3 indices either side) by more than `max_px`. The residuals of good dots vary
+/// smoothly along the path (the blob-centroid bias of beads, lens distortion); a blob that lost
+/// part of itself (a sliver along the outline) jumps.
+fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px: f64) -> Vec<(usize, usize)> {
+    let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
+    let image: Vec<Point2<f64>> = labels.iter().map(|&(_, j)| dots[j].centre_px).collect();
+    let Some(dlt) = Dlt::fit(&world, &image) else { return labels };
+    let residual: Vec<Option<nalgebra::Vector2<f64>>> = world.iter().zip(&image).map(|(x, u)| dlt.project(x).map(|q| u - q)).collect();
+    let keep: Vec<bool> = (0..labels.len())
+        .map(|k| {
+            let Some(r) = residual[k] else { return false };
+            let near: Vec<nalgebra::Vector2<f64>> = (0..labels.len())
+                .filter(|&m| m != k && labels[m].0.abs_diff(labels[k].0) <= 3)
+                .filter_map(|m| residual[m])
+                .collect();
+            if near.len() < 2 {
+                return true;
+            }
+            let med = |f: fn(&nalgebra::Vector2<f64>) -> f64| {
+                let mut v: Vec<f64> = near.iter().map(f).collect();
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            let m = nalgebra::Vector2::new(med(|v| v.x), med(|v| v.y));
+            (r - m).norm() <= max_px
+        })
+        .collect();
+    labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
+}
+
+/// Index the S-path's dots: the start chain or a labelled chain, grown by projecting the known
+/// path (see the module docs).
+///
+/// # Errors
+/// [`DetectError::NotFound`] when no stretch of dots can be labelled unambiguously, or the result
+/// holds too few of the detected dots.
+pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Vec<IndexedDot>, DetectError> {
+    let order = SPathOrderParams { points: path.len(), ..params.order };
+    let mut seed: Option<Vec<(usize, usize)>> = None;
+    let start_chain = order_s_path(dots, &order);
+    if let Ok(chain) = &start_chain {
+        let labels: Vec<(usize, usize)> = chain
+            .iter()
+            .map(|d| (d.index, dots.iter().position(|o| o.centre_px == d.centre_px).unwrap_or(0)))
+            .collect();
+        if labels.len() >= params.min_seed {
+            seed = Some(labels);
+        }
+    }
+    if seed.is_none() {
+        for chain in anonymous_chains(dots, order.tolerance, path.len(), params.min_seed) {
+            if let Some(labels) = label_chain(&chain, dots, path, params) {
+                seed = Some(labels);
+                break;
+            }
+        }
+    }
+    let Some(seed) = seed else {
+        return match start_chain {
+            // A short start chain is all there is: keep the old behaviour.
+            Ok(chain) => Ok(chain),
+            Err(_) => Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) }),
+        };
+    };
+    let labels = drop_outliers(dots, path, grow(dots, path, seed, params), params.max_local_deviation_px);
+    let need = order.min_chain.min(order.points).max((order.min_chain_share * dots.len() as f64).ceil() as usize);
+    if labels.len() < need {
+        return Err(DetectError::NotFound { reason: format!("{} of {} dots placed on the S-path (at least {need} needed)", labels.len(), dots.len()) });
+    }
+    Ok(labels.iter().map(|&(i, j)| IndexedDot { index: i, centre_px: dots[j].centre_px }).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::target::course_s_path;
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+
+    /// The course S-path seen from the course's desired pose (f = 1500 px, 1280 x 1024).
+    fn projected() -> (SPath, Vec<Option<Point2<f64>>>) {
+        let path = course_s_path();
+        let r = nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, 1.0, -1.0, 0.0, 0.0));
+        let cam_from_world = Isometry3::from_parts(Translation3::new(0.0, -0.55, 1.8), UnitQuaternion::from_rotation_matrix(&r));
+        let pts = path
+            .points_m
+            .iter()
+            .map(|x| {
+                let c = cam_from_world * x;
+                (c.z > 0.0).then(|| Point2::new(640.0 + 1500.0 * c.x / c.z, 512.0 + 1500.0 * c.y / c.z))
+            })
+            .collect();
+        (path, pts)
+    }
+
+    fn dot(p: Point2<f64>, area: f64) -> Dot {
+        Dot { centre_px: p, area_px: area, core_px: 4, contrast: 200.0 }
+    }
+
+    #[test]
+    fn dlt_recovers_a_projection() {
+        let (path, pts) = projected();
+        let world: Vec<Point3<f64>> = path.points_m[..30].to_vec();
+        let image: Vec<Point2<f64>> = pts[..30].iter().map(|p| p.unwrap()).collect();
+        let dlt = Dlt::fit(&world, &image).unwrap();
+        assert!(dlt.rms(&world, &image) < 1e-6);
+        let q = dlt.project(&path.points_m[80]).unwrap();
+        assert!((q - pts[80].unwrap()).norm() < 1e-4, "{q}");
+        // The camera centre: world (1.8, 0, 0.55).
+        let c = dlt.centre().unwrap();
+        assert!((c - Point3::new(1.8, 0.0, 0.55)).norm() < 1e-6, "{c}");
+    }
+
+    #[test]
+    fn indexes_the_path_without_its_start_and_across_a_gap() {
+        // Start hidden (dots 0-7 gone), a gap of five (40-44), shuffled.
+        let (path, pts) = projected();
+        let mut dots: Vec<Dot> =
+            (0..101).filter(|i| *i >= 8 && !(40..45).contains(i)).map(|i| dot(pts[i].unwrap(), 30.0)).collect();
+        dots.reverse();
+        dots.swap(5, 50);
+        let out = index_s_path(&dots, &path, &SPathFitParams::default()).unwrap();
+        let idx: Vec<usize> = out.iter().map(|d| d.index).collect();
+        assert_eq!(idx, (8..101).filter(|i| !(40..45).contains(i)).collect::<Vec<_>>());
+        for d in &out {
+            assert!((d.centre_px - pts[d.index].unwrap()).norm() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn clutter_is_not_a_path() {
+        // A smooth arc of random-ish dots is no stretch of the S.
+        let dots: Vec<Dot> = (0..30)
+            .map(|i| {
+                let a = f64::from(i) * 0.05;
+                dot(Point2::new(300.0 + 200.0 * a.cos(), 300.0 + 200.0 * a.sin()), 30.0)
+            })
+            .collect();
+        let (path, _) = projected();
+        assert!(index_s_path(&dots, &path, &SPathFitParams::default()).is_err());
+    }
+}
