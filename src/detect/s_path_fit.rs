@@ -128,9 +128,9 @@ impl Dlt {
 /// (path index, dot index) pairs.
 type Labels = Vec<(usize, usize)>;
 
-/// Best labelling of an unlabelled chain ((relative index, dot) pairs), when it is clearly the
-/// best.
-fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Option<Labels> {
+/// Every labelling of an unlabelled chain ((relative index, dot) pairs), at every index offset
+/// and in both directions, with its DLT reprojection RMS (px): best first.
+fn labellings(chain: &[(i64, usize)], dots: &[Dot], path: &SPath) -> Vec<(f64, Labels)> {
     let n = path.len() as i64;
     let image: Vec<Point2<f64>> = chain.iter().map(|&(_, j)| dots[j].centre_px).collect();
     let (lo, hi) = chain.iter().fold((i64::MAX, i64::MIN), |(a, b), &(i, _)| (a.min(i), b.max(i)));
@@ -139,7 +139,7 @@ fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPat
         // Absolute index = offset + dir * relative, all in 0..n.
         let (omin, omax) = if dir == 1 { (-lo, n - 1 - hi) } else { (hi, n - 1 + lo) };
         for offset in omin..=omax {
-            let labels: Vec<(usize, usize)> = chain.iter().map(|&(i, j)| ((offset + dir * i) as usize, j)).collect();
+            let labels: Labels = chain.iter().map(|&(i, j)| ((offset + dir * i) as usize, j)).collect();
             let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
             if let Some(dlt) = Dlt::fit(&world, &image) {
                 fits.push((dlt.rms(&world, &image), labels));
@@ -147,10 +147,64 @@ fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPat
         }
     }
     fits.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let best = fits.first()?;
+    fits
+}
+
+/// The labelling of a whole chain, when it is clearly the best.
+fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Option<Labels> {
+    let mut fits = labellings(chain, dots, path);
+    let best = fits.first()?.0;
     let runner_up = fits.get(1).map_or(f64::INFINITY, |f| f.0);
-    log::debug!("s-path seed of {} dots: best RMS {:.3} px, runner-up {:.3} px", chain.len(), best.0, runner_up);
-    (best.0 <= params.max_seed_rms_px && runner_up > params.ambiguity_ratio * best.0.max(0.05)).then(|| fits.swap_remove(0).1)
+    log::debug!("s-path chain of {} dots: best RMS {best:.3} px, runner-up {runner_up:.3} px", chain.len());
+    (best <= params.max_seed_rms_px && runner_up > params.ambiguity_ratio * best.max(0.05)).then(|| fits.swap_remove(0).1)
+}
+
+/// Dots per window of [`search_windows`].
+const WINDOW: usize = 15;
+/// Labellings grown per window.
+const TOP_PER_WINDOW: usize = 3;
+/// Chains searched.
+const CHAINS_SEARCHED: usize = 3;
+
+/// When no whole chain labels unambiguously (a chain that bridged wrongly somewhere, strong lens
+/// distortion over a long stretch): windows of [`WINDOW`] consecutive chain dots, their few best
+/// labellings each grown over all dots; among the grown labellings placing at least 80 % as many
+/// dots as the best, the one with the lowest reprojection RMS wins (a labelling off by one index
+/// places as many dots, but fits them worse).
+fn search_windows(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Option<Labels> {
+    let mut grown: Vec<(usize, f64, Labels)> = Vec::new();
+    for chain in chains.iter().take(CHAINS_SEARCHED) {
+        let starts = (0..chain.len().saturating_sub(WINDOW - 1)).step_by(WINDOW / 2);
+        for s in starts {
+            for (rms, labels) in labellings(&chain[s..s + WINDOW], dots, path).into_iter().take(TOP_PER_WINDOW) {
+                if rms > params.max_seed_rms_px {
+                    continue;
+                }
+                let g = extend_locally(dots, path, grow(dots, path, labels, params), params);
+                if let Some(r) = fit_rms(dots, path, &g) {
+                    grown.push((g.len(), r, g));
+                }
+            }
+        }
+    }
+    let most = grown.iter().map(|g| g.0).max()?;
+    grown.retain(|g| g.0 * 5 >= most * 4 && g.1 <= params.max_seed_rms_px);
+    grown.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (_, best_rms, best) = grown.first()?;
+    // Unambiguous: every labelling that disagrees with the best on most of its dots fits worse
+    // by the ambiguity ratio (an arc of clutter fits many stretches of the S about equally).
+    let index_of: std::collections::HashMap<usize, usize> = best.iter().map(|&(i, j)| (j, i)).collect();
+    let agrees = |g: &Labels| 2 * g.iter().filter(|&&(i, j)| index_of.get(&j) == Some(&i)).count() >= g.len();
+    let rival = grown.iter().skip(1).filter(|g| !agrees(&g.2)).map(|g| g.1).fold(f64::INFINITY, f64::min);
+    log::debug!("s-path window search: best {} dots at RMS {best_rms:.3} px, rival RMS {rival:.3} px", best.len());
+    (rival > params.ambiguity_ratio * best_rms.max(0.05)).then(|| grown.swap_remove(0).2)
+}
+
+/// Reprojection RMS of the DLT fitted to labelled dots.
+fn fit_rms(dots: &[Dot], path: &SPath, labels: &[(usize, usize)]) -> Option<f64> {
+    let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
+    let image: Vec<Point2<f64>> = labels.iter().map(|&(_, j)| dots[j].centre_px).collect();
+    Dlt::fit(&world, &image).map(|d| d.rms(&world, &image))
 }
 
 /// Match projected path points to dots: (path index, dot) pairs, nearest first, one each.
@@ -215,6 +269,83 @@ fn grow(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SP
     labels
 }
 
+/// Labelled dots a local prediction is fitted to: the nearest along the path.
+const LOCAL_FIT: usize = 15;
+/// Farthest a local prediction reaches beyond the labelled dots, in path steps.
+const LOCAL_REACH: usize = 3;
+
+/// Where path point `i` should appear, from a DLT fitted to the [`LOCAL_FIT`] labelled dots
+/// nearest to it along the path, and the matching radius there: `fraction` of the projected
+/// spacing, at most `fraction` of 1.5 times the image distance of the nearest labelled pair of
+/// path neighbours. `None` when the point faces away from the camera or the fit fails.
+fn predict_locally(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, i: usize, fraction: f64) -> Option<(Point2<f64>, f64)> {
+    let mut near: Vec<(usize, usize)> = labels.to_vec();
+    near.sort_by_key(|&(k, _)| k.abs_diff(i));
+    near.truncate(LOCAL_FIT);
+    let world: Vec<Point3<f64>> = near.iter().map(|&(k, _)| path.points_m[k]).collect();
+    let image: Vec<Point2<f64>> = near.iter().map(|&(_, j)| dots[j].centre_px).collect();
+    let dlt = Dlt::fit(&world, &image)?;
+    // No visibility test here: a short stretch of the sphere is nearly planar, and its DLT's
+    // camera centre is poorly determined.
+    let q = dlt.project(&path.points_m[i])?;
+    let projected = [i.checked_sub(1), Some(i + 1)]
+        .into_iter()
+        .flatten()
+        .filter(|&k| k < path.len())
+        .filter_map(|k| dlt.project(&path.points_m[k]).map(|p| (p - q).norm()))
+        .fold(f64::INFINITY, f64::min);
+    let observed = near
+        .iter()
+        .filter_map(|&(k, j)| near.iter().find(|&&(k2, _)| k2 == k + 1).map(|&(_, j2)| (dots[j2].centre_px - dots[j].centre_px).norm()))
+        .next()?;
+    Some((q, fraction * projected.min(1.5 * observed)))
+}
+
+/// Fill in path points next to the labelled ones (up to [`LOCAL_REACH`] steps beyond) by local
+/// prediction, frontier by frontier: where lens distortion bends the image of the path away from
+/// any single projective camera, each prediction comes from the nearest labelled stretch.
+fn extend_locally(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
+    let (mut point_used, mut dot_used) = (vec![false; path.len()], vec![false; dots.len()]);
+    for &(i, j) in &labels {
+        point_used[i] = true;
+        dot_used[j] = true;
+    }
+    let mut tried = vec![false; path.len()];
+    loop {
+        // The unlabelled, untried points nearest (along the path) to a labelled one, within reach.
+        let dist = |i: usize| labels.iter().map(|&(k, _)| k.abs_diff(i)).min().unwrap_or(usize::MAX);
+        let Some(d_min) = (0..path.len()).filter(|&i| !point_used[i] && !tried[i]).map(dist).min() else { break };
+        if d_min > LOCAL_REACH {
+            break;
+        }
+        let frontier: Vec<usize> = (0..path.len()).filter(|&i| !point_used[i] && !tried[i] && dist(i) == d_min).collect();
+        let mut added = Vec::new();
+        for i in frontier {
+            tried[i] = true;
+            let Some((q, tol)) = predict_locally(&labels, dots, path, i, params.match_fraction) else { continue };
+            let best = dots
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| !dot_used[*j])
+                .map(|(j, d)| (j, (d.centre_px - q).norm()))
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((j, e)) = best.filter(|b| b.1 <= tol) {
+                let _ = e;
+                point_used[i] = true;
+                dot_used[j] = true;
+                added.push((i, j));
+            }
+        }
+        if !added.is_empty() {
+            labels.extend(added);
+            // New labels open new frontiers: points tried before may now be within reach again.
+            tried.iter_mut().for_each(|t| *t = false);
+        }
+    }
+    labels.sort_unstable();
+    labels
+}
+
 /// Drop matches whose reprojection residual differs from the median residual of their path
 /// neighbours (up to 3 indices either side) by more than `max_px`. The residuals of good dots vary
 /// smoothly along the path (the blob-centroid bias of beads, lens distortion); a blob that lost
@@ -246,6 +377,26 @@ fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px
     labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
 }
 
+/// Drop blobs far larger than their path neighbours (up to 5 indices either side, the start dot
+/// left out of the comparison): beads squeezed together along the sphere's outline merge into
+/// one blob, whose centroid is no dot's. The start dot itself may be `start_ratio` times larger.
+fn drop_merged(dots: &[Dot], labels: Vec<(usize, usize)>, start_ratio: f64) -> Vec<(usize, usize)> {
+    const MAX_RATIO: f64 = 2.0;
+    let keep: Vec<bool> = labels
+        .iter()
+        .map(|&(i, j)| {
+            let mut near: Vec<f64> = labels.iter().filter(|&&(k, _)| k != i && k != 0 && k.abs_diff(i) <= 5).map(|&(_, m)| dots[m].area_px).collect();
+            if near.is_empty() {
+                return true;
+            }
+            near.sort_by(f64::total_cmp);
+            let limit = MAX_RATIO * if i == 0 { start_ratio.max(1.0) * 1.5 } else { 1.0 };
+            dots[j].area_px <= limit * near[near.len() / 2]
+        })
+        .collect();
+    labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
+}
+
 /// Index the S-path's dots: the start chain or a labelled chain, grown by projecting the known
 /// path (see the module docs).
 ///
@@ -266,12 +417,8 @@ pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Resu
         }
     }
     if seed.is_none() {
-        for chain in anonymous_chains(dots, order.tolerance, path.len(), params.min_seed) {
-            if let Some(labels) = label_chain(&chain, dots, path, params) {
-                seed = Some(labels);
-                break;
-            }
-        }
+        let chains = anonymous_chains(dots, order.tolerance, path.len(), params.min_seed);
+        seed = chains.iter().find_map(|c| label_chain(c, dots, path, params)).or_else(|| search_windows(&chains, dots, path, params));
     }
     let Some(seed) = seed else {
         return match start_chain {
@@ -280,7 +427,8 @@ pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Resu
             Err(_) => Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) }),
         };
     };
-    let labels = drop_outliers(dots, path, grow(dots, path, seed, params), params.max_local_deviation_px);
+    let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
+    let labels = drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px);
     let need = order.min_chain.min(order.points).max((order.min_chain_share * dots.len() as f64).ceil() as usize);
     if labels.len() < need {
         return Err(DetectError::NotFound { reason: format!("{} of {} dots placed on the S-path (at least {need} needed)", labels.len(), dots.len()) });
@@ -346,14 +494,24 @@ mod tests {
 
     #[test]
     fn clutter_is_not_a_path() {
-        // A smooth arc of random-ish dots is no stretch of the S.
-        let dots: Vec<Dot> = (0..30)
+        let (path, _) = projected();
+        // A closed ring of 60 dots: the S has an inflection, no view of it closes up. (A shorter
+        // circular arc is no test: parts of the S are circular arcs, and a DLT maps a circle to
+        // any ellipse, so an arc of evenly spaced dots is a possible view of them.)
+        let ring: Vec<Dot> = (0..60)
             .map(|i| {
-                let a = f64::from(i) * 0.05;
-                dot(Point2::new(300.0 + 200.0 * a.cos(), 300.0 + 200.0 * a.sin()), 30.0)
+                let a = f64::from(i) * std::f64::consts::TAU / 60.0;
+                dot(Point2::new(500.0 + 150.0 * a.cos(), 400.0 + 150.0 * a.sin()), 30.0)
             })
             .collect();
-        let (path, _) = projected();
-        assert!(index_s_path(&dots, &path, &SPathFitParams::default()).is_err());
+        assert!(index_s_path(&ring, &path, &SPathFitParams::default()).is_err());
+        // Scattered dots.
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let scatter: Vec<Dot> = (0..80).map(|_| dot(Point2::new(1280.0 * next(), 1024.0 * next()), 30.0)).collect();
+        assert!(index_s_path(&scatter, &path, &SPathFitParams::default()).is_err());
     }
 }

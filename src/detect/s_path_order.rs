@@ -87,8 +87,26 @@ pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>
             0.0
         };
         let rot = nalgebra::Rotation2::new(turn);
-        let mut found = None;
+        // The next dot: the nearest unused one ahead (within 40 degrees of the predicted
+        // direction, 0.5 to 1.6 steps away). Nearest-to-prediction alone takes every other dot
+        // when the last step is too long (the start dot's centroid is off its path point).
+        let ahead = rot * step;
+        let step_len = step.norm();
+        let next = dots
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| !used[*j])
+            .map(|(j, d)| (j, d.centre_px - cur))
+            .filter(|(_, v)| {
+                let l = v.norm();
+                (0.5 * step_len..=1.6 * step_len).contains(&l) && v.dot(&ahead) >= l * step_len * 40f64.to_radians().cos()
+            })
+            .min_by(|a, b| a.1.norm().total_cmp(&b.1.norm()));
+        let mut found = next.filter(|(j, _)| (dots[*j].centre_px - cur).norm() >= 0.8 * (radius(&dots[*j]) + radius(&dots[j_cur]))).map(|(j, _)| (j, i_cur + 1));
         for skip in 1..=MAX_SKIP {
+            if found.is_some() {
+                break;
+            }
             // Predict skip steps ahead along the arc.
             let mut pred = cur;
             let mut s = step;

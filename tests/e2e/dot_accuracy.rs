@@ -6,6 +6,7 @@
 use nalgebra::{Isometry3, Point2, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use synthcam::camera::Distortion;
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
 use synthcam::scene::file::parse_scene;
@@ -23,6 +24,12 @@ struct Stats {
 }
 
 fn run(style: DotStyle, views: usize, seed: u64) -> Stats {
+    run_with(style, views, seed, [0.0; 5], 0.0)
+}
+
+/// As [`run`], with lens distortion `dist` (OpenCV order) and the target shifted in the camera's
+/// image plane by up to `shift_m` metres each way (parts of the S leave the frame).
+fn run_with(style: DotStyle, views: usize, seed: u64, dist: [f64; 5], shift_m: f64) -> Stats {
     let base = parse_scene(include_str!("../../assets/scenes/course_s_path.toml")).expect("scene");
     let world_from_cam0 = base.cam_from_target.inverse();
     let centre = Vector3::new(0.0, 0.0, 0.5);
@@ -33,6 +40,11 @@ fn run(style: DotStyle, views: usize, seed: u64) -> Stats {
         let about_centre = Translation3::from(centre) * Isometry3::from_parts(Translation3::identity(), orbit) * Translation3::from(-centre);
         let mut scene = base.clone();
         scene.cam_from_target = (about_centre * world_from_cam0).inverse();
+        if shift_m > 0.0 {
+            let shift = Vector3::new(rng.random_range(-shift_m..shift_m), rng.random_range(-shift_m..shift_m), 0.0);
+            scene.cam_from_target = Translation3::from(shift) * scene.cam_from_target;
+        }
+        scene.camera.distortion = Distortion::from_array(dist);
         scene.render.noise_sigma = 1.0;
         scene.render.seed = rng.random();
         if let Target::SPath(s) = &mut scene.target {
@@ -43,6 +55,23 @@ fn run(style: DotStyle, views: usize, seed: u64) -> Stats {
         let img = ImageF32::from_u8(w, h, &img.to_u8()).expect("image");
         let truth = truth_labels(&scene);
         let det = detect(&img, &TargetSpec::SPath { points: 101 }).expect("detect");
+        if let Ok(v) = std::env::var("NEAR") {
+            let v: Vec<f64> = v.split(',').map(|t| t.parse().expect("num")).collect();
+            for d in synthcam::detect::dots::find_dots(&img, &synthcam::detect::dots::DotParams::default()).expect("dots") {
+                if (d.centre_px.x - v[0]).abs() < 40.0 && (d.centre_px.y - v[1]).abs() < 40.0 {
+                    let idx = det.points_px.iter().position(|p| *p == d.centre_px).map(|k| det.indices.as_ref().map(|i| i[k]));
+                    eprintln!("near: {:.1},{:.1} area {:.1} core {} index {idx:?}", d.centre_px.x, d.centre_px.y, d.area_px, d.core_px);
+                }
+            }
+            for f in truth.features.iter().filter(|f| f.visible && (f.pixel_px[0] - v[0]).abs() < 40.0 && (f.pixel_px[1] - v[1]).abs() < 40.0) {
+                eprintln!("truth {}: centroid {:?} area {:?}", f.id, f.centroid_px, f.area_px);
+            }
+        }
+        if std::env::var("DUMP").is_ok() {
+            let k = st.eligible;
+            eprintln!("view at eligible {k}: found {} dots, note {:?}", det.points_px.len(), det.note);
+            image::GrayImage::from_raw(w as u32, h as u32, img.data.iter().map(|v| *v as u8).collect()).expect("img").save(format!("/tmp/pv_{k}.png")).expect("save");
+        }
         let indices = det.indices.clone().unwrap_or_default();
         for f in &truth.features {
             let big = f.area_px.is_some_and(|a| a >= std::f64::consts::PI * 1.5 * 1.5);
@@ -61,6 +90,9 @@ fn run(style: DotStyle, views: usize, seed: u64) -> Stats {
             };
             let e = (p - Point2::from(c)).norm();
             if e > 1.0 {
+                if std::env::var("MISSED").is_ok() {
+                    eprintln!("false dot: index {i} at {p} is {e:.2} px from its truth centroid (area {:?})", f.area_px);
+                }
                 st.false_dots += 1;
                 continue;
             }
@@ -124,4 +156,21 @@ fn s_path_discs_from_course_like_poses() {
     assert!(recall >= 0.99, "recall {recall}");
     assert!(rms <= 0.06, "RMS {rms}");
     assert!(max <= 1.0, "max {max}");
+}
+
+/// Partial views (the target shifted up to 0.35 m in the image plane, so that up to half of the S
+/// leaves the 1280 x 1024 frame) through a strongly distorting lens (k1 = -0.25, k2 = 0.08): the
+/// visible dots keep their path index (a wrong index is counted as a false dot). Measured
+/// 2026-11-24: beads recall 665/684 (97.2 %; the misses are beads squeezed into one blob along
+/// the outline in a corner, which the detector drops rather than index), discs 662/668 (99.1 %),
+/// 0 false or mis-indexed dots; before the 3-D path fit one of these views was not found at all
+/// and chains took every other dot.
+#[test]
+fn s_path_partial_views_under_distortion_keep_their_indices() {
+    for (style, name, seed) in [(DotStyle::Bead, "beads, partial + k1 -0.25", 21), (DotStyle::Disc, "discs, partial + k1 -0.25", 22)] {
+        let st = run_with(style, 8, seed, [-0.25, 0.08, 0.0, 0.0, 0.0], 0.35);
+        let (recall, _, _) = summary(name, &st);
+        assert_eq!(st.false_dots, 0, "{name}: mis-indexed or false dots");
+        assert!(recall >= 0.95, "{name}: recall {recall}");
+    }
 }
