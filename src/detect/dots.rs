@@ -154,15 +154,27 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     let keep: Vec<usize> = (0..cores.len()).filter(|&k| (params.min_core_px..=params.max_core_px).contains(&cores[k].len())).collect();
     // Owner map of the grown cores (label of the grown core covering a pixel, or 0).
     let g = params.grow_px as i64;
+    // A pixel in two grown cores goes to the nearer core (squared distance to its nearest core
+    // pixel); at equal distance to neither (u32::MAX): between touching dots, the darkness of a
+    // pixel belongs mostly to the dot it is nearer to.
     let mut owner = vec![0u32; w * h];
+    let mut owner_d2 = vec![i64::MAX; w * h];
     for &k in &keep {
+        let id = k as u32 + 1;
         for &(x, y) in &cores[k] {
             for dy in -g..=g {
                 for dx in -g..=g {
                     let (xx, yy) = (x as i64 + dx, y as i64 + dy);
                     if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
-                        let o = &mut owner[yy as usize * w + xx as usize];
-                        *o = if *o == 0 || *o == k as u32 + 1 { k as u32 + 1 } else { u32::MAX };
+                        let i = yy as usize * w + xx as usize;
+                        let d2 = dx * dx + dy * dy;
+                        let (o, od) = (&mut owner[i], &mut owner_d2[i]);
+                        if *o == 0 || *o == id || d2 < *od {
+                            *o = id;
+                            *od = (*od).min(d2);
+                        } else if d2 == *od {
+                            *o = u32::MAX;
+                        }
                     }
                 }
             }
@@ -194,18 +206,18 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         // dot removed, exact on straight (anti-aliased) edges such as the sphere's outline. It
         // rides on noise peaks; the median lift of the ring is subtracted below.
         let r = params.window_px;
-        let (cx0, cy0) = (bx0.saturating_sub(2 * r), by0.saturating_sub(2 * r));
-        let (cx1, cy1) = ((bx1 + 2 * r).min(w - 1), (by1 + 2 * r).min(h - 1));
+        let (closed, [cx0, cy0, cx1, cy1]) = closed_window(img, [bx0, by0, bx1, by1], 2 * r, r);
         let cw = cx1 - cx0 + 1;
-        let crop = ImageF32 {
-            width: cw,
-            height: cy1 - cy0 + 1,
-            data: (cy0..=cy1).flat_map(|y| img.data[y * w + cx0..=y * w + cx1].iter().copied()).collect(),
-        };
-        let closed = extreme_filter(&extreme_filter(&crop, r, true), r, false);
         let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
         // A two-level edge (the sphere's outline) through the window: modelled, not closed.
-        let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &|x, y| owner[y * w + x] != 0, f64::from(params.min_contrast));
+        let is_dot = |x: usize, y: usize| owner[y * w + x] != 0;
+        let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &is_dot, f64::from(params.min_contrast)).or_else(|| {
+            // Too few clean lines across the edge (neighbouring dots along the outline hide
+            // them): a window half as large again.
+            let (big, rect) = closed_window(img, [bx0, by0, bx1, by1], 3 * r, r);
+            let bw = rect[2] - rect[0] + 1;
+            EdgeSurround::fit(img, rect, &|x, y| big.data[(y - rect[1]) * bw + (x - rect[0])], &is_dot, f64::from(params.min_contrast))
+        });
         // Lift of the closing over the image in the ring around the grown core (noise peaks).
         let mut lift = Vec::new();
         if edge.is_none() {
@@ -234,10 +246,13 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let thin = core.len() <= 2 * (x1 - x0 + 1).max(y1 - y0 + 1);
         let reach = if thin { params.window_px / 3 } else { 0 };
         let region = blob_region(&owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &darkness);
+        // Not clamped at 0: noise in the surround then averages out instead of biasing.
+        let mut weights: Vec<f64> = region.iter().map(|&(x, y)| darkness(x, y).clamp(-params.min_weight, 1.0)).collect();
+        if let Some(e) = &edge {
+            edge_weights(img, e, &region, &mut weights, d);
+        }
         let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
-        for &(x, y) in &region {
-            // Not clamped at 0: noise in the surround then averages out instead of biasing.
-            let wgt = darkness(x, y).clamp(-params.min_weight, 1.0);
+        for (&(x, y), &wgt) in region.iter().zip(&weights) {
             sw += wgt;
             su += wgt * x as f64;
             sv += wgt * y as f64;
@@ -247,6 +262,55 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         }
     }
     Ok(dots)
+}
+
+/// The morphological closing (window `r`) of `img` over `bbox` grown by `margin` (clipped to the
+/// image), and that rectangle.
+fn closed_window(img: &ImageF32, bbox: [usize; 4], margin: usize, r: usize) -> (ImageF32, [usize; 4]) {
+    let (w, h) = (img.width, img.height);
+    let (x0, y0) = (bbox[0].saturating_sub(margin), bbox[1].saturating_sub(margin));
+    let (x1, y1) = ((bbox[2] + margin).min(w - 1), (bbox[3] + margin).min(h - 1));
+    let crop = ImageF32 {
+        width: x1 - x0 + 1,
+        height: y1 - y0 + 1,
+        data: (y0..=y1).flat_map(|y| img.data[y * w + x0..=y * w + x1].iter().copied()).collect(),
+    };
+    (extreme_filter(&extreme_filter(&crop, r, true), r, false), [x0, y0, x1, y1])
+}
+
+/// Weights of a blob at a two-level edge (the sphere's outline), from the edge model `e`, given
+/// the plain darkness weights. A blob that darkens a pixel more than paint on its bright share
+/// could (a bead in front of the outline) is an occluder: where its rim crosses the edge, the coverage comes from
+/// [`EdgeSurround::occluder_coverage`] with the rim taken square to the direction of the blob's
+/// centre. A blob that does not (a cap painted on the sphere) can only cover the bright side:
+/// its coverage is the darkening over the bright level's, `(S - I) / (hi - dark)`.
+fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], weights: &mut [f64], dark: f64) {
+    let w = img.width;
+    let frac: Vec<f64> = region.iter().map(|&(x, y)| e.bright_fraction(x, y)).collect();
+    // Paint darkens a pixel by at most its bright share times (hi - dark); more (beyond noise and
+    // the edge model's error, 12 grey levels) means something in front of the edge.
+    let hi = e.bright_level();
+    let occluder = region.iter().zip(&frac).any(|(&(x, y), a)| e.level_at(x, y) - f64::from(img.data[y * w + x]) > a * (hi - dark) + 12.0);
+    if occluder {
+        let sw: f64 = weights.iter().map(|v| v.max(0.0)).sum();
+        if sw <= 0.0 {
+            return;
+        }
+        let cu = region.iter().zip(weights.iter()).map(|(p, v)| v.max(0.0) * p.0 as f64).sum::<f64>() / sw;
+        let cv = region.iter().zip(weights.iter()).map(|(p, v)| v.max(0.0) * p.1 as f64).sum::<f64>() / sw;
+        for ((&(x, y), a), wt) in region.iter().zip(&frac).zip(weights.iter_mut()) {
+            let (dx, dy) = (cu - x as f64, cv - y as f64);
+            let len = dx.hypot(dy);
+            if (0.02..=0.98).contains(a) && (0.02..=0.98).contains(wt) && len > 1e-9 {
+                *wt = e.occluder_coverage(x, y, f64::from(img.data[y * w + x]), dark, [dx / len, dy / len]);
+            }
+        }
+    } else {
+        for (&(x, y), wt) in region.iter().zip(weights.iter_mut()) {
+            let s = e.level_at(x, y);
+            *wt = ((s - f64::from(img.data[y * w + x])) / (hi - dark).max(1e-6)).clamp(-0.5, 1.0);
+        }
+    }
 }
 
 /// The cores inside a too-large component: its pixels darker than halfway between its darkest

@@ -164,6 +164,63 @@ impl EdgeSurround {
     }
 }
 
+impl EdgeSurround {
+    /// Share of pixel `(x, y)` on the bright side of the edge.
+    pub fn bright_fraction(&self, x: usize, y: usize) -> f64 {
+        (self.level_at(x, y) - self.lo) / (self.hi - self.lo)
+    }
+
+    /// The bright side's level.
+    pub fn bright_level(&self) -> f64 {
+        self.hi
+    }
+
+    /// Whether the point `(x, y)` (pixel coordinates) is on the bright side.
+    fn is_bright(&self, x: f64, y: f64) -> bool {
+        let (a, t) = if self.rows { (x, y) } else { (y, x) };
+        let e = Self::eval(&self.coef, t - self.t0);
+        if self.bright_up {
+            a > e
+        } else {
+            a < e
+        }
+    }
+
+    /// Coverage of pixel `(x, y)` by a dark occluder of level `dark` in front of the edge, whose
+    /// boundary crosses the pixel as a straight line with the occluder towards the unit vector
+    /// `inward`: the line is moved until the modelled mean level of the pixel (occluder, bright
+    /// and dark sides sub-sampled 16 x 16) equals `observed`. Where an occluder's rim crosses the
+    /// edge, the plain darkness `(S - I) / (S - dark)` is wrong: covering the dark side darkens
+    /// the pixel less than covering the bright side.
+    pub fn occluder_coverage(&self, x: usize, y: usize, observed: f64, dark: f64, inward: [f64; 2]) -> f64 {
+        const N: usize = 16;
+        let mut samples: Vec<(f64, f64)> = Vec::with_capacity(N * N);
+        for j in 0..N {
+            for i in 0..N {
+                let (dx, dy) = ((i as f64 + 0.5) / N as f64 - 0.5, (j as f64 + 0.5) / N as f64 - 0.5);
+                let level = if self.is_bright(x as f64 + dx, y as f64 + dy) { self.hi } else { self.lo };
+                samples.push((inward[0] * dx + inward[1] * dy, level));
+            }
+        }
+        // Most inward first: the occluder covers a prefix.
+        samples.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let n = samples.len() as f64;
+        let mut mean = samples.iter().map(|s| s.1).sum::<f64>() / n;
+        if observed >= mean {
+            return 0.0;
+        }
+        for (m, s) in samples.iter().enumerate() {
+            let next = mean - (s.1 - dark) / n;
+            if next <= observed {
+                let frac = if mean - next > 1e-12 { (mean - observed) / (mean - next) } else { 1.0 };
+                return (m as f64 + frac) / n;
+            }
+            mean = next;
+        }
+        1.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
