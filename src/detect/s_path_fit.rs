@@ -346,8 +346,14 @@ fn extend_locally(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, p
     labels
 }
 
+/// Blobs smaller than this (px^2) are held to [`SMALL_BLOB_DEVIATION_PX`] by [`drop_outliers`].
+const SMALL_BLOB_PX: f64 = 20.0;
+/// Largest deviation of a small blob's residual from its neighbours', pixels.
+const SMALL_BLOB_DEVIATION_PX: f64 = 0.6;
+
 /// Drop matches whose reprojection residual differs from the median residual of their path
-/// neighbours (up to 3 indices either side) by more than `max_px`. The residuals of good dots vary
+/// neighbours (up to 3 indices either side) by more than `max_px` (small blobs: see
+/// [`SMALL_BLOB_DEVIATION_PX`]). The residuals of good dots vary
 /// smoothly along the path (the blob-centroid bias of beads, lens distortion); a blob that lost
 /// part of itself (a sliver along the outline) jumps.
 fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px: f64) -> Vec<(usize, usize)> {
@@ -371,7 +377,9 @@ fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px
                 v[v.len() / 2]
             };
             let m = nalgebra::Vector2::new(med(|v| v.x), med(|v| v.y));
-            (r - m).norm() <= max_px
+            // Small blobs (slivers, far dots) carry little centroid bias: a tighter bound.
+            let bound = if dots[labels[k].1].area_px < SMALL_BLOB_PX { SMALL_BLOB_DEVIATION_PX.min(max_px) } else { max_px };
+            (r - m).norm() <= bound
         })
         .collect();
     labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
