@@ -158,7 +158,8 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     // pixel); at equal distance to neither (u32::MAX): between touching dots, the darkness of a
     // pixel belongs mostly to the dot it is nearer to.
     let mut owner = vec![0u32; w * h];
-    let mut owner_d2 = vec![i64::MAX; w * h];
+    // Squared distances within a grown core are at most 2 g^2 (small): one byte per pixel.
+    let mut owner_d2 = vec![u8::MAX; w * h];
     for &k in &keep {
         let id = k as u32 + 1;
         for &(x, y) in &cores[k] {
@@ -167,7 +168,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
                     let (xx, yy) = (x as i64 + dx, y as i64 + dy);
                     if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
                         let i = yy as usize * w + xx as usize;
-                        let d2 = dx * dx + dy * dy;
+                        let d2 = u8::try_from(dx * dx + dy * dy).unwrap_or(u8::MAX - 1);
                         let (o, od) = (&mut owner[i], &mut owner_d2[i]);
                         if *o == 0 || *o == id || d2 < *od {
                             *o = id;
@@ -211,9 +212,14 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
         // A two-level edge (the sphere's outline) through the window: modelled, not closed.
         let is_dot = |x: usize, y: usize| owner[y * w + x] != 0;
+        let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        let has_edge = cmax - cmin > params.min_contrast;
         let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &is_dot, f64::from(params.min_contrast)).or_else(|| {
             // Too few clean lines across the edge (neighbouring dots along the outline hide
             // them): a window half as large again.
+            if !has_edge {
+                return None;
+            }
             let (big, rect) = closed_window(img, [bx0, by0, bx1, by1], 3 * r, r);
             let bw = rect[2] - rect[0] + 1;
             EdgeSurround::fit(img, rect, &|x, y| big.data[(y - rect[1]) * bw + (x - rect[0])], &is_dot, f64::from(params.min_contrast))
@@ -391,10 +397,11 @@ const FRAGMENT_PX: usize = 6;
 /// one-pixel-thin sliver (a dot seen edge-on) into pieces along its staircase.
 fn merge_fragments(cores: &mut [Vec<(usize, usize)>], w: usize, h: usize, params: &DotParams, darkness: &dyn Fn(usize, usize) -> f32) {
     let in_range = |c: &Vec<(usize, usize)>| (1..=params.max_core_px).contains(&c.len());
-    let mut id = vec![u32::MAX; w * h];
+    // Core of each core pixel (a map: the cores hold a small share of the image).
+    let mut id: std::collections::HashMap<usize, u32> = std::collections::HashMap::new();
     for (k, c) in cores.iter().enumerate().filter(|(_, c)| in_range(c)) {
         for &(x, y) in c {
-            id[y * w + x] = k as u32;
+            id.insert(y * w + x, k as u32);
         }
     }
     for k in 0..cores.len() {
@@ -409,8 +416,8 @@ fn merge_fragments(cores: &mut [Vec<(usize, usize)>], w: usize, h: usize, params
                     if dx.abs().max(dy.abs()) != 2 || qx < 0 || qy < 0 || qx as usize >= w || qy as usize >= h {
                         continue;
                     }
-                    let o = id[qy as usize * w + qx as usize];
-                    if o == u32::MAX || o as usize == k {
+                    let Some(&o) = id.get(&(qy as usize * w + qx as usize)) else { continue };
+                    if o as usize == k {
                         continue;
                     }
                     // A pixel next to both.
@@ -425,7 +432,7 @@ fn merge_fragments(cores: &mut [Vec<(usize, usize)>], w: usize, h: usize, params
         if let Some(o) = target {
             let moved = std::mem::take(&mut cores[k]);
             for &(x, y) in &moved {
-                id[y * w + x] = o as u32;
+                id.insert(y * w + x, o as u32);
             }
             cores[o].extend(moved);
         }
