@@ -267,9 +267,13 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let reach = if thin { params.window_px / 3 } else { 0 };
         let region = blob_region(&owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &darkness);
         // Not clamped at 0: noise in the surround then averages out instead of biasing.
-        let mut weights: Vec<f64> = region.iter().map(|&(x, y)| darkness(x, y).clamp(-params.min_weight, 1.0)).collect();
+        // A thin blob has no wholly dark pixel, so its dark level `d` is too light and its
+        // darkness overshoots 1 where the blob is darkest: not clamped there (the overshoot is a
+        // common scale, which the centroid does not see).
+        let top = if thin { 2.0 } else { 1.0 };
+        let mut weights: Vec<f64> = region.iter().map(|&(x, y)| darkness(x, y).clamp(-params.min_weight, top)).collect();
         if let Some(e) = &edge {
-            edge_weights(img, e, &region, &mut weights, d);
+            edge_weights(img, e, &region, &mut weights, d, top);
         }
         let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
         for (&(x, y), &wgt) in region.iter().zip(&weights) {
@@ -303,8 +307,8 @@ fn closed_window(img: &ImageF32, bbox: [usize; 4], margin: usize, r: usize) -> (
 /// could (a bead in front of the outline) is an occluder: where its rim crosses the edge, the coverage comes from
 /// [`EdgeSurround::occluder_coverage`] with the rim taken square to the direction of the blob's
 /// centre. A blob that does not (a cap painted on the sphere) can only cover the bright side:
-/// its coverage is the darkening over the bright level's, `(S - I) / (hi - dark)`.
-fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], weights: &mut [f64], dark: f64) {
+/// its coverage is the darkening over the bright level's, `(S - I) / (hi - dark)`, at most `top`.
+fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], weights: &mut [f64], dark: f64, top: f64) {
     let w = img.width;
     let frac: Vec<f64> = region.iter().map(|&(x, y)| e.bright_fraction(x, y)).collect();
     // Paint darkens a pixel by at most its bright share times (hi - dark); more (beyond noise and
@@ -328,7 +332,7 @@ fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], wei
     } else {
         for (&(x, y), wt) in region.iter().zip(weights.iter_mut()) {
             let s = e.level_at(x, y);
-            *wt = ((s - f64::from(img.data[y * w + x])) / (hi - dark).max(1e-6)).clamp(-0.5, 1.0);
+            *wt = ((s - f64::from(img.data[y * w + x])) / (hi - dark).max(1e-6)).clamp(-0.5, top);
         }
     }
     // On the edge itself a pixel brighter than the model is the model's error (a few tenths of a
@@ -490,7 +494,10 @@ fn blob_region(
         }
     }
     let flooded = region.len();
-    for k in core_len..flooded {
+    // With a flood (a thin blob), the ring goes round the whole region: a sliver's end can lie
+    // beyond its grown core.
+    let ring_from = if reach > 0 { 0 } else { core_len };
+    for k in ring_from..flooded {
         let (x, y) = region[k];
         for (xx, yy) in neighbours(x, y) {
             let i = (yy - y0) * bw + (xx - x0);
