@@ -185,13 +185,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     for &k in &keep {
         let core = &cores[k];
         let id = k as u32 + 1;
-        let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
-        for &(x, y) in core {
-            x0 = x0.min(x);
-            y0 = y0.min(y);
-            x1 = x1.max(x);
-            y1 = y1.max(y);
-        }
+        let [x0, y0, x1, y1] = bbox(core);
         let pad = params.grow_px + 1;
         // A blob cut by the image border has a biased centre: not reported.
         if x0 < pad || y0 < pad || x1 + pad >= w || y1 + pad >= h {
@@ -344,6 +338,11 @@ fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], wei
     }
 }
 
+/// Bounding box `[x0, y0, x1, y1]` (inclusive) of a non-empty pixel list.
+fn bbox(pixels: &[(usize, usize)]) -> [usize; 4] {
+    pixels.iter().fold([usize::MAX, usize::MAX, 0, 0], |b, &(x, y)| [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)])
+}
+
 /// The cores inside a too-large component: its pixels darker than halfway between its darkest
 /// level and its median (the background it swallowed), 8-connected.
 fn split_large(img: &ImageF32, comp: &[(usize, usize)], params: &DotParams) -> Vec<Vec<(usize, usize)>> {
@@ -355,13 +354,7 @@ fn split_large(img: &ImageF32, comp: &[(usize, usize)], params: &DotParams) -> V
         return Vec::new();
     }
     let t = lo + 0.5 * (m - lo);
-    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
-    for &(x, y) in comp {
-        x0 = x0.min(x);
-        y0 = y0.min(y);
-        x1 = x1.max(x);
-        y1 = y1.max(y);
-    }
+    let [x0, y0, x1, y1] = bbox(comp);
     let bw = x1 - x0 + 1;
     let mut dark = vec![false; bw * (y1 - y0 + 1)];
     for &(x, y) in comp {

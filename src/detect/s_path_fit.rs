@@ -116,6 +116,17 @@ impl Dlt {
         (ss / world.len().max(1) as f64).sqrt()
     }
 
+    /// Image distance from `q` (the projection of path point `i`) to the projection of the
+    /// nearer path neighbour (hidden neighbours projected anyway).
+    fn spacing_at(&self, path: &SPath, i: usize, q: &Point2<f64>) -> f64 {
+        [i.checked_sub(1), Some(i + 1)]
+            .into_iter()
+            .flatten()
+            .filter(|&k| k < path.len())
+            .filter_map(|k| self.project(&path.points_m[k]).map(|p| (p - q).norm()))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The camera centre (homogeneous null vector of P), when finite.
     fn centre(&self) -> Option<Point3<f64>> {
         let col = |i: usize| self.p.column(i).into_owned();
@@ -127,6 +138,11 @@ impl Dlt {
 
 /// (path index, dot index) pairs.
 type Labels = Vec<(usize, usize)>;
+
+/// The path points and dot centres of labelled pairs.
+fn correspondences(labels: &[(usize, usize)], dots: &[Dot], path: &SPath) -> (Vec<Point3<f64>>, Vec<Point2<f64>>) {
+    (labels.iter().map(|&(i, _)| path.points_m[i]).collect(), labels.iter().map(|&(_, j)| dots[j].centre_px).collect())
+}
 
 /// Every labelling of an unlabelled chain ((relative index, dot) pairs), at every index offset
 /// and in both directions, with its DLT reprojection RMS (px): best first.
@@ -202,8 +218,7 @@ fn search_windows(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, para
 
 /// Reprojection RMS of the DLT fitted to labelled dots.
 fn fit_rms(dots: &[Dot], path: &SPath, labels: &[(usize, usize)]) -> Option<f64> {
-    let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
-    let image: Vec<Point2<f64>> = labels.iter().map(|&(_, j)| dots[j].centre_px).collect();
+    let (world, image) = correspondences(labels, dots, path);
     Dlt::fit(&world, &image).map(|d| d.rms(&world, &image))
 }
 
@@ -225,14 +240,7 @@ fn match_projection(dlt: &Dlt, dots: &[Dot], path: &SPath, fraction: f64) -> Vec
     let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
     for (i, q) in proj.iter().enumerate() {
         let Some(q) = q else { continue };
-        // Projected spacing to the neighbours (hidden neighbours projected anyway).
-        let spacing = [i.checked_sub(1), Some(i + 1)]
-            .into_iter()
-            .flatten()
-            .filter(|&k| k < path.len())
-            .filter_map(|k| dlt.project(&path.points_m[k]).map(|p| (p - q).norm()))
-            .fold(f64::INFINITY, f64::min);
-        let tol = fraction * spacing;
+        let tol = fraction * dlt.spacing_at(path, i, q);
         for (j, d) in dots.iter().enumerate() {
             let e = (d.centre_px - q).norm();
             if e <= tol {
@@ -257,8 +265,7 @@ fn match_projection(dlt: &Dlt, dots: &[Dot], path: &SPath, fraction: f64) -> Vec
 /// Fit to labelled pairs, then alternate projection matching and refitting until stable.
 fn grow(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
     for _ in 0..6 {
-        let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
-        let image: Vec<Point2<f64>> = labels.iter().map(|&(_, j)| dots[j].centre_px).collect();
+        let (world, image) = correspondences(&labels, dots, path);
         let Some(dlt) = Dlt::fit(&world, &image) else { break };
         let next = match_projection(&dlt, dots, path, params.match_fraction);
         if next.len() < labels.len() || next == labels {
@@ -282,18 +289,12 @@ fn predict_locally(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, i: usi
     let mut near: Vec<(usize, usize)> = labels.to_vec();
     near.sort_by_key(|&(k, _)| k.abs_diff(i));
     near.truncate(LOCAL_FIT);
-    let world: Vec<Point3<f64>> = near.iter().map(|&(k, _)| path.points_m[k]).collect();
-    let image: Vec<Point2<f64>> = near.iter().map(|&(_, j)| dots[j].centre_px).collect();
+    let (world, image) = correspondences(&near, dots, path);
     let dlt = Dlt::fit(&world, &image)?;
     // No visibility test here: a short stretch of the sphere is nearly planar, and its DLT's
     // camera centre is poorly determined.
     let q = dlt.project(&path.points_m[i])?;
-    let projected = [i.checked_sub(1), Some(i + 1)]
-        .into_iter()
-        .flatten()
-        .filter(|&k| k < path.len())
-        .filter_map(|k| dlt.project(&path.points_m[k]).map(|p| (p - q).norm()))
-        .fold(f64::INFINITY, f64::min);
+    let projected = dlt.spacing_at(path, i, &q);
     let observed = near
         .iter()
         .filter_map(|&(k, j)| near.iter().find(|&&(k2, _)| k2 == k + 1).map(|&(_, j2)| (dots[j2].centre_px - dots[j].centre_px).norm()))
@@ -353,12 +354,11 @@ const SMALL_BLOB_DEVIATION_PX: f64 = 0.6;
 
 /// Drop matches whose reprojection residual differs from the median residual of their path
 /// neighbours (up to 3 indices either side) by more than `max_px` (small blobs: see
-/// [`SMALL_BLOB_DEVIATION_PX`]). The residuals of good dots vary
-/// smoothly along the path (the blob-centroid bias of beads, lens distortion); a blob that lost
-/// part of itself (a sliver along the outline) jumps.
+/// [`SMALL_BLOB_DEVIATION_PX`]). The residuals of good dots vary smoothly along the path (the
+/// blob-centroid bias of beads, lens distortion); a blob that lost part of itself (a sliver
+/// along the outline) jumps.
 fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px: f64) -> Vec<(usize, usize)> {
-    let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
-    let image: Vec<Point2<f64>> = labels.iter().map(|&(_, j)| dots[j].centre_px).collect();
+    let (world, image) = correspondences(&labels, dots, path);
     let Some(dlt) = Dlt::fit(&world, &image) else { return labels };
     let residual: Vec<Option<nalgebra::Vector2<f64>>> = world.iter().zip(&image).map(|(x, u)| dlt.project(x).map(|q| u - q)).collect();
     let keep: Vec<bool> = (0..labels.len())
