@@ -26,7 +26,7 @@ use imageproc::region_labelling::{connected_components, Connectivity};
 use nalgebra::Point2;
 
 use super::edge_surround::EdgeSurround;
-use super::filters::extreme_filter;
+use super::filters::{extreme_filter, median_by};
 use super::{DetectError, ImageF32};
 
 /// Parameters of [`find_dots`].
@@ -85,24 +85,6 @@ fn pool(img: &ImageF32, max: bool) -> ImageF32 {
     ImageF32 { width: pw, height: ph, data }
 }
 
-fn median(v: &mut [f32]) -> f32 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    v.select_nth_unstable_by(mid, f32::total_cmp);
-    v[mid]
-}
-
-fn median_f64(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    v.select_nth_unstable_by(mid, f64::total_cmp);
-    v[mid]
-}
-
 /// Find dark dots.
 ///
 /// # Errors
@@ -128,20 +110,8 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         image::Luma([u8::from(hh - l > params.min_contrast && v < l + params.core_fraction * (hh - l))])
     });
     let t1 = t0.elapsed().as_secs_f64() * 1e3;
-    let labels = connected_components(&mask, Connectivity::Eight, image::Luma([0u8]));
+    let mut cores = components(&mask, (0, 0));
     log::debug!("dots: filters+mask {t1:.1} ms, components {:.1} ms", t0.elapsed().as_secs_f64() * 1e3 - t1);
-    // Per label: pixel list.
-    let mut cores: Vec<Vec<(usize, usize)>> = Vec::new();
-    for (x, y, l) in labels.enumerate_pixels() {
-        let l = l[0] as usize;
-        if l == 0 {
-            continue;
-        }
-        if cores.len() < l {
-            cores.resize(l, Vec::new());
-        }
-        cores[l - 1].push((x as usize, y as usize));
-    }
     // A dot straddling the sphere's outline can join the mid-grey background into one huge core
     // (where the local minimum is the dot's mixed pixels, the background passes the threshold):
     // its darker pixels are thresholded again against the component's own level.
@@ -196,7 +166,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let mut core_vals: Vec<f32> = core.iter().map(|&(x, y)| img.data[y * w + x]).collect();
         core_vals.sort_by(f32::total_cmp);
         let half = core_vals.len().div_ceil(2);
-        let d = f64::from(median(&mut core_vals[..half]));
+        let d = f64::from(median_by(&mut core_vals[..half], f32::total_cmp).unwrap_or(0.0));
         // Closing (dilation then erosion) of the dot's neighbourhood: the surround level with the
         // dot removed, exact on straight (anti-aliased) edges such as the sphere's outline. It
         // rides on noise peaks; the median lift of the ring is subtracted below.
@@ -206,49 +176,37 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
         // A two-level edge (the sphere's outline) through the window: modelled, not closed.
         let is_dot = |x: usize, y: usize| owner[y * w + x] != 0;
-        let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-        let has_edge = cmax - cmin > params.min_contrast;
         let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &is_dot, f64::from(params.min_contrast)).or_else(|| {
             // Too few clean lines across the edge (neighbouring dots along the outline hide
-            // them): a window half as large again.
-            if !has_edge {
+            // them): a window half as large again, where the first window holds an edge at all.
+            let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+            if !(cmax - cmin > params.min_contrast) {
                 return None;
             }
             let (big, rect) = closed_window(img, [bx0, by0, bx1, by1], 3 * r, r);
             let bw = rect[2] - rect[0] + 1;
             EdgeSurround::fit(img, rect, &|x, y| big.data[(y - rect[1]) * bw + (x - rect[0])], &is_dot, f64::from(params.min_contrast))
         });
-        // The model must explain the free pixels around the blob (a cubic bridging too long a
-        // hidden stretch can miss the edge by pixels there): mean error at most 8 grey levels.
+        // The free pixels around the grown core.
+        let ring: Vec<(usize, usize)> = (by0..=by1).flat_map(|y| (bx0..=bx1).map(move |x| (x, y))).filter(|&(x, y)| owner[y * w + x] == 0).collect();
+        // The model must explain the ring (a cubic bridging too long a hidden stretch can miss the
+        // edge by pixels there): mean error at most 8 grey levels.
         let edge = edge.filter(|e| {
-            let (mut n, mut err) = (0usize, 0.0);
-            for y in by0..=by1 {
-                for x in bx0..=bx1 {
-                    if owner[y * w + x] == 0 {
-                        n += 1;
-                        err += (e.level_at(x, y) - f64::from(img.data[y * w + x])).abs();
-                    }
-                }
-            }
-            n == 0 || err / n as f64 <= 8.0
+            let err: f64 = ring.iter().map(|&(x, y)| (e.level_at(x, y) - f64::from(img.data[y * w + x])).abs()).sum();
+            ring.is_empty() || err / ring.len() as f64 <= 8.0
         });
-        // Lift of the closing over the image in the ring around the grown core (noise peaks).
-        let mut lift = Vec::new();
-        if edge.is_none() {
-            for y in by0..=by1 {
-                for x in bx0..=bx1 {
-                    if owner[y * w + x] == 0 {
-                        lift.push(closed_at(x, y) - img.data[y * w + x]);
-                    }
-                }
-            }
-        }
-        let lift = f64::from(median(&mut lift));
+        // Lift of the closing over the image in the ring (noise peaks).
+        let lift = if edge.is_none() {
+            let mut lift: Vec<f32> = ring.iter().map(|&(x, y)| closed_at(x, y) - img.data[y * w + x]).collect();
+            f64::from(median_by(&mut lift, f32::total_cmp).unwrap_or(0.0))
+        } else {
+            0.0
+        };
         let surround_at = |x: usize, y: usize| match &edge {
             Some(e) => e.level_at(x, y),
             None => f64::from(closed_at(x, y)) - lift,
         };
-        let s_core = median_f64(core.iter().map(|&(x, y)| surround_at(x, y)).collect());
+        let s_core = median_by(&mut core.iter().map(|&(x, y)| surround_at(x, y)).collect::<Vec<_>>(), f64::total_cmp).unwrap_or(0.0);
         if !(s_core - d > f64::from(params.min_contrast) * 0.5) {
             continue;
         }
@@ -304,11 +262,13 @@ fn closed_window(img: &ImageF32, bbox: [usize; 4], margin: usize, r: usize) -> (
 /// its coverage is the darkening over the bright level's, `(S - I) / (hi - dark)`, at most `top`.
 fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], weights: &mut [f64], dark: f64, top: f64) {
     let w = img.width;
-    let frac: Vec<f64> = region.iter().map(|&(x, y)| e.bright_fraction(x, y)).collect();
+    let level: Vec<f64> = region.iter().map(|&(x, y)| e.level_at(x, y)).collect();
+    let frac: Vec<f64> = level.iter().map(|l| e.bright_fraction(*l)).collect();
+    let value = |k: usize| f64::from(img.data[region[k].1 * w + region[k].0]);
     // Paint darkens a pixel by at most its bright share times (hi - dark); more (beyond noise and
     // the edge model's error, 12 grey levels) means something in front of the edge.
     let hi = e.bright_level();
-    let occluder = region.iter().zip(&frac).any(|(&(x, y), a)| e.level_at(x, y) - f64::from(img.data[y * w + x]) > a * (hi - dark) + 12.0);
+    let occluder = (0..region.len()).any(|k| level[k] - value(k) > frac[k] * (hi - dark) + 12.0);
     if occluder {
         let sw: f64 = weights.iter().map(|v| v.max(0.0)).sum();
         if sw <= 0.0 {
@@ -316,17 +276,17 @@ fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], wei
         }
         let cu = region.iter().zip(weights.iter()).map(|(p, v)| v.max(0.0) * p.0 as f64).sum::<f64>() / sw;
         let cv = region.iter().zip(weights.iter()).map(|(p, v)| v.max(0.0) * p.1 as f64).sum::<f64>() / sw;
-        for ((&(x, y), a), wt) in region.iter().zip(&frac).zip(weights.iter_mut()) {
+        for (k, wt) in weights.iter_mut().enumerate() {
+            let (x, y) = region[k];
             let (dx, dy) = (cu - x as f64, cv - y as f64);
             let len = dx.hypot(dy);
-            if (0.02..=0.98).contains(a) && (0.02..=0.98).contains(wt) && len > 1e-9 {
-                *wt = e.occluder_coverage(x, y, f64::from(img.data[y * w + x]), dark, [dx / len, dy / len]);
+            if (0.02..=0.98).contains(&frac[k]) && (0.02..=0.98).contains(wt) && len > 1e-9 {
+                *wt = e.occluder_coverage(x, y, value(k), dark, [dx / len, dy / len]);
             }
         }
     } else {
-        for (&(x, y), wt) in region.iter().zip(weights.iter_mut()) {
-            let s = e.level_at(x, y);
-            *wt = ((s - f64::from(img.data[y * w + x])) / (hi - dark).max(1e-6)).clamp(-0.5, top);
+        for (k, wt) in weights.iter_mut().enumerate() {
+            *wt = ((level[k] - value(k)) / (hi - dark).max(1e-6)).clamp(-0.5, top);
         }
     }
     // On the edge itself a pixel brighter than the model is the model's error (a few tenths of a
@@ -349,39 +309,32 @@ fn split_large(img: &ImageF32, comp: &[(usize, usize)], params: &DotParams) -> V
     let w = img.width;
     let mut vals: Vec<f32> = comp.iter().map(|&(x, y)| img.data[y * w + x]).collect();
     let lo = vals.iter().copied().fold(f32::INFINITY, f32::min);
-    let m = median(&mut vals);
+    let Some(m) = median_by(&mut vals, f32::total_cmp) else { return Vec::new() };
     if !(m - lo > 0.5 * params.min_contrast) {
         return Vec::new();
     }
     let t = lo + 0.5 * (m - lo);
     let [x0, y0, x1, y1] = bbox(comp);
-    let bw = x1 - x0 + 1;
-    let mut dark = vec![false; bw * (y1 - y0 + 1)];
+    let mut dark = image::GrayImage::new((x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32);
     for &(x, y) in comp {
-        dark[(y - y0) * bw + (x - x0)] = img.data[y * w + x] < t;
+        dark.put_pixel((x - x0) as u32, (y - y0) as u32, image::Luma([u8::from(img.data[y * w + x] < t)]));
     }
-    let mut out = Vec::new();
-    for &(x, y) in comp {
-        if !dark[(y - y0) * bw + (x - x0)] {
-            continue;
-        }
-        dark[(y - y0) * bw + (x - x0)] = false;
-        let mut part = vec![(x, y)];
-        let mut k = 0;
-        while k < part.len() {
-            let (px, py) = part[k];
-            k += 1;
-            for yy in py.saturating_sub(1).max(y0)..=(py + 1).min(y1) {
-                for xx in px.saturating_sub(1).max(x0)..=(px + 1).min(x1) {
-                    let i = (yy - y0) * bw + (xx - x0);
-                    if dark[i] {
-                        dark[i] = false;
-                        part.push((xx, yy));
-                    }
-                }
+    components(&dark, (x0, y0))
+}
+
+/// The 8-connected components of the set pixels of `mask` (whose top-left pixel is `origin` in
+/// the image), as pixel lists in raster order, in label order.
+fn components(mask: &image::GrayImage, origin: (usize, usize)) -> Vec<Vec<(usize, usize)>> {
+    let labels = connected_components(mask, Connectivity::Eight, image::Luma([0u8]));
+    let mut out: Vec<Vec<(usize, usize)>> = Vec::new();
+    for (x, y, l) in labels.enumerate_pixels() {
+        let l = l[0] as usize;
+        if l > 0 {
+            if out.len() < l {
+                out.resize(l, Vec::new());
             }
+            out[l - 1].push((x as usize + origin.0, y as usize + origin.1));
         }
-        out.push(part);
     }
     out
 }
@@ -439,10 +392,11 @@ fn merge_fragments(cores: &mut [Vec<(usize, usize)>], w: usize, h: usize, params
 /// Darkness above which a pixel next to a blob's region joins it.
 const JOIN_DARKNESS: f64 = 0.4;
 
-/// The pixels a blob's centre is computed over: its grown core (`owner == id` in `bbox`), extended
-/// by flooding into free pixels darker than [`JOIN_DARKNESS`] (the rest of a sliver whose core
-/// the threshold broke up or cut short) at most `reach` pixels beyond `bbox` and inside `limits`,
-/// plus a one-pixel ring of free pixels around what the flood added (their anti-aliased rim).
+/// The pixels a blob's centre is computed over: its grown core (`owner == id` in `bbox`); with a
+/// `reach` (a thin blob), also the free pixels darker than [`JOIN_DARKNESS`] flooded from it (the
+/// rest of a sliver whose core the threshold broke up or cut short) at most `reach` pixels beyond
+/// `bbox` and inside `limits`, and a one-pixel ring of free pixels round the whole (the sliver's
+/// anti-aliased rim, whose ends can lie beyond the grown core).
 fn blob_region(
     owner: &[u32],
     w: usize,
@@ -453,44 +407,37 @@ fn blob_region(
     darkness: &dyn Fn(usize, usize) -> f64,
 ) -> Vec<(usize, usize)> {
     let [bx0, by0, bx1, by1] = bbox;
+    let mut region: Vec<(usize, usize)> = (by0..=by1).flat_map(|y| (bx0..=bx1).map(move |x| (x, y))).filter(|&(x, y)| owner[y * w + x] == id).collect();
+    if reach == 0 {
+        return region;
+    }
     let x0 = bx0.saturating_sub(reach).max(limits[0]);
     let y0 = by0.saturating_sub(reach).max(limits[1]);
     let x1 = (bx1 + reach).min(limits[2]);
     let y1 = (by1 + reach).min(limits[3]);
     let bw = x1 - x0 + 1;
     let mut inside = vec![false; bw * (y1 - y0 + 1)];
-    let mut region = Vec::new();
-    for y in by0..=by1 {
-        for x in bx0..=bx1 {
-            if owner[y * w + x] == id {
-                inside[(y - y0) * bw + (x - x0)] = true;
-                region.push((x, y));
-            }
-        }
+    for &(x, y) in &region {
+        inside[(y - y0) * bw + (x - x0)] = true;
     }
     let neighbours = |x: usize, y: usize| {
         (-1i64..=1).flat_map(move |dy| (-1i64..=1).map(move |dx| (x as i64 + dx, y as i64 + dy))).filter_map(move |(xx, yy)| {
             (xx >= x0 as i64 && yy >= y0 as i64 && xx <= x1 as i64 && yy <= y1 as i64).then_some((xx as usize, yy as usize))
         })
     };
-    let core_len = region.len();
     let mut k = 0;
     while k < region.len() {
         let (x, y) = region[k];
         k += 1;
         for (xx, yy) in neighbours(x, y) {
             let i = (yy - y0) * bw + (xx - x0);
-            if reach > 0 && !inside[i] && owner[yy * w + xx] == 0 && darkness(xx, yy) > JOIN_DARKNESS {
+            if !inside[i] && owner[yy * w + xx] == 0 && darkness(xx, yy) > JOIN_DARKNESS {
                 inside[i] = true;
                 region.push((xx, yy));
             }
         }
     }
-    let flooded = region.len();
-    // With a flood (a thin blob), the ring goes round the whole region: a sliver's end can lie
-    // beyond its grown core.
-    let ring_from = if reach > 0 { 0 } else { core_len };
-    for k in ring_from..flooded {
+    for k in 0..region.len() {
         let (x, y) = region[k];
         for (xx, yy) in neighbours(x, y) {
             let i = (yy - y0) * bw + (xx - x0);

@@ -13,6 +13,7 @@
 
 use nalgebra::{Matrix4, Vector4};
 
+use super::filters::median_by;
 use super::ImageF32;
 
 /// Half-length of the span summed across the edge, pixels.
@@ -44,15 +45,6 @@ pub struct EdgeSurround {
     t0: f64,
 }
 
-fn median(mut v: Vec<f32>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    let mid = v.len() / 2;
-    v.select_nth_unstable_by(mid, f32::total_cmp);
-    Some(f64::from(v[mid]))
-}
-
 impl EdgeSurround {
     /// Fit the edge in `rect` of `img`. `guide` is a dot-free estimate of the surround there (the
     /// closing) that tells the two sides apart; `skip(x, y)` marks pixels of dots. `None` when the
@@ -78,13 +70,12 @@ impl EdgeSurround {
         }
         let (mid, q) = (0.5 * (gmin + gmax), 0.25 * (gmax - gmin));
         let level = |bright: bool| {
-            median(
-                (y0..=y1)
-                    .flat_map(|y| (x0..=x1).map(move |x| (x, y)))
-                    .filter(|&(x, y)| !skip(x, y) && if bright { guide(x, y) > mid + q } else { guide(x, y) < mid - q })
-                    .map(|(x, y)| img.at(x, y))
-                    .collect(),
-            )
+            let mut v: Vec<f32> = (y0..=y1)
+                .flat_map(|y| (x0..=x1).map(move |x| (x, y)))
+                .filter(|&(x, y)| !skip(x, y) && if bright { guide(x, y) > mid + q } else { guide(x, y) < mid - q })
+                .map(|(x, y)| img.at(x, y))
+                .collect();
+            median_by(&mut v, f32::total_cmp).map(f64::from)
         };
         let (lo, hi) = (level(false)?, level(true)?);
         if hi - lo <= min_contrast {
@@ -162,12 +153,11 @@ impl EdgeSurround {
         }
         self.lo + (self.hi - self.lo) * frac / SUB as f64
     }
-}
 
-impl EdgeSurround {
-    /// Share of pixel `(x, y)` on the bright side of the edge.
-    pub fn bright_fraction(&self, x: usize, y: usize) -> f64 {
-        (self.level_at(x, y) - self.lo) / (self.hi - self.lo)
+    /// Share of a pixel on the bright side of the edge, from its modelled level
+    /// ([`Self::level_at`]).
+    pub fn bright_fraction(&self, level: f64) -> f64 {
+        (level - self.lo) / (self.hi - self.lo)
     }
 
     /// The bright side's level.
@@ -262,6 +252,22 @@ mod tests {
             // 1 grey level of 135: under 0.01 px of edge position.
             assert!(worst < 1.0, "({cx}, {cy}): worst {worst}");
         }
+    }
+
+    #[test]
+    fn occluder_coverage_inverts_the_two_level_pixel() {
+        // A vertical edge through the middle of pixel (10, 5): bright (225) right of x = 10.
+        let e = EdgeSurround { rows: true, bright_up: true, lo: 90.0, hi: 225.0, coef: Vector4::new(10.0, 0.0, 0.0, 0.0), t0: 0.0 };
+        assert!((e.bright_fraction(e.level_at(10, 5)) - 0.5).abs() < 1e-12);
+        // A dark (20) occluder over the right quarter (bright side) and over the left quarter
+        // (dark side): the same coverage from different pixel levels.
+        let right = 0.25 * 20.0 + 0.25 * 225.0 + 0.5 * 90.0;
+        let left = 0.25 * 20.0 + 0.25 * 90.0 + 0.5 * 225.0;
+        assert!((e.occluder_coverage(10, 5, right, 20.0, [1.0, 0.0]) - 0.25).abs() < 1e-9);
+        assert!((e.occluder_coverage(10, 5, left, 20.0, [-1.0, 0.0]) - 0.25).abs() < 1e-9);
+        // (The plain darkness (S - I) / (S - dark) says 0.37 and 0.13.)
+        assert!(e.occluder_coverage(10, 5, 157.5, 20.0, [1.0, 0.0]) == 0.0);
+        assert!((e.occluder_coverage(10, 5, 20.0, 20.0, [1.0, 0.0]) - 1.0).abs() < 1e-9);
     }
 
     #[test]

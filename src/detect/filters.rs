@@ -5,7 +5,19 @@
 //! and octagonal kernels", Pattern Recognition Letters 13 (1992); J. Gil, M. Werman, "Computing
 //! 2-D min, median and max filters", IEEE PAMI 15 (1993).
 
+use std::cmp::Ordering;
+
 use super::ImageF32;
+
+/// The median (upper median for an even count) of `v` by `cmp`, reordering `v`; `None` when empty.
+pub fn median_by<T: Copy>(v: &mut [T], cmp: fn(&T, &T) -> Ordering) -> Option<T> {
+    if v.is_empty() {
+        return None;
+    }
+    let mid = v.len() / 2;
+    v.select_nth_unstable_by(mid, cmp);
+    Some(v[mid])
+}
 
 /// van Herk / Gil-Werman along a sequence of `n` equal-length lanes (`lanes[k]` is the k-th
 /// element of every lane): the running extreme over `[k - r, k + r]`, clamped to the sequence.
