@@ -9,12 +9,19 @@
 //!    directions. A direct linear transform (DLT) from its dots to the path points gives a
 //!    reprojection RMS per labelling; the best must be small and clearly better than the runner-up
 //!    (the S is nearly point-symmetric, so the reversed labelling is the usual runner-up).
+//!    When no whole chain labels unambiguously, windows of 15 chain dots are labelled and grown
+//!    (`search_windows`), and the grown labelling that fits best wins if no disagreeing one
+//!    comes close.
 //! 2. *Grow*: project all path points with the fitted camera, keep those on the side of the sphere
 //!    the camera sees, match each to the nearest detected dot within a fraction of the local
-//!    projected spacing (one dot per point, nearest pairs first), refit, repeat until stable.
+//!    projected spacing (one dot per point, nearest pairs first), refit, repeat until stable; then
+//!    fill in the points next to the labelled ones from DLTs fitted to their nearest labelled
+//!    stretch (`extend_locally`: lens distortion bends the image of a long path away from any
+//!    single projective camera).
+//! 3. *Check*: drop blobs far larger than their path neighbours (dots merged into one blob) and
+//!    dots whose reprojection residual jumps against their neighbours' (`drop_outliers`).
 //!
-//! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera; lens
-//! distortion is absorbed by the matching tolerance.
+//! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera.
 //!
 //! Reference: Hartley and Zisserman, *Multiple View Geometry*, 2nd ed., section 7.1 (normalised
 //! DLT for camera resectioning).
@@ -22,7 +29,8 @@
 use nalgebra::{Matrix3x4, Matrix4, Point2, Point3, SMatrix, SymmetricEigen, Vector3, Vector4};
 
 use super::dots::Dot;
-use super::s_path_order::{anonymous_chains, order_s_path, IndexedDot, SPathOrderParams};
+use super::filters::median_by;
+use super::s_path_order::{anonymous_chains, indexed, start_chain, IndexedDot, SPathOrderParams};
 use super::DetectError;
 use crate::target::SPath;
 
@@ -330,8 +338,7 @@ fn extend_locally(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, p
                 .filter(|(j, _)| !dot_used[*j])
                 .map(|(j, d)| (j, (d.centre_px - q).norm()))
                 .min_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((j, e)) = best.filter(|b| b.1 <= tol) {
-                let _ = e;
+            if let Some((j, _)) = best.filter(|b| b.1 <= tol) {
                 point_used[i] = true;
                 dot_used[j] = true;
                 added.push((i, j));
@@ -371,11 +378,7 @@ fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px
             if near.len() < 2 {
                 return true;
             }
-            let med = |f: fn(&nalgebra::Vector2<f64>) -> f64| {
-                let mut v: Vec<f64> = near.iter().map(f).collect();
-                v.sort_by(f64::total_cmp);
-                v[v.len() / 2]
-            };
+            let med = |f: fn(&nalgebra::Vector2<f64>) -> f64| median_by(&mut near.iter().map(f).collect::<Vec<_>>(), f64::total_cmp).unwrap_or(0.0);
             let m = nalgebra::Vector2::new(med(|v| v.x), med(|v| v.y));
             // Small blobs (slivers, far dots) carry little centroid bias: a tighter bound.
             let bound = if dots[labels[k].1].area_px < SMALL_BLOB_PX { SMALL_BLOB_DEVIATION_PX.min(max_px) } else { max_px };
@@ -394,12 +397,9 @@ fn drop_merged(dots: &[Dot], labels: Vec<(usize, usize)>, start_ratio: f64) -> V
         .iter()
         .map(|&(i, j)| {
             let mut near: Vec<f64> = labels.iter().filter(|&&(k, _)| k != i && k != 0 && k.abs_diff(i) <= 5).map(|&(_, m)| dots[m].area_px).collect();
-            if near.is_empty() {
-                return true;
-            }
-            near.sort_by(f64::total_cmp);
+            let Some(typical) = median_by(&mut near, f64::total_cmp) else { return true };
             let limit = MAX_RATIO * if i == 0 { start_ratio.max(1.0) * 1.5 } else { 1.0 };
-            dots[j].area_px <= limit * near[near.len() / 2]
+            dots[j].area_px <= limit * typical
         })
         .collect();
     labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
@@ -413,35 +413,27 @@ fn drop_merged(dots: &[Dot], labels: Vec<(usize, usize)>, start_ratio: f64) -> V
 /// holds too few of the detected dots.
 pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Vec<IndexedDot>, DetectError> {
     let order = SPathOrderParams { points: path.len(), ..params.order };
-    let mut seed: Option<Vec<(usize, usize)>> = None;
-    let start_chain = order_s_path(dots, &order);
-    if let Ok(chain) = &start_chain {
-        let labels: Vec<(usize, usize)> = chain
-            .iter()
-            .map(|d| (d.index, dots.iter().position(|o| o.centre_px == d.centre_px).unwrap_or(0)))
-            .collect();
-        if labels.len() >= params.min_seed {
-            seed = Some(labels);
-        }
-    }
+    let start = start_chain(dots, &order);
+    // Chain indices from the start dot are 0 and up.
+    let mut seed: Option<Labels> = start.as_ref().ok().filter(|c| c.len() >= params.min_seed).map(|c| c.iter().map(|&(i, j)| (i as usize, j)).collect());
     if seed.is_none() {
         let chains = anonymous_chains(dots, order.tolerance, path.len(), params.min_seed);
         seed = chains.iter().find_map(|c| label_chain(c, dots, path, params)).or_else(|| search_windows(&chains, dots, path, params));
     }
     let Some(seed) = seed else {
-        return match start_chain {
+        return match start {
             // A short start chain is all there is: keep the old behaviour.
-            Ok(chain) => Ok(chain),
+            Ok(chain) => Ok(indexed(dots, &chain)),
             Err(_) => Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) }),
         };
     };
     let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
     let labels = drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px);
-    let need = order.min_chain.min(order.points).max((order.min_chain_share * dots.len() as f64).ceil() as usize);
+    let need = order.needed(dots.len());
     if labels.len() < need {
         return Err(DetectError::NotFound { reason: format!("{} of {} dots placed on the S-path (at least {need} needed)", labels.len(), dots.len()) });
     }
-    Ok(labels.iter().map(|&(i, j)| IndexedDot { index: i, centre_px: dots[j].centre_px }).collect())
+    Ok(indexed(dots, &labels))
 }
 
 #[cfg(test)]

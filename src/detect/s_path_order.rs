@@ -35,6 +35,14 @@ pub struct SPathOrderParams {
     pub min_chain_share: f64,
 }
 
+impl SPathOrderParams {
+    /// Fewest dots a path must hold among `detected` dots: `min_chain` (at most `points`), and
+    /// `min_chain_share` of them.
+    pub fn needed(&self, detected: usize) -> usize {
+        self.min_chain.min(self.points).max((self.min_chain_share * detected as f64).ceil() as usize)
+    }
+}
+
 impl Default for SPathOrderParams {
     fn default() -> Self {
         Self { points: 101, start_area_ratio: 1.8, tolerance: 0.45, min_chain: 10, min_chain_share: 0.8 }
@@ -92,6 +100,7 @@ pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>
         // when the last step is too long (the start dot's centroid is off its path point).
         let ahead = rot * step;
         let step_len = step.norm();
+        let cos_cone = 40f64.to_radians().cos();
         let next = dots
             .iter()
             .enumerate()
@@ -99,10 +108,13 @@ pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>
             .map(|(j, d)| (j, d.centre_px - cur))
             .filter(|(_, v)| {
                 let l = v.norm();
-                (0.5 * step_len..=1.6 * step_len).contains(&l) && v.dot(&ahead) >= l * step_len * 40f64.to_radians().cos()
+                (0.5 * step_len..=1.6 * step_len).contains(&l) && v.dot(&ahead) >= l * step_len * cos_cone
             })
             .min_by(|a, b| a.1.norm().total_cmp(&b.1.norm()));
-        let mut found = next.filter(|(j, _)| (dots[*j].centre_px - cur).norm() >= 0.8 * (radius(&dots[*j]) + radius(&dots[j_cur]))).map(|(j, _)| (j, i_cur + 1));
+        // Path dots do not overlap (25.7 mm apart, 12 mm beads): two blobs closer than most of
+        // their radii are clutter, not consecutive dots.
+        let apart = |j: usize| (dots[j].centre_px - cur).norm() >= 0.8 * (radius(&dots[j]) + radius(&dots[j_cur]));
+        let mut found = next.filter(|(j, _)| apart(*j)).map(|(j, _)| (j, i_cur + 1));
         for skip in 1..=MAX_SKIP {
             if found.is_some() {
                 break;
@@ -115,10 +127,7 @@ pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>
                 pred += s;
             }
             if let Some((j, dist)) = nearest_unused(pred, used) {
-                // Path dots do not overlap (25.7 mm apart, 12 mm beads): two blobs closer than most of
-                // their radii are clutter, not consecutive dots.
-                let apart = (dots[j].centre_px - cur).norm() >= 0.8 * (radius(&dots[j]) + radius(&dots[j_cur]));
-                if apart && dist <= tolerance * step.norm() * skip as f64 + 1.0 {
+                if apart(j) && dist <= tolerance * step_len * skip as f64 + 1.0 {
                     found = Some((j, i_cur + skip as i64));
                     break;
                 }
@@ -174,11 +183,11 @@ pub fn anonymous_chains(dots: &[Dot], tolerance: f64, points: usize, min_len: us
     chains
 }
 
-/// Order detected dots along the S-path.
+/// The chain from the start dot: (path index, dot) pairs in path order.
 ///
 /// # Errors
-/// [`DetectError::NotFound`] when fewer than 3 dots are given or the start dot is not recognised.
-pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<IndexedDot>, DetectError> {
+/// As [`order_s_path`].
+pub fn start_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i64, usize)>, DetectError> {
     if dots.len() < 3 {
         return Err(DetectError::NotFound { reason: format!("{} dots, at least 3 needed to order a path", dots.len()) });
     }
@@ -195,20 +204,31 @@ pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<Index
     }
     let mut used = vec![false; dots.len()];
     used[start] = true;
-    let Some(&(second, _)) = two_nearest(dots, start).first() else {
-        return Ok(vec![IndexedDot { index: 0, centre_px: dots[start].centre_px }]);
-    };
+    let Some(&(second, _)) = two_nearest(dots, start).first() else { return Ok(vec![(0, start)]) };
     used[second] = true;
     let mut chain = vec![(0, start), (1, second)];
     grow_chain(dots, &mut used, &mut chain, params.tolerance, params.points as i64);
-    let out: Vec<IndexedDot> = chain.iter().map(|&(i, j)| IndexedDot { index: i as usize, centre_px: dots[j].centre_px }).collect();
-    let need = params.min_chain.min(params.points).max((params.min_chain_share * dots.len() as f64).ceil() as usize);
-    if out.len() < need {
+    let need = params.needed(dots.len());
+    if chain.len() < need {
         return Err(DetectError::NotFound {
-            reason: format!("the chain from the start dot holds {} of {} dots (at least {need} needed)", out.len(), dots.len()),
+            reason: format!("the chain from the start dot holds {} of {} dots (at least {need} needed)", chain.len(), dots.len()),
         });
     }
-    Ok(out)
+    Ok(chain)
+}
+
+/// Order detected dots along the S-path.
+///
+/// # Errors
+/// [`DetectError::NotFound`] when fewer than 3 dots are given, the start dot is not recognised,
+/// or its chain holds too few of the dots ([`SPathOrderParams::needed`]).
+pub fn order_s_path(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<IndexedDot>, DetectError> {
+    Ok(indexed(dots, &start_chain(dots, params)?))
+}
+
+/// (path index, dot) pairs as [`IndexedDot`]s.
+pub fn indexed<I: Copy + TryInto<usize>>(dots: &[Dot], pairs: &[(I, usize)]) -> Vec<IndexedDot> {
+    pairs.iter().filter_map(|&(i, j)| Some(IndexedDot { index: i.try_into().ok()?, centre_px: dots[j].centre_px })).collect()
 }
 
 #[cfg(test)]
