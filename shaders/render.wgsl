@@ -431,30 +431,36 @@ fn bead_values(xu: vec2<f32>, b: vec4<f32>) -> vec2<f32> {
     return vec2<f32>(sqrt(p2) - b.w, select(tb - ts, -1.0, ts <= 0.0));
 }
 
-// Is the painted cap's rim function (dot_boundary 2) linear over the pixel? Its values at the four
-// corners must match the linearisation at the centre within 0.1 px. Near the sphere's outline the
-// sphere hit point, and so the cap function, bends sharply: there a sliver cap's two sides can fall
-// in one pixel, which the single-boundary closed form cannot represent.
-fn cap_rim_linear(ray: Ray, b: vec4<f32>) -> bool {
-    let g0 = dot_boundary(2u, ray.xu, b);
-    let gx = dot_boundary(2u, ray.xu + 0.5 * ray.dxu_dq[0], b) - dot_boundary(2u, ray.xu - 0.5 * ray.dxu_dq[0], b);
-    let gy = dot_boundary(2u, ray.xu + 0.5 * ray.dxu_dq[1], b) - dot_boundary(2u, ray.xu - 0.5 * ray.dxu_dq[1], b);
-    let tol = 0.1 * len2(vec2<f32>(gx, gy));
+// dot_boundary `which` of dot b linearised over the pixel: (value at the centre, central
+// differences per pixel along x and y).
+fn boundary_linear(which: u32, ray: Ray, b: vec4<f32>) -> vec3<f32> {
+    let g0 = dot_boundary(which, ray.xu, b);
+    let gx = dot_boundary(which, ray.xu + 0.5 * ray.dxu_dq[0], b) - dot_boundary(which, ray.xu - 0.5 * ray.dxu_dq[0], b);
+    let gy = dot_boundary(which, ray.xu + 0.5 * ray.dxu_dq[1], b) - dot_boundary(which, ray.xu - 0.5 * ray.dxu_dq[1], b);
+    return vec3<f32>(g0, gx, gy);
+}
+
+// Is the painted cap's rim function (dot_boundary 2, linearised as `lin`) linear over the pixel?
+// Its values at the four corners must match the linearisation within 0.1 px. Near the sphere's
+// outline the sphere hit point, and so the cap function, bends sharply: there a sliver cap's two
+// sides can fall in one pixel, which the single-boundary closed form cannot represent.
+fn cap_rim_linear(ray: Ray, b: vec4<f32>, lin: vec3<f32>) -> bool {
+    let tol = 0.1 * len2(lin.yz);
     var ok = true;
     for (var k = 0u; k < 4u; k = k + 1u) {
         let o = vec2<f32>(select(-0.5, 0.5, (k & 1u) == 1u), select(-0.5, 0.5, k >= 2u));
         let g = dot_boundary(2u, ray.xu + ray.dxu_dq * o, b);
-        ok = ok && abs(g - (g0 + gx * o.x + gy * o.y)) <= tol;
+        ok = ok && abs(g - (lin.x + lin.y * o.x + lin.z * o.y)) <= tol;
     }
     return ok;
 }
 
-// Coverage of the pixel by {dot_boundary < 0}: gradient by central differences over the pixel,
-// second derivative along the tangent from two more samples.
-fn dot_coverage(which: u32, ray: Ray, b: vec4<f32>) -> f32 {
-    let g0 = dot_boundary(which, ray.xu, b);
-    let gx = dot_boundary(which, ray.xu + 0.5 * ray.dxu_dq[0], b) - dot_boundary(which, ray.xu - 0.5 * ray.dxu_dq[0], b);
-    let gy = dot_boundary(which, ray.xu + 0.5 * ray.dxu_dq[1], b) - dot_boundary(which, ray.xu - 0.5 * ray.dxu_dq[1], b);
+// Coverage of the pixel by {dot_boundary < 0}: value and gradient from `lin`
+// (boundary_linear), second derivative along the tangent from two more samples.
+fn dot_coverage(which: u32, ray: Ray, b: vec4<f32>, lin: vec3<f32>) -> f32 {
+    let g0 = lin.x;
+    let gx = lin.y;
+    let gy = lin.z;
     let grad = vec2<f32>(gx, gy);
     let t = vec2<f32>(-gy, gx) / max(len2(grad), 1e-30);
     let dt = ray.dxu_dq * t;
@@ -528,8 +534,9 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     // A cap off the outline's neighbourhood: the whole pixel misses the sphere (background), or
     // the cap's rim is close enough to a straight line over the pixel for the closed form.
     let off_sphere = disc && ts <= 0.0;
-    let single = n_touch == 1u && !limb && (sil_only || cut_only || hidden || off_sphere || (disc && cap_rim_linear(ray, b)));
-    let cov = select(dot_coverage(which, ray, b), 0.0, off_sphere);
+    let lin = boundary_linear(which, ray, b);
+    let single = n_touch == 1u && !limb && (sil_only || cut_only || hidden || off_sphere || (disc && cap_rim_linear(ray, b, lin)));
+    let cov = select(dot_coverage(which, ray, b, lin), 0.0, off_sphere);
     // The other side of the boundary: the sphere (or the background) as the centre ray sees it.
     let other = select(P.grey.w, P.grey.y, ts > 0.0 || cut_only);
     let analytic = select(P.grey.x * cov + other * (1.0 - cov), other, hidden);
