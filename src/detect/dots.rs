@@ -26,6 +26,7 @@ use imageproc::region_labelling::{connected_components, Connectivity};
 use nalgebra::Point2;
 
 use super::edge_surround::EdgeSurround;
+use super::outline::Outline;
 use super::filters::{extreme_filter, median_by};
 use super::{DetectError, ImageF32};
 
@@ -66,6 +67,9 @@ pub struct Dot {
     /// Surround minus dot level, grey levels.
     pub contrast: f64,
 }
+
+/// Weight of a pixel that surely belongs to a blob (some 10 noise sigmas at sigma 1 grey level).
+const SIGNIFICANT_WEIGHT: f64 = 0.1;
 
 /// Pooling factor of the local-level images.
 const POOL: usize = 4;
@@ -121,7 +125,10 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let i = (y / POOL) * pw + x / POOL;
         (hi.data[i] - img.data[y * w + x]) / (hi.data[i] - lo.data[i]).max(1e-6)
     });
-    let keep: Vec<usize> = (0..cores.len()).filter(|&k| (params.min_core_px..=params.max_core_px).contains(&cores[k].len())).collect();
+    // Only cores darker than their rim own pixels: a patch of mid-grey background that passed the
+    // threshold next to a faint sliver (where the local minimum is the sliver's) would otherwise
+    // take the sliver's pixels from it.
+    let keep: Vec<usize> = (0..cores.len()).filter(|&k| (params.min_core_px..=params.max_core_px).contains(&cores[k].len()) && darker_than_rim(img, &cores[k], params)).collect();
     // Owner map of the grown cores (label of the grown core covering a pixel, or 0).
     let g = params.grow_px as i64;
     // A pixel in two grown cores goes to the nearer core (squared distance to its nearest core
@@ -152,6 +159,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         }
     }
     let mut dots = Vec::with_capacity(keep.len());
+    let mut outline: Option<Option<Outline>> = None;
     for &k in &keep {
         let core = &cores[k];
         let id = k as u32 + 1;
@@ -176,31 +184,65 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
         // A two-level edge (the sphere's outline) through the window: modelled, not closed.
         let is_dot = |x: usize, y: usize| owner[y * w + x] != 0;
+        let has_contrast = |c: &ImageF32| {
+            let (cmin, cmax) = c.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+            cmax - cmin > params.min_contrast
+        };
         let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &is_dot, f64::from(params.min_contrast)).or_else(|| {
             // Too few clean lines across the edge (neighbouring dots along the outline hide
             // them): a window half as large again, where the first window holds an edge at all.
-            let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-            if !(cmax - cmin > params.min_contrast) {
+            if !has_contrast(&closed) {
                 return None;
             }
             let (big, rect) = closed_window(img, [bx0, by0, bx1, by1], 3 * r, r);
             let bw = rect[2] - rect[0] + 1;
             EdgeSurround::fit(img, rect, &|x, y| big.data[(y - rect[1]) * bw + (x - rect[0])], &is_dot, f64::from(params.min_contrast))
         });
+        // Where the whole-image outline agrees with the window's clean lines, it bridges the
+        // lines the dots hide (fitted once, at the first dot with an edge, with its levels).
+        // Where no window holds enough clean lines, the outline alone, if the closing shows an
+        // edge in the window.
+        let edge = match edge {
+            Some(e) => {
+                let whole = outline.get_or_insert_with(|| {
+                    let (lo, hi) = e.levels();
+                    Outline::fit(img, lo, hi, &is_dot)
+                });
+                match whole {
+                    Some(o) => e.along(o, [cx0, cy0, cx1, cy1]).or(Some(e)),
+                    None => Some(e),
+                }
+            }
+            None => match &outline {
+                Some(Some(o)) if has_contrast(&closed) => EdgeSurround::from_outline(o, [cx0, cy0, cx1, cy1]),
+                _ => None,
+            },
+        };
         // The free pixels around the grown core.
         let ring: Vec<(usize, usize)> = (by0..=by1).flat_map(|y| (bx0..=bx1).map(move |x| (x, y))).filter(|&(x, y)| owner[y * w + x] == 0).collect();
-        // The model must explain the ring (a cubic bridging too long a hidden stretch can miss the
-        // edge by pixels there): mean error at most 8 grey levels.
-        let edge = edge.filter(|e| {
-            let err: f64 = ring.iter().map(|&(x, y)| (e.level_at(x, y) - f64::from(img.data[y * w + x])).abs()).sum();
-            ring.is_empty() || err / ring.len() as f64 <= 8.0
+        // Only thin cores (about two pixels across at most: a sliver seen edge-on) are flooded.
+        let thin = core.len() <= 2 * (x1 - x0 + 1).max(y1 - y0 + 1);
+        let reach = if thin { params.window_px / 3 } else { 0 };
+        let darkness_over = |s: f64, x: usize, y: usize| (s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6);
+        let region_under = |surround: &dyn Fn(usize, usize) -> f64| blob_region(&owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &|x, y| darkness_over(surround(x, y), x, y));
+        // The model must explain the ring outside the blob (a cubic bridging too long a hidden
+        // stretch can miss the edge by pixels there): mean error at most 8 grey levels.
+        let edge = edge.and_then(|e| {
+            let region = region_under(&|x, y| e.level_at(x, y));
+            let mut sorted = region.clone();
+            sorted.sort_unstable();
+            let free: Vec<&(usize, usize)> = ring.iter().filter(|p| sorted.binary_search(p).is_err()).collect();
+            let err: f64 = free.iter().map(|&&(x, y)| (e.level_at(x, y) - f64::from(img.data[y * w + x])).abs()).sum();
+            (free.is_empty() || err / free.len() as f64 <= 8.0).then_some((e, region))
         });
-        // Lift of the closing over the image in the ring (noise peaks).
-        let lift = if edge.is_none() {
-            let mut lift: Vec<f32> = ring.iter().map(|&(x, y)| closed_at(x, y) - img.data[y * w + x]).collect();
-            f64::from(median_by(&mut lift, f32::total_cmp).unwrap_or(0.0))
-        } else {
-            0.0
+        let (edge, region, lift) = match edge {
+            Some((e, region)) => (Some(e), region, 0.0),
+            None => {
+                // Lift of the closing over the image in the ring (noise peaks).
+                let mut lift: Vec<f32> = ring.iter().map(|&(x, y)| closed_at(x, y) - img.data[y * w + x]).collect();
+                let lift = f64::from(median_by(&mut lift, f32::total_cmp).unwrap_or(0.0));
+                (None, region_under(&|x, y| f64::from(closed_at(x, y)) - lift), lift)
+            }
         };
         let surround_at = |x: usize, y: usize| match &edge {
             Some(e) => e.level_at(x, y),
@@ -210,14 +252,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         if !(s_core - d > f64::from(params.min_contrast) * 0.5) {
             continue;
         }
-        let darkness = |x: usize, y: usize| {
-            let s = surround_at(x, y);
-            (s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6)
-        };
-        // Only thin cores (about two pixels across at most: a sliver seen edge-on) are flooded.
-        let thin = core.len() <= 2 * (x1 - x0 + 1).max(y1 - y0 + 1);
-        let reach = if thin { params.window_px / 3 } else { 0 };
-        let region = blob_region(&owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &darkness);
+        let darkness = |x: usize, y: usize| darkness_over(surround_at(x, y), x, y);
         // Not clamped at 0: noise in the surround then averages out instead of biasing.
         // A thin blob has no wholly dark pixel, so its dark level `d` is too light and its
         // darkness overshoots 1 where the blob is darkest: not clamped there (the overshoot is a
@@ -227,8 +262,19 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         if let Some(e) = &edge {
             edge_weights(img, e, &region, &mut weights, d, top);
         }
+        // Pixels farther than one pixel from any clearly dark one (weight above
+        // SIGNIFICANT_WEIGHT) carry nothing of the blob (the box filter spreads a boundary over
+        // one pixel), only noise at their lever arm: left out.
+        let mut sorted: Vec<(usize, usize)> = region.iter().zip(&weights).filter(|(_, w)| **w > SIGNIFICANT_WEIGHT).map(|(p, _)| *p).collect();
+        sorted.sort_unstable();
+        let near_dark = |x: usize, y: usize| {
+            (y.saturating_sub(1)..=y + 1).any(|yy| (x.saturating_sub(1)..=x + 1).any(|xx| sorted.binary_search(&(xx, yy)).is_ok()))
+        };
         let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
         for (&(x, y), &wgt) in region.iter().zip(&weights) {
+            if !near_dark(x, y) {
+                continue;
+            }
             sw += wgt;
             su += wgt * x as f64;
             sv += wgt * y as f64;
@@ -265,10 +311,13 @@ fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], wei
     let level: Vec<f64> = region.iter().map(|&(x, y)| e.level_at(x, y)).collect();
     let frac: Vec<f64> = level.iter().map(|l| e.bright_fraction(*l)).collect();
     let value = |k: usize| f64::from(img.data[region[k].1 * w + region[k].0]);
-    // Paint darkens a pixel by at most its bright share times (hi - dark); more (beyond noise and
+    // Paint darkens a pixel by at most its bright share times (hi - dot level); more (beyond noise and
     // the edge model's error, 12 grey levels) means something in front of the edge.
+    // The dot level can be darker than `dark` (a thin blob has no wholly dark pixel): the bound
+    // takes the darkest pixel of the region if it is darker.
     let hi = e.bright_level();
-    let occluder = (0..region.len()).any(|k| level[k] - value(k) > frac[k] * (hi - dark) + 12.0);
+    let darkest = (0..region.len()).map(value).fold(dark, f64::min);
+    let occluder = (0..region.len()).any(|k| level[k] - value(k) > frac[k] * (hi - darkest) + 12.0);
     if occluder {
         let sw: f64 = weights.iter().map(|v| v.max(0.0)).sum();
         if sw <= 0.0 {
@@ -320,6 +369,42 @@ fn split_large(img: &ImageF32, comp: &[(usize, usize)], params: &DotParams) -> V
         dark.put_pixel((x - x0) as u32, (y - y0) as u32, image::Luma([u8::from(img.data[y * w + x] < t)]));
     }
     components(&dark, (x0, y0))
+}
+
+/// Whether `core`'s darker half lies below most of the pixels bordering it (8-connected) by at
+/// least a quarter of `min_contrast`: a dot's core does, a patch of flat background does not.
+fn darker_than_rim(img: &ImageF32, core: &[(usize, usize)], params: &DotParams) -> bool {
+    let (w, h) = (img.width, img.height);
+    let [x0, y0, x1, y1] = bbox(core);
+    let (ox, oy) = (x0.saturating_sub(1), y0.saturating_sub(1));
+    let bw = (x1 + 1).min(w - 1) - ox + 1;
+    let bh = (y1 + 1).min(h - 1) - oy + 1;
+    let mut in_core = vec![false; bw * bh];
+    for &(x, y) in core {
+        in_core[(y - oy) * bw + (x - ox)] = true;
+    }
+    let mut rim: Vec<f32> = Vec::new();
+    for by in 0..bh {
+        for bx in 0..bw {
+            if in_core[by * bw + bx] {
+                continue;
+            }
+            let touches = (by.saturating_sub(1)..=(by + 1).min(bh - 1)).any(|yy| (bx.saturating_sub(1)..=(bx + 1).min(bw - 1)).any(|xx| in_core[yy * bw + xx]));
+            if touches {
+                rim.push(img.data[(oy + by) * w + ox + bx]);
+            }
+        }
+    }
+    let mut vals: Vec<f32> = core.iter().map(|&(x, y)| img.data[y * w + x]).collect();
+    vals.sort_by(f32::total_cmp);
+    let half = vals.len().div_ceil(2);
+    let (Some(d), Some(r)) = (median_by(&mut vals[..half], f32::total_cmp), {
+        rim.sort_by(f32::total_cmp);
+        rim.get(rim.len() / 5).copied()
+    }) else {
+        return true;
+    };
+    r - d > 0.25 * params.min_contrast
 }
 
 /// The 8-connected components of the set pixels of `mask` (whose top-left pixel is `origin` in

@@ -14,6 +14,7 @@
 use nalgebra::{Matrix4, Vector4};
 
 use super::filters::median_by;
+use super::outline::Outline;
 use super::ImageF32;
 
 /// Half-length of the span summed across the edge, pixels.
@@ -24,12 +25,15 @@ const SUB: usize = 16;
 const T_SCALE: f64 = 16.0;
 /// Fewest edge lines for a fit.
 const MIN_LINES: usize = 8;
+/// Largest median distance between a window's clean crossings and the whole-image outline for
+/// the outline to be the window's edge, pixels.
+const SAME_EDGE_PX: f64 = 0.5;
 
 /// Pixel rectangle `[x0, y0, x1, y1]`, inclusive.
 pub type Rect = [usize; 4];
 
 /// A fitted two-level edge near one dot.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct EdgeSurround {
     /// Lines across the edge are rows (edge mostly vertical) or columns.
     rows: bool,
@@ -43,6 +47,8 @@ pub struct EdgeSurround {
     coef: Vector4<f64>,
     /// Origin of the along-coordinate.
     t0: f64,
+    /// The clean crossings `(t, e)` the fit kept.
+    samples: Vec<(f64, f64)>,
 }
 
 impl EdgeSurround {
@@ -118,7 +124,59 @@ impl EdgeSurround {
         // One pass of outlier rejection (a line grazing an undetected speck).
         samples.retain(|&(t, e, _)| (Self::eval(&coef, t - tc) - e).abs() < 0.25);
         coef = Self::fit_cubic(&samples, tc)?;
-        Some(Self { rows, bright_up, lo, hi, coef, t0: tc })
+        Some(Self { rows, bright_up, lo, hi, coef, t0: tc, samples: samples.iter().map(|s| (s.0, s.1)).collect() })
+    }
+
+    /// This edge with its crossings on every line of `rect` taken from the whole-image
+    /// `outline` (which holds thousands of clean crossings to a few hundredths of a pixel), if
+    /// the outline is this edge: its crossings lie within [`SAME_EDGE_PX`] of the window's clean
+    /// ones (median). The window's own crossings next to the dots can be off by tenths of a
+    /// pixel (the faint ends of slivers along the edge), and where the dots hide most lines a
+    /// cubic extrapolates from a few lines on one side; the conic bridges both.
+    pub fn along(&self, outline: &Outline, rect: Rect) -> Option<Self> {
+        let mut diffs: Vec<f64> = self.samples.iter().filter_map(|&(t, e)| outline.crossing(self.rows, t, e).map(|c| (c - e).abs())).collect();
+        if diffs.len() < self.samples.len() || median_by(&mut diffs, f64::total_cmp)? > SAME_EDGE_PX {
+            return None;
+        }
+        let [x0, y0, x1, y1] = rect;
+        let (a0, a1, t0, t1) = if self.rows { (x0, x1, y0, y1) } else { (y0, y1, x0, x1) };
+        let samples: Vec<(f64, f64, bool)> = (t0..=t1)
+            .filter_map(|t| {
+                let t = t as f64;
+                let e = outline.crossing(self.rows, t, Self::eval(&self.coef, t - self.t0))?;
+                (e >= a0 as f64 - 0.5 && e <= a1 as f64 + 0.5).then_some((t, e, self.bright_up))
+            })
+            .collect();
+        let coef = Self::fit_cubic(&samples, self.t0)?;
+        Some(Self { coef, samples: samples.iter().map(|s| (s.0, s.1)).collect(), ..self.clone() })
+    }
+
+    /// The edge in `rect` from the whole-image `outline` alone (where the dots hide every line
+    /// across it in the window): crossings on rows or on columns, whichever has more lines
+    /// whose crossing falls inside the window; `None` where the outline does not pass `rect`.
+    pub fn from_outline(outline: &Outline, rect: Rect) -> Option<Self> {
+        let [x0, y0, x1, y1] = rect;
+        let candidates = [true, false].map(|rows| {
+            let (a0, a1, t0, t1) = if rows { (x0, x1, y0, y1) } else { (y0, y1, x0, x1) };
+            let mid = 0.5 * (a0 + a1) as f64;
+            let samples: Vec<(f64, f64, bool)> = (t0..=t1)
+                .filter_map(|t| {
+                    let e = outline.crossing(rows, t as f64, mid)?;
+                    (e >= a0 as f64 + 0.5 && e <= a1 as f64 - 0.5).then_some((t as f64, e, true))
+                })
+                .collect();
+            (rows, samples, 0.5 * (t0 + t1) as f64)
+        });
+        let (rows, samples, tc) = candidates.into_iter().max_by_key(|c| c.1.len())?;
+        let coef = Self::fit_cubic(&samples, tc)?;
+        let (t, e) = (samples[0].0, samples[0].1);
+        let bright_up = if rows { outline.is_bright(e + 1.0, t) } else { outline.is_bright(t, e + 1.0) };
+        Some(Self { rows, bright_up, lo: outline.lo, hi: outline.hi, coef, t0: tc, samples: samples.iter().map(|s| (s.0, s.1)).collect() })
+    }
+
+    /// Dark and bright levels.
+    pub fn levels(&self) -> (f64, f64) {
+        (self.lo, self.hi)
     }
 
     fn eval(c: &Vector4<f64>, t: f64) -> f64 {
@@ -255,9 +313,29 @@ mod tests {
     }
 
     #[test]
+    fn the_whole_outline_bridges_lines_the_dots_hide() {
+        // A 450-px disc (the S-path sphere's size); in the window on its left, dots hide every
+        // row but the first twelve (skip): the local cubic extrapolates over 89 rows.
+        let img = disc_edge(200, 200, 470.3, 99.6, 450.0);
+        let rect = [2, 50, 50, 150];
+        let hidden = |x: usize, y: usize| (62..=150).contains(&y) && (12..=35).contains(&x);
+        let all = |x: usize, y: usize| img.at(x, y);
+        let local = EdgeSurround::fit(&img, rect, &all, &hidden, 40.0).expect("local edge");
+        let outline = Outline::fit(&img, 90.0, 225.0, &hidden).expect("outline");
+        let bridged = local.along(&outline, rect).expect("same edge");
+        let worst = |e: &EdgeSurround| (62..=150).flat_map(|y| (12..=35).map(move |x| (x, y))).map(|(x, y)| (e.level_at(x, y) - f64::from(img.at(x, y))).abs()).fold(0.0, f64::max);
+        // The test image's own 32 x 32 sampling is off by up to 135 / 64 = 2.1 grey levels.
+        assert!(worst(&bridged) < 2.5, "bridged: {}", worst(&bridged));
+        assert!(worst(&local) > 10.0, "the local cubic alone: {}", worst(&local));
+        // Every line hidden: the outline alone.
+        let alone = EdgeSurround::from_outline(&outline, rect).expect("from the outline");
+        assert!(worst(&alone) < 2.5, "alone: {}", worst(&alone));
+    }
+
+    #[test]
     fn occluder_coverage_inverts_the_two_level_pixel() {
         // A vertical edge through the middle of pixel (10, 5): bright (225) right of x = 10.
-        let e = EdgeSurround { rows: true, bright_up: true, lo: 90.0, hi: 225.0, coef: Vector4::new(10.0, 0.0, 0.0, 0.0), t0: 0.0 };
+        let e = EdgeSurround { rows: true, bright_up: true, lo: 90.0, hi: 225.0, coef: Vector4::new(10.0, 0.0, 0.0, 0.0), t0: 0.0, samples: Vec::new() };
         assert!((e.bright_fraction(e.level_at(10, 5)) - 0.5).abs() < 1e-12);
         // A dark (20) occluder over the right quarter (bright side) and over the left quarter
         // (dark side): the same coverage from different pixel levels.

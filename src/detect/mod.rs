@@ -16,6 +16,7 @@ pub mod filters;
 pub mod grid;
 pub mod grid_order;
 pub mod image;
+pub mod outline;
 pub mod par;
 pub mod pool;
 pub mod response;

@@ -14,8 +14,9 @@
 //! Both come from exact ray casting ([`Tracer`]): every pixel of the
 //! dot's conservative bounding box is probed at a 3 x 3 grid of points; pixels whose probes all see
 //! the dot count as whole pixels (centroid at the pixel centre), pixels whose probes disagree are
-//! integrated with `CENTROID_SUBSAMPLES^2` exact samples (a sliver thinner than half a pixel
-//! that no probe touches is missed; such slivers are below any detector's reach).
+//! integrated with `CENTROID_SUBSAMPLES^2` exact samples, and so is every probe-free pixel next to
+//! a pixel with coverage, flooding outwards (a sliver thinner than the probes' half-pixel spacing
+//! is followed from where it is wider).
 
 use nalgebra::Point2;
 use rayon::prelude::*;
@@ -135,41 +136,65 @@ pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates:
     let y0 = bbox[1].floor().max(0.0) as i64;
     let x1 = (bbox[2].ceil() as i64).min(i64::from(size.width) - 1);
     let y1 = (bbox[3].ceil() as i64).min(i64::from(size.height) - 1);
+    if x1 < x0 || y1 < y0 {
+        return None;
+    }
+    let (bw, bh) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
     let sees = |u: f64, v: f64| tracer.trace_px_among(&Point2::new(u, v), candidates).feature == Some(id);
+    // Probe hits per pixel of the box, then exact integration where the probes disagree and,
+    // flooding outwards, in every probe-free pixel next to a pixel with coverage (thin slivers
+    // between the probes).
+    let mut hits = vec![0u8; bw * bh];
+    for (k, h) in hits.iter_mut().enumerate() {
+        let (xf, yf) = ((x0 + (k % bw) as i64) as f64, (y0 + (k / bw) as i64) as f64);
+        for j in [-0.5, 0.0, 0.5] {
+            for i in [-0.5, 0.0, 0.5] {
+                *h += u8::from(sees(xf + i, yf + j));
+            }
+        }
+    }
+    let mut queued = vec![false; bw * bh];
+    let mut queue: Vec<usize> = (0..bw * bh).filter(|&k| hits[k] > 0).collect();
+    queue.iter().for_each(|&k| queued[k] = true);
     let (mut area, mut su, mut sv) = (0.0, 0.0, 0.0);
     let (mut pu, mut pv) = (0.0, 0.0);
-    for y in y0..=y1 {
-        for x in x0..=x1 {
-            let (xf, yf) = (x as f64, y as f64);
-            let mut hits = 0;
-            for j in [-0.5, 0.0, 0.5] {
-                for i in [-0.5, 0.0, 0.5] {
-                    hits += usize::from(sees(xf + i, yf + j));
-                }
-            }
-            if hits == 9 {
-                area += 1.0;
-                su += xf;
-                sv += yf;
-                pu += xf;
-                pv += yf;
-            } else if hits > 0 {
-                let before = area;
-                let n = CENTROID_SUBSAMPLES;
-                let w = 1.0 / f64::from(n * n);
-                for j in 0..n {
-                    for i in 0..n {
-                        let u = xf - 0.5 + (f64::from(i) + 0.5) / f64::from(n);
-                        let v = yf - 0.5 + (f64::from(j) + 0.5) / f64::from(n);
-                        if sees(u, v) {
-                            area += w;
-                            su += w * u;
-                            sv += w * v;
-                        }
+    while let Some(k) = queue.pop() {
+        let (bx, by) = (k % bw, k / bw);
+        let (xf, yf) = ((x0 + bx as i64) as f64, (y0 + by as i64) as f64);
+        let covered = if hits[k] == 9 {
+            su += xf;
+            sv += yf;
+            1.0
+        } else {
+            let n = CENTROID_SUBSAMPLES;
+            let w = 1.0 / f64::from(n * n);
+            let mut c = 0.0;
+            for j in 0..n {
+                for i in 0..n {
+                    let u = xf - 0.5 + (f64::from(i) + 0.5) / f64::from(n);
+                    let v = yf - 0.5 + (f64::from(j) + 0.5) / f64::from(n);
+                    if sees(u, v) {
+                        c += w;
+                        su += w * u;
+                        sv += w * v;
                     }
                 }
-                pu += (area - before) * xf;
-                pv += (area - before) * yf;
+            }
+            c
+        };
+        area += covered;
+        pu += covered * xf;
+        pv += covered * yf;
+        if covered > 0.0 && hits[k] < 9 {
+            for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+                let (nx, ny) = (bx as i64 + dx, by as i64 + dy);
+                if (0..bw as i64).contains(&nx) && (0..bh as i64).contains(&ny) {
+                    let n = ny as usize * bw + nx as usize;
+                    if !queued[n] {
+                        queued[n] = true;
+                        queue.push(n);
+                    }
+                }
             }
         }
     }

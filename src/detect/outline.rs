@@ -1,0 +1,304 @@
+//! A two-level outline over the whole image (the S-path sphere's silhouette against the
+//! background) as one conic.
+//!
+//! A dot's local edge model ([`super::edge_surround`]) measures the edge on the lines across it
+//! that no dot touches. Where dots line the outline for a long stretch, those lines are few and
+//! on one side, and a local cubic extrapolates by tenths of a pixel. The silhouette of a sphere
+//! through a pinhole lens is a conic, and most of it is free of dots: every clean crossing of the
+//! two levels on the image's rows and columns (measured like the local model's, by the sum of the
+//! coverages across a short span, exact on a box-filtered render of a straight edge; the levels
+//! from the flat ends of each span) goes into one robust conic fit, which then bridges any
+//! stretch the dots hide. Under lens distortion the silhouette is not a conic; the fit's residual
+//! says so and the local models are kept.
+//!
+//! Reference: the conic fit is the algebraic least-squares fit with Sampson (first-order
+//! geometric) reweighting, Hartley and Zisserman, *Multiple View Geometry*, 2nd ed., sec. 4.2.6;
+//! Fitzgibbon, Pilu, Fisher, "Direct least square fitting of ellipses", PAMI 21(5), 1999.
+
+use nalgebra::{Matrix6, SymmetricEigen, Vector6};
+
+use super::filters::median_by;
+use super::ImageF32;
+
+/// Pixels summed on each side of a crossing (the transition pixels in between).
+const SIDE: usize = 3;
+/// Largest spread of a flat end, as a share of the contrast.
+const FLAT: f64 = 0.06;
+/// Fewest crossings for a fit.
+const MIN_POINTS: usize = 40;
+/// Largest RMS distance of the kept crossings from the conic, pixels, for the fit to count.
+const MAX_RMS_PX: f64 = 0.05;
+
+/// The outline conic `a u^2 + b u v + c v^2 + d u + e v + f = 0` in normalised coordinates
+/// `u = (x - cx) / scale`, `v = (y - cy) / scale`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Outline {
+    conic: Vector6<f64>,
+    centre: [f64; 2],
+    scale: f64,
+    /// Sign of the conic's value on the bright side.
+    bright_sign: f64,
+    /// Dark level (median over the kept crossings).
+    pub lo: f64,
+    /// Bright level.
+    pub hi: f64,
+    /// Crossings the fit kept.
+    pub points: usize,
+    /// Their RMS distance from the conic, pixels.
+    pub rms_px: f64,
+}
+
+impl Outline {
+    /// Fit the outline between levels near `lo` and `hi` in `img`, skipping lines whose span
+    /// touches a pixel with `skip(x, y)` (the dots). `None` when too few clean crossings exist or
+    /// they do not lie on one conic.
+    pub fn fit(img: &ImageF32, lo: f64, hi: f64, skip: &dyn Fn(usize, usize) -> bool) -> Option<Self> {
+        let found = crossings(img, lo, hi, skip);
+        if found.len() < MIN_POINTS {
+            return None;
+        }
+        let points: Vec<[f64; 2]> = found.iter().map(|c| c.at).collect();
+        let n = points.len() as f64;
+        let centre = [points.iter().map(|p| p[0]).sum::<f64>() / n, points.iter().map(|p| p[1]).sum::<f64>() / n];
+        let scale = (points.iter().map(|p| (p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2)).sum::<f64>() / n).sqrt().max(1.0);
+        let uv: Vec<[f64; 2]> = points.iter().map(|p| [(p[0] - centre[0]) / scale, (p[1] - centre[1]) / scale]).collect();
+        let mut keep = vec![true; uv.len()];
+        let mut weights = vec![1.0; uv.len()];
+        let mut conic = Vector6::zeros();
+        // Reweighted algebraic fits, then the inliers at shrinking thresholds (pixels).
+        for gate_px in [f64::INFINITY, f64::INFINITY, 3.0, 1.0, 0.3, 0.15, 0.15] {
+            let mut m = Matrix6::zeros();
+            for ((p, w), k) in uv.iter().zip(&weights).zip(&keep) {
+                if *k {
+                    let z = design(p);
+                    m += *w * z * z.transpose();
+                }
+            }
+            let eig = SymmetricEigen::new(m);
+            let (imin, _) = eig.eigenvalues.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))?;
+            conic = eig.eigenvectors.column(imin).into_owned();
+            for ((p, w), k) in uv.iter().zip(weights.iter_mut()).zip(keep.iter_mut()) {
+                let (value, grad) = eval(&conic, p);
+                if grad < 1e-12 {
+                    *k = false;
+                    continue;
+                }
+                *w = 1.0 / (grad * grad);
+                *k = (value / grad).abs() * scale <= gate_px;
+            }
+        }
+        let dist: Vec<f64> = uv.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| {
+            let (value, grad) = eval(&conic, p);
+            value / grad * scale
+        }).collect();
+        if dist.len() < MIN_POINTS || !conic.iter().all(|c| c.is_finite()) {
+            return None;
+        }
+        let rms_px = (dist.iter().map(|d| d * d).sum::<f64>() / dist.len() as f64).sqrt();
+        // Levels and the conic's sign on the bright side, from the kept crossings.
+        let kept: Vec<&Crossing> = found.iter().zip(&keep).filter(|(_, k)| **k).map(|(c, _)| c).collect();
+        let mut darks: Vec<f64> = kept.iter().map(|c| c.dark).collect();
+        let mut brights: Vec<f64> = kept.iter().map(|c| c.bright).collect();
+        let bright_votes: f64 = kept.iter().map(|c| {
+            let p = [(c.at[0] + c.to_bright[0] - centre[0]) / scale, (c.at[1] + c.to_bright[1] - centre[1]) / scale];
+            eval(&conic, &p).0.signum()
+        }).sum();
+        let (lo, hi) = (median_by(&mut darks, f64::total_cmp)?, median_by(&mut brights, f64::total_cmp)?);
+        (rms_px <= MAX_RMS_PX).then_some(Self { conic, centre, scale, bright_sign: bright_votes.signum(), lo, hi, points: dist.len(), rms_px })
+    }
+
+    /// Where the outline crosses the row `y = t` (`rows`) or the column `x = t`: the crossing's
+    /// other coordinate nearest to `near`, if any.
+    pub fn crossing(&self, rows: bool, t: f64, near: f64) -> Option<f64> {
+        let [a, b, c, d, e, f] = [self.conic[0], self.conic[1], self.conic[2], self.conic[3], self.conic[4], self.conic[5]];
+        let (cx, cy) = (self.centre[0], self.centre[1]);
+        // The quadratic in the free coordinate s (normalised) at the fixed one w.
+        let (qa, qb, qc, origin) = if rows {
+            let w = (t - cy) / self.scale;
+            (a, b * w + d, c * w * w + e * w + f, cx)
+        } else {
+            let w = (t - cx) / self.scale;
+            (c, b * w + e, a * w * w + d * w + f, cy)
+        };
+        let roots: Vec<f64> = if qa.abs() < 1e-12 {
+            if qb.abs() < 1e-12 {
+                return None;
+            }
+            vec![-qc / qb]
+        } else {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc < 0.0 {
+                return None;
+            }
+            // The stable form of the two roots.
+            let q = -0.5 * (qb + qb.signum() * disc.sqrt());
+            let mut r = vec![q / qa];
+            if q.abs() > 1e-15 {
+                r.push(qc / q);
+            }
+            r
+        };
+        roots.into_iter().map(|s| origin + s * self.scale).min_by(|x, y| (x - near).abs().total_cmp(&(y - near).abs()))
+    }
+
+    /// Whether the pixel point `(x, y)` is on the bright side.
+    pub fn is_bright(&self, x: f64, y: f64) -> bool {
+        self.distance_px(x, y) * self.bright_sign > 0.0
+    }
+
+    /// Signed distance of the pixel point `(x, y)` from the conic, pixels (first order).
+    pub fn distance_px(&self, x: f64, y: f64) -> f64 {
+        let p = [(x - self.centre[0]) / self.scale, (y - self.centre[1]) / self.scale];
+        let (value, grad) = eval(&self.conic, &p);
+        value / grad.max(1e-12) * self.scale
+    }
+}
+
+fn design(p: &[f64; 2]) -> Vector6<f64> {
+    let [u, v] = *p;
+    Vector6::new(u * u, u * v, v * v, u, v, 1.0)
+}
+
+/// Conic value and gradient norm at `p` (normalised coordinates).
+fn eval(c: &Vector6<f64>, p: &[f64; 2]) -> (f64, f64) {
+    let [u, v] = *p;
+    let value = c.dot(&design(p));
+    let gu = 2.0 * c[0] * u + c[1] * v + c[3];
+    let gv = c[1] * u + 2.0 * c[2] * v + c[4];
+    (value, gu.hypot(gv))
+}
+
+/// A clean crossing: the point on the edge, its two levels and the unit step towards the bright side.
+struct Crossing {
+    at: [f64; 2],
+    dark: f64,
+    bright: f64,
+    to_bright: [f64; 2],
+}
+
+/// Clean crossings of the two levels on every row and column.
+fn crossings(img: &ImageF32, lo: f64, hi: f64, skip: &dyn Fn(usize, usize) -> bool) -> Vec<Crossing> {
+    let (w, h) = (img.width, img.height);
+    let mid = (0.5 * (lo + hi)) as f32;
+    // Candidates in one raster pass: pixel pairs on either side of the mid level, to the right
+    // (a row crossing) and below (a column crossing).
+    let mut candidates: Vec<(bool, usize, usize)> = Vec::new();
+    for y in 0..h {
+        let row = &img.data[y * w..(y + 1) * w];
+        let below = (y + 1 < h).then(|| &img.data[(y + 1) * w..(y + 2) * w]);
+        for x in 0..w {
+            let p = row[x] > mid;
+            if x + 1 < w && p != (row[x + 1] > mid) {
+                candidates.push((true, y, x));
+            }
+            if below.is_some_and(|b| p != (b[x] > mid)) {
+                candidates.push((false, x, y));
+            }
+        }
+    }
+    candidates.into_iter().filter_map(|(rows, line, k)| crossing_at(img, rows, line, k, lo, hi, skip)).collect()
+}
+
+/// The crossing between pixels `k` and `k + 1` of row (`rows`) or column `line`, if the span of
+/// [`SIDE`] pixels on either side is clean: flat ends near the two levels, no skipped pixel.
+fn crossing_at(img: &ImageF32, rows: bool, line: usize, k: usize, lo: f64, hi: f64, skip: &dyn Fn(usize, usize) -> bool) -> Option<Crossing> {
+    let len = if rows { img.width } else { img.height };
+    if k < SIDE || k + 1 + SIDE >= len {
+        return None;
+    }
+    let xy = |j: usize| if rows { (j, line) } else { (line, j) };
+    let at = |j: usize| {
+        let (x, y) = xy(j);
+        f64::from(img.data[y * img.width + x])
+    };
+    let contrast = hi - lo;
+    // Span: SIDE flat pixels, the two transition pixels k and k + 1, SIDE flat pixels.
+    let (s0, s1) = (k - SIDE, k + 1 + SIDE);
+    let side = |a: usize| {
+        let mean = (a..a + SIDE).map(at).sum::<f64>() / SIDE as f64;
+        let spread = (a..a + SIDE).map(|j| (at(j) - mean).abs()).fold(0.0, f64::max);
+        (mean, spread)
+    };
+    let (l, ls) = side(s0);
+    let (r, rs) = side(s1 + 1 - SIDE);
+    let (dark, bright) = if l < r { (l, r) } else { (r, l) };
+    if ls > FLAT * contrast || rs > FLAT * contrast || (dark - lo).abs() > 0.15 * contrast || (bright - hi).abs() > 0.15 * contrast {
+        return None;
+    }
+    if (s0..=s1).any(|j| {
+        let (x, y) = xy(j);
+        skip(x, y)
+    }) {
+        return None;
+    }
+    let cov_sum: f64 = (s0..=s1).map(|j| (at(j) - dark) / (bright - dark)).sum();
+    let e = if r > l { s1 as f64 + 0.5 - cov_sum } else { s0 as f64 - 0.5 + cov_sum };
+    let step = if r > l { 1.0 } else { -1.0 };
+    Some(Crossing {
+        at: if rows { [e, line as f64] } else { [line as f64, e] },
+        dark,
+        bright,
+        to_bright: if rows { [step, 0.0] } else { [0.0, step] },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Box-filtered image of a bright ellipse (levels 90 / 225) with centre, semi-axes and angle.
+    fn ellipse(w: usize, h: usize, c: [f64; 2], ab: [f64; 2], angle: f64) -> ImageF32 {
+        let n = 16;
+        let (s, co) = angle.sin_cos();
+        let mut data = vec![0.0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let mut cov = 0.0;
+                for j in 0..n {
+                    for i in 0..n {
+                        let dx = x as f64 - 0.5 + (i as f64 + 0.5) / n as f64 - c[0];
+                        let dy = y as f64 - 0.5 + (j as f64 + 0.5) / n as f64 - c[1];
+                        let (u, v) = (co * dx + s * dy, -s * dx + co * dy);
+                        cov += f64::from(u8::from((u / ab[0]).powi(2) + (v / ab[1]).powi(2) <= 1.0));
+                    }
+                }
+                data[y * w + x] = (90.0 + 135.0 * cov / (n * n) as f64) as f32;
+            }
+        }
+        ImageF32 { width: w, height: h, data }
+    }
+
+    #[test]
+    fn recovers_an_ellipse_and_bridges_a_hidden_stretch() {
+        let (c, ab, angle) = ([101.3, 97.6], [70.2, 55.7], 0.4);
+        let img = ellipse(200, 200, c, ab, angle);
+        // Hide the left quarter of the outline.
+        let o = Outline::fit(&img, 90.0, 225.0, &|x, _| x < 60).expect("outline");
+        assert!(o.rms_px < 0.01, "rms {}", o.rms_px);
+        // Distance of true outline points from the fit, including the hidden stretch.
+        let (s, co) = angle.sin_cos();
+        for k in 0..72 {
+            let th = k as f64 * std::f64::consts::TAU / 72.0;
+            let (u, v) = (ab[0] * th.cos(), ab[1] * th.sin());
+            let (x, y) = (c[0] + co * u - s * v, c[1] + s * u + co * v);
+            assert!(o.distance_px(x, y).abs() < 0.02, "point {k}: {}", o.distance_px(x, y));
+        }
+        // Row crossing: the right-hand point of the row through the centre.
+        let x = o.crossing(true, c[1], c[0] + 80.0).expect("crossing");
+        assert!(o.distance_px(x, c[1]).abs() < 1e-9 && x > c[0]);
+    }
+
+    #[test]
+    fn no_outline_in_flat_or_noise_images() {
+        let flat = ImageF32 { width: 64, height: 64, data: vec![128.0; 64 * 64] };
+        assert!(Outline::fit(&flat, 90.0, 225.0, &|_, _| false).is_none());
+        let mut state = 12345u64;
+        let noise: Vec<f32> = (0..64 * 64)
+            .map(|_| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((state >> 33) % 256) as f32
+            })
+            .collect();
+        assert!(Outline::fit(&ImageF32 { width: 64, height: 64, data: noise }, 90.0, 225.0, &|_, _| false).is_none());
+    }
+}
