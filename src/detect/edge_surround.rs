@@ -129,7 +129,7 @@ impl EdgeSurround {
 
     /// This edge with its crossings on every line of `rect` taken from the whole-image
     /// `outline` (which holds thousands of clean crossings to a few hundredths of a pixel), if
-    /// the outline is this edge: its crossings lie within [`SAME_EDGE_PX`] of the window's clean
+    /// the outline is this edge: its crossings lie within `SAME_EDGE_PX` (0.5 px) of the window's clean
     /// ones (median). The window's own crossings next to the dots can be off by tenths of a
     /// pixel (the faint ends of slivers along the edge), and where the dots hide most lines a
     /// cubic extrapolates from a few lines on one side; the conic bridges both.

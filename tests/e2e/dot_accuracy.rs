@@ -148,16 +148,16 @@ fn summary(name: &str, st: &Stats) -> (f64, f64, f64) {
 fn s_path_beads_from_course_like_poses() {
     let st = run(DotStyle::Bead, 20, 111);
     let (recall, rms, max) = summary("beads", &st);
-    // Issue targets: recall >= 99 %, RMS <= 0.015 px, max <= 0.06 px. Measured 2026-11-24
+    // Issue targets: recall >= 99 %, RMS <= 0.015 px, max <= 0.06 px: met. Measured 2026-11-24
     // (session 4) over 20 views: recall 2015/2020 (99.8 %; the misses: three beads pressed
-    // into one blob, which is dropped, not indexed), 0 false, RMS 0.0089 px, p99 0.047, max
-    // 0.078 px (beads whose rim runs along the sphere's outline a fraction of a pixel inside
-    // it: 0.066 px without noise). The sphere's outline is one conic fitted to every clean
-    // crossing in the image (`detect::outline`); before it (session 3): RMS 0.0126, max 0.237.
+    // into one blob, which is dropped, not indexed), 0 false, RMS 0.0066 px, p99 0.018, max
+    // 0.0495 px. The sphere's outline is one conic fitted to every clean crossing in the image
+    // (`detect::outline`), and a bead past the sphere's limb (hidden where they overlap) is told
+    // from one in front of it. Session 3: RMS 0.0126, max 0.237.
     assert_eq!(st.false_dots, 0);
     assert!(recall >= 0.99, "recall {recall}");
     assert!(rms <= 0.015, "RMS {rms}");
-    assert!(max <= 0.1, "max {max}");
+    assert!(max <= 0.06, "max {max}");
 }
 
 #[test]
@@ -168,13 +168,17 @@ fn s_path_discs_from_course_like_poses() {
     // start dot is hidden. The dots are indexed by fitting a projection of the known 3-D path
     // (`detect::s_path_fit`). Measured 2026-11-24 (session 4) over 20 views: recall 1950/1952
     // (99.9 %), 0 false or mis-indexed dots, vs centroid RMS 0.0103 px, p99 0.037, max 0.062
-    // px (noise: without it no dot is off by more than 0.06). Session 3: RMS 0.026, max 0.64
-    // (a mid-grey background patch took a sliver's end; the outline extrapolated from one
-    // side; every pixel of the grown window weighed in with its noise).
+    // px: the issue's max 0.06 is missed by two slivers. Their floor is the renderer: the three
+    // worst slivers of the noise-free renders are off by 0.045-0.050 px, and by 0.0003-0.0044
+    // px when the render's pixels around them are replaced by exactly traced ones (the render's
+    // edge pixels differ from the trace by 1-3 grey levels).
+    // Session 3: RMS 0.026, max 0.64 (a mid-grey background patch took a sliver's end; the
+    // outline extrapolated from one side; every pixel of the grown window weighed in with its
+    // noise).
     assert_eq!(st.false_dots, 0, "mis-indexed or false dots");
     assert!(recall >= 0.99, "recall {recall}");
     assert!(rms <= 0.015, "RMS {rms}");
-    assert!(max <= 0.1, "max {max}");
+    assert!(max <= 0.08, "max {max}");
 }
 
 /// Partial views (the target shifted up to 0.35 m in the image plane, so that up to half of the S
