@@ -180,23 +180,41 @@ struct Crossing {
 fn crossings(img: &ImageF32, lo: f64, hi: f64, skip: &dyn Fn(usize, usize) -> bool) -> Vec<Crossing> {
     let (w, h) = (img.width, img.height);
     let mid = (0.5 * (lo + hi)) as f32;
-    // Candidates in one raster pass: pixel pairs on either side of the mid level, to the right
-    // (a row crossing) and below (a column crossing).
+    // Candidates in one raster pass over masks of the pixels above the mid level: pixel pairs on
+    // either side of it, to the right (a row crossing) and below (a column crossing).
     let mut candidates: Vec<(bool, usize, usize)> = Vec::new();
+    let mask = |y: usize, m: &mut [u8]| {
+        for (m, v) in m.iter_mut().zip(&img.data[y * w..(y + 1) * w]) {
+            *m = u8::from(*v > mid);
+        }
+    };
+    let (mut cur, mut next) = (vec![0u8; w], vec![0u8; w]);
+    if h > 0 {
+        mask(0, &mut cur);
+    }
     for y in 0..h {
-        let row = &img.data[y * w..(y + 1) * w];
-        let below = (y + 1 < h).then(|| &img.data[(y + 1) * w..(y + 2) * w]);
-        for x in 0..w {
-            let p = row[x] > mid;
-            if x + 1 < w && p != (row[x + 1] > mid) {
-                candidates.push((true, y, x));
-            }
-            if below.is_some_and(|b| p != (b[x] > mid)) {
-                candidates.push((false, x, y));
-            }
+        if w > 1 {
+            differ_at(&cur[..w - 1], &cur[1..], |x| candidates.push((true, y, x)));
+        }
+        if y + 1 < h {
+            mask(y + 1, &mut next);
+            differ_at(&cur, &next, |x| candidates.push((false, x, y)));
+            std::mem::swap(&mut cur, &mut next);
         }
     }
     candidates.into_iter().filter_map(|(rows, line, k)| crossing_at(img, rows, line, k, lo, hi, skip)).collect()
+}
+
+/// Call `f(i)` for every index where `a` and `b` (equal lengths) differ, comparing eight bytes at
+/// a time (crossings are rare).
+fn differ_at(a: &[u8], b: &[u8], mut f: impl FnMut(usize)) {
+    let blocks = a.len() / 8;
+    for (k, (p, q)) in a.chunks_exact(8).zip(b.chunks_exact(8)).enumerate() {
+        if p != q {
+            (0..8).filter(|&i| p[i] != q[i]).for_each(|i| f(8 * k + i));
+        }
+    }
+    (8 * blocks..a.len()).filter(|&i| a[i] != b[i]).for_each(f);
 }
 
 /// The crossing between pixels `k` and `k + 1` of row (`rows`) or column `line`, if the span of
