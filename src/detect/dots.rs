@@ -552,27 +552,12 @@ fn blob_region(
 
 #[cfg(test)]
 mod tests {
+    use super::super::image::area_sampled;
     use super::*;
 
     /// Area-sampled dark disc at (cx, cy), radius r, on a light surround.
     fn disc(w: usize, h: usize, cx: f64, cy: f64, r: f64) -> ImageF32 {
-        let n = 16;
-        let mut data = vec![0.0f32; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let mut cov = 0.0;
-                for j in 0..n {
-                    for i in 0..n {
-                        let u = x as f64 - 0.5 + (i as f64 + 0.5) / n as f64 - cx;
-                        let v = y as f64 - 0.5 + (j as f64 + 0.5) / n as f64 - cy;
-                        cov += f64::from(u8::from(u * u + v * v < r * r));
-                    }
-                }
-                cov /= (n * n) as f64;
-                data[y * w + x] = (225.0 - 205.0 * cov) as f32;
-            }
-        }
-        ImageF32::new(w, h, data).unwrap()
+        area_sampled(w, h, 16, |u, v| if (u - cx).hypot(v - cy) < r { 20.0 } else { 225.0 })
     }
 
     #[test]
@@ -591,31 +576,19 @@ mod tests {
     /// the background (90), in front of the sphere or behind it (hidden where they overlap),
     /// area-sampled; with the exact centroid of the bead's visible part.
     fn bead_at_outline(bead: [f64; 2], in_front: bool) -> (ImageF32, [f64; 2]) {
-        let (w, h, n) = (96usize, 96usize, 16usize);
         let sphere = [50.3 + 450.0, 47.8];
-        let mut data = vec![0.0f32; w * h];
+        let on_bead = |u: f64, v: f64| (u - bead[0]).hypot(v - bead[1]) < 4.5 && (in_front || (u - sphere[0]).hypot(v - sphere[1]) >= 450.0);
+        let img = area_sampled(96, 96, 16, |u, v| if on_bead(u, v) { 20.0 } else if (u - sphere[0]).hypot(v - sphere[1]) < 450.0 { 225.0 } else { 90.0 });
+        // The exact centroid of the visible part: the bead's coverage of each pixel, weighted.
+        let cov = area_sampled(96, 96, 16, |u, v| f64::from(u8::from(on_bead(u, v))));
         let (mut a, mut su, mut sv) = (0.0, 0.0, 0.0);
-        for y in 0..h {
-            for x in 0..w {
-                let mut level = 0.0;
-                for j in 0..n {
-                    for i in 0..n {
-                        let u = x as f64 - 0.5 + (i as f64 + 0.5) / n as f64;
-                        let v = y as f64 - 0.5 + (j as f64 + 0.5) / n as f64;
-                        let on_sphere = (u - sphere[0]).hypot(v - sphere[1]) < 450.0;
-                        let on_bead = (u - bead[0]).hypot(v - bead[1]) < 4.5 && (in_front || !on_sphere);
-                        level += if on_bead { 20.0 } else if on_sphere { 225.0 } else { 90.0 };
-                        if on_bead {
-                            a += 1.0;
-                            su += x as f64;
-                            sv += y as f64;
-                        }
-                    }
-                }
-                data[y * w + x] = (level / (n * n) as f64) as f32;
-            }
+        for (k, c) in cov.data.iter().enumerate() {
+            let c = f64::from(*c);
+            a += c;
+            su += c * (k % 96) as f64;
+            sv += c * (k / 96) as f64;
         }
-        (ImageF32::new(w, h, data).unwrap(), [su / a, sv / a])
+        (img, [su / a, sv / a])
     }
 
     #[test]

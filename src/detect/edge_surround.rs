@@ -271,26 +271,12 @@ impl EdgeSurround {
 
 #[cfg(test)]
 mod tests {
+    use super::super::image::area_sampled;
     use super::*;
 
     /// Box-filtered image of a bright disc of radius `r` centred at (cx, cy) on a dark background.
     fn disc_edge(w: usize, h: usize, cx: f64, cy: f64, r: f64) -> ImageF32 {
-        let n = 32;
-        let data = (0..w * h)
-            .map(|i| {
-                let (x, y) = ((i % w) as f64, (i / w) as f64);
-                let mut c = 0.0;
-                for j in 0..n {
-                    for k in 0..n {
-                        let u = x - 0.5 + (k as f64 + 0.5) / n as f64 - cx;
-                        let v = y - 0.5 + (j as f64 + 0.5) / n as f64 - cy;
-                        c += f64::from(u8::from(u * u + v * v < r * r));
-                    }
-                }
-                (90.0 + 135.0 * c / f64::from(n * n)) as f32
-            })
-            .collect();
-        ImageF32::new(w, h, data).unwrap()
+        area_sampled(w, h, 32, |u, v| if (u - cx).hypot(v - cy) < r { 225.0 } else { 90.0 })
     }
 
     #[test]

@@ -193,6 +193,25 @@ macro_rules! grey_window {
 }
 grey_window!(ImageF32, ImageU8);
 
+/// A `w` x `h` image whose pixel (x, y) is the mean of `grey(u, v)` over `n` x `n` sub-samples
+/// of its square (a box-filtered render), for the detectors' unit tests.
+#[cfg(test)]
+pub(crate) fn area_sampled(w: usize, h: usize, n: usize, grey: impl Fn(f64, f64) -> f64) -> ImageF32 {
+    let data = (0..w * h)
+        .map(|k| {
+            let (x, y) = ((k % w) as f64, (k / w) as f64);
+            let mut sum = 0.0;
+            for j in 0..n {
+                for i in 0..n {
+                    sum += grey(x - 0.5 + (i as f64 + 0.5) / n as f64, y - 0.5 + (j as f64 + 0.5) / n as f64);
+                }
+            }
+            (sum / (n * n) as f64) as f32
+        })
+        .collect();
+    ImageF32 { width: w, height: h, data }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -262,28 +262,17 @@ fn crossing_at(img: &ImageF32, rows: bool, line: usize, k: usize, lo: f64, hi: f
 
 #[cfg(test)]
 mod tests {
+    use super::super::image::area_sampled;
     use super::*;
 
     /// Box-filtered image of a bright ellipse (levels 90 / 225) with centre, semi-axes and angle.
     fn ellipse(w: usize, h: usize, c: [f64; 2], ab: [f64; 2], angle: f64) -> ImageF32 {
-        let n = 16;
         let (s, co) = angle.sin_cos();
-        let mut data = vec![0.0f32; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let mut cov = 0.0;
-                for j in 0..n {
-                    for i in 0..n {
-                        let dx = x as f64 - 0.5 + (i as f64 + 0.5) / n as f64 - c[0];
-                        let dy = y as f64 - 0.5 + (j as f64 + 0.5) / n as f64 - c[1];
-                        let (u, v) = (co * dx + s * dy, -s * dx + co * dy);
-                        cov += f64::from(u8::from((u / ab[0]).powi(2) + (v / ab[1]).powi(2) <= 1.0));
-                    }
-                }
-                data[y * w + x] = (90.0 + 135.0 * cov / (n * n) as f64) as f32;
-            }
-        }
-        ImageF32 { width: w, height: h, data }
+        area_sampled(w, h, 16, |x, y| {
+            let (dx, dy) = (x - c[0], y - c[1]);
+            let (u, v) = (co * dx + s * dy, -s * dx + co * dy);
+            if (u / ab[0]).powi(2) + (v / ab[1]).powi(2) <= 1.0 { 225.0 } else { 90.0 }
+        })
     }
 
     #[test]
