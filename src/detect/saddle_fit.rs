@@ -31,6 +31,9 @@ pub struct SaddleFitParams {
     pub fit_gradient: bool,
     /// The fast-profile stage stops when the corner moves less than this, pixels.
     pub fast_epsilon_px: f64,
+    /// Half-size of the window of the fast-profile stage (at most `half_window`): it only has to
+    /// bring the corner within `fast_epsilon_px`; the exact stage then fits the whole window.
+    pub fast_half_window: usize,
     /// Iterations with the exact pixel-footprint profile after the fast-profile stage converged
     /// (1 is usually enough: the two optima differ by a few hundredths of a pixel).
     pub exact_iterations: usize,
@@ -40,7 +43,7 @@ pub struct SaddleFitParams {
 
 impl Default for SaddleFitParams {
     fn default() -> Self {
-        Self { half_window: 4, max_iterations: 10, epsilon_px: 1e-3, fit_curvature: false, fit_gradient: false, fast_epsilon_px: 0.05, exact_iterations: 1, max_shift_px: 2.0 }
+        Self { half_window: 4, max_iterations: 10, epsilon_px: 1e-3, fit_curvature: false, fit_gradient: false, fast_epsilon_px: 0.05, fast_half_window: 3, exact_iterations: 1, max_shift_px: 2.0 }
     }
 }
 
@@ -256,26 +259,26 @@ fn model(x: &SVector<f64, NP>, g: &Geo, dx: f64, dy: f64, jac: &mut SVector<f64,
 /// A linearisation point: parameters, J^T J, J^T r, cost.
 type Normal = (SVector<f64, NP>, SMatrix<f64, NP, NP>, SVector<f64, NP>, f64);
 
-/// Normal equations J^T J, J^T r and the cost over the window for the `N` active parameters
-/// `idx` (packed so the inner loops have compile-time bounds).
+/// Normal equations J^T J, J^T r and the cost over the central `2 hu + 1` square of the window of
+/// half-size `h` for the `N` active parameters `idx` (packed so the inner loops have
+/// compile-time bounds).
 fn accumulate_n<const N: usize>(
     x: &SVector<f64, NP>,
     exact: bool,
     jac: &mut SVector<f64, NP>,
     idx: &[usize],
     vals: &[f64],
-    h: i64,
+    (h, hu): (i64, i64),
 ) -> (SMatrix<f64, NP, NP>, SVector<f64, NP>, f64) {
     let mut acc = [[0.0f64; N]; N];
     let mut jr = [0.0f64; N];
     let mut pk = [0.0f64; N];
     let mut c = 0.0;
-    let mut k = 0;
     let geo = Geo::new(x);
-    for j in -h..=h {
-        for i in -h..=h {
-            let r = vals[k] - model(x, &geo, i as f64, j as f64, jac, exact);
-            k += 1;
+    let n = 2 * h + 1;
+    for j in -hu..=hu {
+        for i in -hu..=hu {
+            let r = vals[((j + h) * n + i + h) as usize] - model(x, &geo, i as f64, j as f64, jac, exact);
             c += r * r;
             for (t, &p) in pk.iter_mut().zip(idx.iter()) {
                 *t = jac[p];
@@ -378,10 +381,14 @@ pub fn refine_saddle(
     let idx = &idx_store[..];
     let mut lambda: f64 = 1e-3;
     let mut jac = SVector::<f64, NP>::zeros();
-    let accumulate = |x: &SVector<f64, NP>, exact: bool, jac: &mut SVector<f64, NP>| match idx.len() {
-        7 => accumulate_n::<7>(x, exact, jac, idx, &vals, h),
-        9 => accumulate_n::<9>(x, exact, jac, idx, &vals, h),
-        _ => accumulate_n::<NP>(x, exact, jac, idx, &vals, h),
+    let hf = (params.fast_half_window.max(2) as i64).min(h);
+    let accumulate = |x: &SVector<f64, NP>, exact: bool, jac: &mut SVector<f64, NP>| {
+        let hh = (h, if exact { h } else { hf });
+        match idx.len() {
+            7 => accumulate_n::<7>(x, exact, jac, idx, &vals, hh),
+            9 => accumulate_n::<9>(x, exact, jac, idx, &vals, hh),
+            _ => accumulate_n::<NP>(x, exact, jac, idx, &vals, hh),
+        }
     };
     // First linearisation at m = 0, a = 1; m and a then follow by linear least squares given the
     // geometry, and the normal equations are re-expressed at them (one pass over the window).
@@ -399,6 +406,8 @@ pub fn refine_saddle(
     let mut saved: Option<Normal> = None;
     let mut iterations = 0;
     let mut cost = f64::INFINITY;
+    let fast_n = (2 * hf + 1) as usize;
+    let mut cost_pixels = n * n;
     let max_total = params.max_iterations + 3;
     while iterations < max_total {
         iterations += 1;
@@ -423,6 +432,7 @@ pub fn refine_saddle(
         };
         saved = Some(base);
         cost = base.3;
+        cost_pixels = if exact { n * n } else { fast_n * fast_n };
         let mut m = base.1;
         for a in 0..NP {
             m[(a, a)] *= 1.0 + lambda;
@@ -470,7 +480,7 @@ pub fn refine_saddle(
         angles: [x[2], x[3]],
         amplitude: x[5],
         sigma_px: x[6].exp(),
-        rms_residual: (cost / (n * n) as f64).sqrt(),
+        rms_residual: (cost / cost_pixels as f64).sqrt(),
         iterations,
     })
 }
