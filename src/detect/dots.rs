@@ -178,10 +178,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         }
         let (bx0, by0) = (x0.saturating_sub(pad), y0.saturating_sub(pad));
         let (bx1, by1) = ((x1 + pad).min(w - 1), (y1 + pad).min(h - 1));
-        let mut core_vals: Vec<f32> = core.iter().map(|&(x, y)| img.data[y * w + x]).collect();
-        core_vals.sort_by(f32::total_cmp);
-        let half = core_vals.len().div_ceil(2);
-        let d = f64::from(median_by(&mut core_vals[..half], f32::total_cmp).unwrap_or(0.0));
+        let d = f64::from(dark_level(img, core).unwrap_or(0.0));
         // Closing (dilation then erosion) of the dot's neighbourhood: the surround level with the
         // dot removed, exact on straight (anti-aliased) edges such as the sphere's outline. It
         // rides on noise peaks; the median lift of the ring is subtracted below.
@@ -191,14 +188,15 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
         // A two-level edge (the sphere's outline) through the window: modelled, not closed.
         let is_dot = |x: usize, y: usize| owner[y * w + x] != 0;
-        let has_contrast = |c: &ImageF32| {
-            let (cmin, cmax) = c.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        // Whether the closing shows an edge in the window at all.
+        let closed_has_edge = {
+            let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
             cmax - cmin > params.min_contrast
         };
         let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &is_dot, f64::from(params.min_contrast)).or_else(|| {
             // Too few clean lines across the edge (neighbouring dots along the outline hide
             // them): a window half as large again, where the first window holds an edge at all.
-            if !has_contrast(&closed) {
+            if !closed_has_edge {
                 return None;
             }
             let (big, rect) = closed_window(img, [bx0, by0, bx1, by1], 3 * r, r);
@@ -221,7 +219,7 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
                 }
             }
             None => match &outline {
-                Some(Some(o)) if has_contrast(&closed) => EdgeSurround::from_outline(o, [cx0, cy0, cx1, cy1]),
+                Some(Some(o)) if closed_has_edge => EdgeSurround::from_outline(o, [cx0, cy0, cx1, cy1]),
                 _ => None,
             },
         };
@@ -410,16 +408,19 @@ fn darker_than_rim(img: &ImageF32, core: &[(usize, usize)], params: &DotParams) 
             }
         }
     }
-    let mut vals: Vec<f32> = core.iter().map(|&(x, y)| img.data[y * w + x]).collect();
-    vals.sort_by(f32::total_cmp);
-    let half = vals.len().div_ceil(2);
-    let (Some(d), Some(r)) = (median_by(&mut vals[..half], f32::total_cmp), {
-        rim.sort_by(f32::total_cmp);
-        rim.get(rim.len() / 5).copied()
-    }) else {
+    rim.sort_by(f32::total_cmp);
+    let (Some(d), Some(r)) = (dark_level(img, core), rim.get(rim.len() / 5).copied()) else {
         return true;
     };
     r - d > 0.25 * params.min_contrast
+}
+
+/// A core's dark level: the median of its darker half.
+fn dark_level(img: &ImageF32, core: &[(usize, usize)]) -> Option<f32> {
+    let mut vals: Vec<f32> = core.iter().map(|&(x, y)| img.data[y * img.width + x]).collect();
+    vals.sort_by(f32::total_cmp);
+    let half = vals.len().div_ceil(2);
+    median_by(&mut vals[..half], f32::total_cmp)
 }
 
 /// The 8-connected components of the set pixels of `mask` (whose top-left pixel is `origin` in

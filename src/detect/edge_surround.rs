@@ -138,15 +138,7 @@ impl EdgeSurround {
         if diffs.len() < self.samples.len() || median_by(&mut diffs, f64::total_cmp)? > SAME_EDGE_PX {
             return None;
         }
-        let [x0, y0, x1, y1] = rect;
-        let (a0, a1, t0, t1) = if self.rows { (x0, x1, y0, y1) } else { (y0, y1, x0, x1) };
-        let samples: Vec<(f64, f64, bool)> = (t0..=t1)
-            .filter_map(|t| {
-                let t = t as f64;
-                let e = outline.crossing(self.rows, t, Self::eval(&self.coef, t - self.t0))?;
-                (e >= a0 as f64 - 0.5 && e <= a1 as f64 + 0.5).then_some((t, e, self.bright_up))
-            })
-            .collect();
+        let samples = outline_crossings(outline, self.rows, rect, -0.5, &|t| Self::eval(&self.coef, t - self.t0));
         let coef = Self::fit_cubic(&samples, self.t0)?;
         Some(Self { coef, samples: samples.iter().map(|s| (s.0, s.1)).collect(), ..self.clone() })
     }
@@ -159,13 +151,7 @@ impl EdgeSurround {
         let candidates = [true, false].map(|rows| {
             let (a0, a1, t0, t1) = if rows { (x0, x1, y0, y1) } else { (y0, y1, x0, x1) };
             let mid = 0.5 * (a0 + a1) as f64;
-            let samples: Vec<(f64, f64, bool)> = (t0..=t1)
-                .filter_map(|t| {
-                    let e = outline.crossing(rows, t as f64, mid)?;
-                    (e >= a0 as f64 + 0.5 && e <= a1 as f64 - 0.5).then_some((t as f64, e, true))
-                })
-                .collect();
-            (rows, samples, 0.5 * (t0 + t1) as f64)
+            (rows, outline_crossings(outline, rows, rect, 0.5, &|_| mid), 0.5 * (t0 + t1) as f64)
         });
         let (rows, samples, tc) = candidates.into_iter().max_by_key(|c| c.1.len())?;
         let coef = Self::fit_cubic(&samples, tc)?;
@@ -218,11 +204,6 @@ impl EdgeSurround {
         (level - self.lo) / (self.hi - self.lo)
     }
 
-    /// The bright side's level.
-    pub fn bright_level(&self) -> f64 {
-        self.hi
-    }
-
     /// Whether the point `(x, y)` (pixel coordinates) is on the bright side.
     fn is_bright(&self, x: f64, y: f64) -> bool {
         let (a, t) = if self.rows { (x, y) } else { (y, x) };
@@ -267,6 +248,21 @@ impl EdgeSurround {
         }
         1.0
     }
+}
+
+/// The outline's crossings `(t, e, _)` with every line of `rect` (rows if `rows`, else columns),
+/// each the root nearest to `near(t)`, kept where `e` lies at least `inset` pixels inside the
+/// rectangle's across-range (a negative `inset` lets it lie that far outside).
+fn outline_crossings(outline: &Outline, rows: bool, rect: Rect, inset: f64, near: &dyn Fn(f64) -> f64) -> Vec<(f64, f64, bool)> {
+    let [x0, y0, x1, y1] = rect;
+    let (a0, a1, t0, t1) = if rows { (x0, x1, y0, y1) } else { (y0, y1, x0, x1) };
+    (t0..=t1)
+        .filter_map(|t| {
+            let t = t as f64;
+            let e = outline.crossing(rows, t, near(t))?;
+            (e >= a0 as f64 + inset && e <= a1 as f64 - inset).then_some((t, e, true))
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -81,7 +81,9 @@ impl Outline {
         // is within JOIN_PX joins, and the fit is repeated, until none joins.
         let (run_of, runs) = runs(&points);
         let mut joined = vec![false; runs];
-        let seed = (0..runs).max_by_key(|&r| run_of.iter().filter(|&&q| q == r).count())?;
+        let mut run_size = vec![0usize; runs];
+        run_of.iter().for_each(|&r| run_size[r] += 1);
+        let seed = (0..runs).max_by_key(|&r| run_size[r])?;
         joined[seed] = true;
         let mut weights = vec![1.0; uv.len()];
         let mut keep: Vec<bool> = run_of.iter().map(|&r| joined[r]).collect();
@@ -121,11 +123,8 @@ impl Outline {
             }
             keep = next;
         }
-        let dist: Vec<f64> = uv.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| {
-            let (value, grad) = eval(&conic, p);
-            value / grad * scale
-        }).collect();
-        if dist.len() < MIN_POINTS || !conic.iter().all(|c| c.is_finite()) {
+        let dist: Vec<f64> = uv.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| dist_px(&conic, p)).collect();
+        if dist.len() < MIN_POINTS {
             return None;
         }
         let rms_px = (dist.iter().map(|d| d * d).sum::<f64>() / dist.len() as f64).sqrt();
