@@ -10,9 +10,12 @@
 // method (the GPU twin of camera::Distortion::undistort), and the local Jacobian d(xu)/d(q) of that
 // inverse gives every sub-sample of the pixel without another inversion. Shading is a box filter
 // over the pixel square:
-//   - chessboard: exact analytic coverage of the (locally affine) pixel footprint by the squares
-//     when at most one line per direction crosses it, else `samples^2` sub-samples;
-//   - dot grid: flat pixels take one sample, pixels near a disc or plate edge `samples^2`;
+//   - chessboard: one line across the (locally affine) pixel footprint, the closed-form area of a
+//     half-plane; corners and every other pixel near an edge, the exact area of the footprint in
+//     each square, the margin and the board by polygon clipping (supersampled only when the
+//     footprint meets more than MAX_CELLS squares per axis: squares of about a pixel);
+//   - dot grid: flat pixels take one sample, pixels near a disc or plate edge the exact area of the
+//     footprint on the plate and in each disc (polygon clipping, polygon-disc areas);
 //   - S-path: flat pixels one ray; the sphere's outline in closed form; one smooth dot boundary
 //     in closed form; elsewhere near a dot the outline in closed form plus the dots' change from
 //     `samples^2` exact rays (nearest hit among the sphere and the dots of the pixel's 16x16 tile).
@@ -215,19 +218,158 @@ fn board_jacobian(pc: vec3<f32>, ray: Ray) -> mat2x2<f32> {
     return dbdxu * ray.dxu_dq;
 }
 
-// x-interval of the pixel row at height y where dot(n, d) >= c, clipped to [-0.5, 0.5].
-fn row_interval(n: vec2<f32>, c: f32, y: f32) -> vec2<f32> {
-    let rhs = c - n.y * y;
-    let t = rhs / n.x;
-    let lo = select(select(-0.5, 0.5, rhs > 0.0), max(-0.5, t), n.x > 0.0);
-    let hi = select(0.5, min(0.5, t), n.x < 0.0);
-    return vec2<f32>(lo, hi);
+// ---------------------------------------------------------------- exact footprint coverage
+// The pixel's locally affine footprint on the target plane (a parallelogram, coordinates relative
+// to the pixel centre's plane point) is clipped against axis-aligned rectangles (Sutherland-Hodgman)
+// and intersected with discs; the areas are exact for the affine footprint. The CPU reference
+// src/scene/exact.rs does the same independently, with exact sub-pixel footprints, in f64.
+
+struct Poly { v: array<vec2<f32>, 8>, n: u32, };
+
+fn footprint(a: mat2x2<f32>) -> Poly {
+    var p: Poly;
+    p.v[0] = a * vec2<f32>(-0.5, -0.5);
+    p.v[1] = a * vec2<f32>(0.5, -0.5);
+    p.v[2] = a * vec2<f32>(0.5, 0.5);
+    p.v[3] = a * vec2<f32>(-0.5, 0.5);
+    p.n = 4u;
+    return p;
 }
 
-// Rows per pixel for corner pixels: the area of each half-plane and of their intersection is the
-// sum of exact interval lengths over CORNER_ROWS rows (midpoint rule; exact except in the one or
-// two rows that hold a vertex, error < 1e-3 of the pixel area).
-const CORNER_ROWS: u32 = 64u;
+// The part of p where dot(n, d) <= c.
+fn clip_line(p: Poly, n: vec2<f32>, c: f32) -> Poly {
+    var out: Poly;
+    out.n = 0u;
+    for (var i = 0u; i < p.n; i = i + 1u) {
+        let a = p.v[i];
+        let b = p.v[select(i + 1u, 0u, i + 1u == p.n)];
+        let da = dot2(n, a) - c;
+        let db = dot2(n, b) - c;
+        if (da <= 0.0) { out.v[min(out.n, 7u)] = a; out.n = out.n + 1u; }
+        if ((da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0)) {
+            out.v[min(out.n, 7u)] = a + (b - a) * (da / (da - db));
+            out.n = out.n + 1u;
+        }
+    }
+    out.n = min(out.n, 8u);
+    return out;
+}
+
+// The part of p inside the axis-aligned rectangle [lo, hi].
+fn clip_rect(p: Poly, lo: vec2<f32>, hi: vec2<f32>) -> Poly {
+    let x = vec2<f32>(1.0, 0.0);
+    let y = vec2<f32>(0.0, 1.0);
+    return clip_line(clip_line(clip_line(clip_line(p, x, hi.x), -x, -lo.x), y, hi.y), -y, -lo.y);
+}
+
+// The board line {board coordinate `axis` = v} in pixel offsets d from the pixel centre, exact
+// under the homography (only the distortion is linearised over the pixel): board coordinate >= v
+// where dot(l.xy, d) >= l.z. The affine footprint would use the centre's pc for v in the normal.
+fn board_line(axis: u32, v: f32, pc: vec3<f32>, ray: Ray) -> vec3<f32> {
+    let h = select(P.h0, P.h1, axis == 1u);
+    let g = (vec2<f32>(h.x, h.y) - v * vec2<f32>(P.h2.x, P.h2.y)) / pc.z;
+    return vec3<f32>(dot2(g, ray.dxu_dq[0]), dot2(g, ray.dxu_dq[1]), v - select(pc.x, pc.y, axis == 1u));
+}
+
+// The part of the pixel offsets p whose board point lies in the rectangle [lo, hi].
+fn clip_board_rect(p: Poly, lo: vec2<f32>, hi: vec2<f32>, pc: vec3<f32>, ray: Ray) -> Poly {
+    let x0 = board_line(0u, lo.x, pc, ray);
+    let x1 = board_line(0u, hi.x, pc, ray);
+    let y0 = board_line(1u, lo.y, pc, ray);
+    let y1 = board_line(1u, hi.y, pc, ray);
+    return clip_line(clip_line(clip_line(clip_line(p, -x0.xy, -x0.z), x1.xy, x1.z), -y0.xy, -y0.z), y1.xy, y1.z);
+}
+
+fn poly_area(p: Poly) -> f32 {
+    var s = 0.0;
+    for (var i = 0u; i < p.n; i = i + 1u) {
+        let a = p.v[i];
+        let b = p.v[select(i + 1u, 0u, i + 1u == p.n)];
+        s = s + (a.x * b.y - a.y * b.x);
+    }
+    return abs(0.5 * s);
+}
+
+// Twice the signed area between the chord e -> s of the unit circle and its arc, going round in
+// the direction sigma (1 counter-clockwise, -1 clockwise), plus the chord's shoelace term. The
+// segment's (theta - sin theta) comes from a series for short arcs: through atan2 it would lose
+// the few ulps that are the whole of a pixel's share of a circle 100 pixels across.
+fn arc_term(e: vec2<f32>, s: vec2<f32>, sigma: f32) -> f32 {
+    let cr = e.x * s.y - e.y * s.x;
+    let h = 0.5 * len2(s - e);
+    var seg = 0.0;
+    if (h < 0.1 && sigma * cr >= 0.0) {
+        let h2 = h * h;
+        let theta = 2.0 * h * (1.0 + h2 * (1.0 / 6.0 + h2 * (3.0 / 40.0)));
+        let t2 = theta * theta;
+        seg = theta * t2 * (1.0 / 6.0 - t2 * (1.0 / 120.0 - t2 * (1.0 / 5040.0)));
+    } else {
+        var theta = atan2(sigma * cr, dot2(e, s));
+        theta = select(theta, theta + 6.2831853, theta < 0.0);
+        seg = theta - sin(theta);
+    }
+    return cr + sigma * seg;
+}
+
+// Area of the convex polygon p inside the unit circle about the origin, from the boundary of the
+// intersection: the parts of p's edges inside the circle (shoelace terms) and, from each point
+// where the boundary leaves the circle to the point where it next enters, the arc (arc_term).
+fn unit_disc_area(p: Poly) -> f32 {
+    var signed = 0.0;
+    for (var i = 0u; i < p.n; i = i + 1u) {
+        let a = p.v[i];
+        let b = p.v[select(i + 1u, 0u, i + 1u == p.n)];
+        signed = signed + (a.x * b.y - a.y * b.x);
+    }
+    let sigma = select(-1.0, 1.0, signed >= 0.0);
+    var s = 0.0;
+    var exit = vec2<f32>(0.0);
+    var first_entry = vec2<f32>(0.0);
+    var have_exit = false;
+    var have_first = false;
+    var crossings = 0u;
+    var origin_inside = p.n >= 3u;
+    for (var i = 0u; i < p.n; i = i + 1u) {
+        let a = p.v[i];
+        let b = p.v[select(i + 1u, 0u, i + 1u == p.n)];
+        let d = b - a;
+        origin_inside = origin_inside && sigma * (a.x * d.y - a.y * d.x) >= 0.0;
+        let qa = dot2(d, d);
+        let qb = 2.0 * dot2(a, d);
+        let qc = dot2(a, a) - 1.0;
+        let disc = qb * qb - 4.0 * qa * qc;
+        if (qa > 0.0 && disc > 0.0) {
+            let sq = sqrt(disc);
+            let t0 = (-qb - sq) / (2.0 * qa);
+            let t1 = (-qb + sq) / (2.0 * qa);
+            let lo = max(t0, 0.0);
+            let hi = min(t1, 1.0);
+            if (lo < hi) {
+                let pin = a + d * lo;
+                let pout = a + d * hi;
+                if (t0 > 0.0) {
+                    if (have_exit) { s = s + arc_term(exit, pin, sigma); have_exit = false; }
+                    else { first_entry = pin; have_first = true; }
+                    crossings = crossings + 1u;
+                }
+                s = s + (pin.x * pout.y - pin.y * pout.x);
+                if (t1 < 1.0) { exit = pout; have_exit = true; crossings = crossings + 1u; }
+            }
+        }
+    }
+    if (have_exit && have_first) { s = s + arc_term(exit, first_entry, sigma); }
+    // No crossing and no edge inside: the circle is inside p, or they are apart.
+    let whole = crossings == 0u && s == 0.0 && origin_inside;
+    return select(abs(0.5 * s), 3.14159265, whole);
+}
+
+// Most cells (chessboard squares, dot-grid discs) per axis the exact fine pass clips against;
+// larger footprints (squares or dots of about a pixel or less) are supersampled.
+const MAX_CELLS: f32 = 6.0;
+
+// The affine footprint's board extent, widened to hold the exact (projective) footprint: they
+// differ at second order, by far less than 2 % over one pixel.
+const FOOTPRINT_SLACK: f32 = 1.02;
 
 struct Coarse { value: f32, hard: bool, };
 
@@ -237,16 +379,15 @@ fn chess_coarse(ray: Ray) -> Coarse {
     var out: Coarse;
     let pc = plane_point(ray.xu);
     let a = board_jacobian(pc, ray);
-    let ex = 0.5 * (abs(a[0].x) + abs(a[1].x));
-    let ey = 0.5 * (abs(a[0].y) + abs(a[1].y));
+    let ex = FOOTPRINT_SLACK * 0.5 * (abs(a[0].x) + abs(a[1].x));
+    let ey = FOOTPRINT_SLACK * 0.5 * (abs(a[0].y) + abs(a[1].y));
     let s = P.board.z;
     let small = ex < 0.25 * s && ey < 0.25 * s;
     let lx = chess_lines(pc.x - ex, pc.x + ex, P.board.x);
     let ly = chess_lines(pc.y - ey, pc.y + ey, P.board.y);
     let hasx = lx.count == 1u;
-    let row = select(vec2<f32>(a[0].y, a[1].y), vec2<f32>(a[0].x, a[1].x), hasx);
-    let c = select(ly.first - pc.y, lx.first - pc.x, hasx);
-    let area = halfplane_area(row, c);
+    let line = board_line(select(1u, 0u, hasx), select(ly.first, lx.first, hasx), pc, ray);
+    let area = halfplane_area(line.xy, line.z);
     // Representative board points on both sides, midway between the line and the footprint edge.
     let e = select(ey, ex, hasx);
     let l0 = select(ly.first, lx.first, hasx);
@@ -262,43 +403,40 @@ fn chess_coarse(ray: Ray) -> Coarse {
     return out;
 }
 
-// Chessboard, fine: corners (one line per direction) by exact row integration, everything else
-// by samples^2 sub-samples.
+// Chessboard, fine: the exact area of the pixel square whose board points fall in the margin, on
+// the board and in every dark square it meets (the board's lines clipped in pixel offsets, see
+// board_line); supersampled only when the pixel meets more than MAX_CELLS squares per axis.
 fn chess_fine(ray: Ray) -> f32 {
     let pc = plane_point(ray.xu);
     let a = board_jacobian(pc, ray);
-    let ex = 0.5 * (abs(a[0].x) + abs(a[1].x));
-    let ey = 0.5 * (abs(a[0].y) + abs(a[1].y));
-    let s = P.board.z;
-    let small = ex < 0.25 * s && ey < 0.25 * s;
-    let lx = chess_lines(pc.x - ex, pc.x + ex, P.board.x);
-    let ly = chess_lines(pc.y - ey, pc.y + ey, P.board.y);
-    let corner = small && lx.count == 1u && ly.count == 1u;
-    // Half-planes in pixel offsets d: board x(d) = pc.x + dot(row0, d) >= x0, likewise y.
-    let row0 = vec2<f32>(a[0].x, a[1].x);
-    let row1 = vec2<f32>(a[0].y, a[1].y);
-    let cx = lx.first - pc.x;
-    let cy = ly.first - pc.y;
-    let xp = 0.5 * (lx.first + pc.x + ex);
-    let xm = 0.5 * (lx.first + pc.x - ex);
-    let yp = 0.5 * (ly.first + pc.y + ey);
-    let ym = 0.5 * (ly.first + pc.y - ey);
-    let rows = select(0u, CORNER_ROWS, corner);
-    var sx = 0.0; var sy = 0.0; var sxy = 0.0;
-    for (var j = 0u; j < rows; j = j + 1u) {
-        let y = (f32(j) + 0.5) / f32(CORNER_ROWS) - 0.5;
-        let ix = row_interval(row0, cx, y);
-        let iy = row_interval(row1, cy, y);
-        sx = sx + max(ix.y - ix.x, 0.0);
-        sy = sy + max(iy.y - iy.x, 0.0);
-        sxy = sxy + max(min(ix.y, iy.y) - max(ix.x, iy.x), 0.0);
+    let ex = FOOTPRINT_SLACK * 0.5 * (abs(a[0].x) + abs(a[1].x));
+    let ey = FOOTPRINT_SLACK * 0.5 * (abs(a[0].y) + abs(a[1].y));
+    let s = P.board.z; let m = P.board.w;
+    let w = P.board.x * s; let h = P.board.y * s;
+    let i0 = clamp(floor((pc.x - ex) / s), 0.0, P.board.x - 1.0);
+    let i1 = clamp(floor((pc.x + ex) / s), 0.0, P.board.x - 1.0);
+    let j0 = clamp(floor((pc.y - ey) / s), 0.0, P.board.y - 1.0);
+    let j1 = clamp(floor((pc.y + ey) / s), 0.0, P.board.y - 1.0);
+    let exact = i1 - i0 < MAX_CELLS && j1 - j0 < MAX_CELLS;
+    let px = footprint(mat2x2<f32>(vec2<f32>(1.0, 0.0), vec2<f32>(0.0, 1.0)));
+    let a_margin = poly_area(clip_board_rect(px, vec2<f32>(-m, -m), vec2<f32>(w + m, h + m), pc, ray));
+    let board = clip_board_rect(px, vec2<f32>(0.0, 0.0), vec2<f32>(w, h), pc, ray);
+    let a_board = poly_area(board);
+    let ni = select(0u, u32(i1 - i0) + 1u, exact);
+    let nj = select(0u, u32(j1 - j0) + 1u, exact);
+    var dark = 0.0;
+    for (var jj = 0u; jj < nj; jj = jj + 1u) {
+        for (var ii = 0u; ii < ni; ii = ii + 1u) {
+            let i = i0 + f32(ii);
+            let j = j0 + f32(jj);
+            if (((u32(i) + u32(j)) & 1u) == 0u) {
+                dark = dark + poly_area(clip_board_rect(board, vec2<f32>(i * s, j * s), vec2<f32>(i * s + s, j * s + s), pc, ray));
+            }
+        }
     }
-    let inv_rows = 1.0 / f32(CORNER_ROWS);
-    let ax = sx * inv_rows; let ay = sy * inv_rows; let axy = sxy * inv_rows;
-    let v = chess_value(xp, yp) * axy + chess_value(xp, ym) * (ax - axy) + chess_value(xm, yp) * (ay - axy)
-        + chess_value(xm, ym) * (1.0 - ax - ay + axy);
-    let sup = plane_supersample(ray, select(P.size.w, 0u, corner));
-    return select(sup, v, corner);
+    let v = P.grey.w * (1.0 - a_margin) + P.grey.z * (a_margin - a_board) + P.grey.x * dark + P.grey.y * (a_board - dark);
+    let sup = plane_supersample(ray, select(P.size.w, 0u, exact));
+    return select(sup, v, exact);
 }
 
 // Dot grid, coarse: pixels near a disc or plate edge are hard.
@@ -317,6 +455,74 @@ fn grid_coarse(ray: Ray) -> Coarse {
     out.hard = ray.ok && pc.z > 0.0 && (near_dot || near_edge || ext > 0.25 * rad);
     out.value = select(P.grey.w, grid_value(pc.x, pc.y), pc.z > 0.0 && ray.ok);
     return out;
+}
+
+// Area of the pixel offsets p whose board point lies in the disc of radius r, where u0 is the
+// pixel centre's board point minus the disc's centre, a = board_jacobian and g the gradient of the
+// homography's w over the pixel divided by w: the board point of offset d is
+// u0 + (a + u0 g^T) d over (1 + g.d) (exact under the homography), so the disc is the ellipse
+// |u0 + M d|^2 <= r^2 (1 + g.d)^2 in offsets. It is mapped onto the unit circle and intersected
+// there. Negative when the conic is no ellipse (then the pixel is supersampled).
+fn disc_in_pixels(p: Poly, u0: vec2<f32>, a: mat2x2<f32>, g: vec2<f32>, r: f32) -> f32 {
+    let m0 = a[0] + u0 * g.x;
+    let m1 = a[1] + u0 * g.y;
+    let r2 = r * r;
+    let q00 = dot2(m0, m0) - r2 * g.x * g.x;
+    let q01 = dot2(m0, m1) - r2 * g.x * g.y;
+    let q11 = dot2(m1, m1) - r2 * g.y * g.y;
+    let b = vec2<f32>(dot2(m0, u0) - r2 * g.x, dot2(m1, u0) - r2 * g.y);
+    let lu = len2(u0);
+    let c = (lu - r) * (lu + r);
+    let det = q00 * q11 - q01 * q01;
+    if (!(det > 0.0 && q00 > 0.0)) { return -1.0; }
+    let qb = vec2<f32>(q11 * b.x - q01 * b.y, q00 * b.y - q01 * b.x) / det;
+    let k = dot2(b, qb) - c;
+    if (!(k > 0.0)) { return 0.0; }
+    let l11 = sqrt(q00 / k);
+    let l12 = q01 / (k * l11);
+    let l22 = sqrt(max(q11 / k - l12 * l12, 1e-30));
+    var v: Poly;
+    v.n = p.n;
+    for (var i = 0u; i < p.n; i = i + 1u) {
+        let e = p.v[i] + qb;
+        v.v[i] = vec2<f32>(l11 * e.x + l12 * e.y, l22 * e.y);
+    }
+    return unit_disc_area(v) / (l11 * l22);
+}
+
+// Dot grid, fine: the exact area of the pixel square whose board points fall on the plate
+// (board_line) and in every disc within reach (disc_in_pixels); supersampled only when more than
+// MAX_CELLS discs per axis are in reach.
+fn grid_fine(ray: Ray) -> f32 {
+    let pc = plane_point(ray.xu);
+    let a = board_jacobian(pc, ray);
+    let ex = FOOTPRINT_SLACK * 0.5 * (abs(a[0].x) + abs(a[1].x));
+    let ey = FOOTPRINT_SLACK * 0.5 * (abs(a[0].y) + abs(a[1].y));
+    let n = P.board.x; let hh = 0.5 * P.board.y; let rad = P.board.z; let outer = hh + P.board.w;
+    let pitch = P.board.y / (n - 1.0);
+    let i0 = clamp(ceil((pc.x - ex + hh - rad) / pitch), 0.0, n - 1.0);
+    let i1 = clamp(floor((pc.x + ex + hh + rad) / pitch), 0.0, n - 1.0);
+    let j0 = clamp(ceil((pc.y - ey + hh - rad) / pitch), 0.0, n - 1.0);
+    let j1 = clamp(floor((pc.y + ey + hh + rad) / pitch), 0.0, n - 1.0);
+    var exact = i1 - i0 < MAX_CELLS && j1 - j0 < MAX_CELLS && pc.z > 0.0;
+    let g = vec2<f32>(dot2(P.h2.xy, ray.dxu_dq[0]), dot2(P.h2.xy, ray.dxu_dq[1])) / pc.z;
+    let px = footprint(mat2x2<f32>(vec2<f32>(1.0, 0.0), vec2<f32>(0.0, 1.0)));
+    let plate = clip_board_rect(px, vec2<f32>(-outer, -outer), vec2<f32>(outer, outer), pc, ray);
+    let a_plate = poly_area(plate);
+    let ni = select(0u, u32(max(i1 - i0 + 1.0, 0.0)), exact);
+    let nj = select(0u, u32(max(j1 - j0 + 1.0, 0.0)), exact);
+    var dark = 0.0;
+    for (var jj = 0u; jj < nj; jj = jj + 1u) {
+        for (var ii = 0u; ii < ni; ii = ii + 1u) {
+            let c = vec2<f32>(pitch * (i0 + f32(ii)) - hh, pitch * (j0 + f32(jj)) - hh);
+            let area = disc_in_pixels(plate, pc.xy - c, a, g, rad);
+            exact = exact && area >= 0.0;
+            dark = dark + max(area, 0.0);
+        }
+    }
+    let v = P.grey.w * (1.0 - a_plate) + P.grey.y * (a_plate - dark) + P.grey.x * dark;
+    let sup = plane_supersample(ray, select(P.size.w, 0u, exact));
+    return select(sup, v, exact);
 }
 
 // ---------------------------------------------------------------- S-path
@@ -631,7 +837,7 @@ fn cs_fine_chessboard(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_dot_grid(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = plane_supersample(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))), P.size.w);
+    out_vals[gid.y * 65535u * 64u + gid.x] = grid_fine(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))));
 }
 
 @compute @workgroup_size(64, 1, 1)

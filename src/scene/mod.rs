@@ -1,10 +1,12 @@
 //! A pure description of one image to render: camera, target, pose and render settings.
 //!
-//! No wgpu and no file I/O here: [`file`] parses scene text (TOML or JSON) that the CLI has read,
-//! [`trace`] is the exact CPU ray caster (the twin of `shaders/render.wgsl`), [`reference`] the
-//! brute-force supersampling CPU renderer used to check the GPU, and [`truth`] the labels written next
+//! No wgpu and no file I/O here: [`mod@file`] parses scene text (TOML or JSON) that the CLI has read,
+//! [`trace`] is the exact CPU ray caster (the twin of `shaders/render.wgsl`), [`mod@reference`] the
+//! brute-force supersampling CPU renderer used to check the GPU, [`exact`] the exact (polygon-clipped)
+//! box filter of planar targets, and [`truth`] the labels written next
 //! to every image.
 
+pub mod exact;
 pub mod file;
 pub mod reference;
 pub mod trace;
@@ -18,9 +20,9 @@ use crate::target::{Target, TargetError};
 /// Settings of the image formation after the geometry: anti-aliasing, blur, noise, bit depth.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderSettings {
-    /// Sub-samples per axis for pixels that need brute-force supersampling (edges of dots, beads,
-    /// the sphere outline, and chessboard pixels crossed by more than one line per direction).
-    /// Chessboard edges crossed by at most one line per direction use exact analytic coverage.
+    /// Sub-samples per axis for pixels that need brute-force supersampling: the S-path's dots where
+    /// no single smooth boundary crosses the pixel, and planar targets whose squares or dots are
+    /// about a pixel or smaller. Chessboard and dot-grid edges use exact closed-form coverage.
     pub samples: u32,
     /// Standard deviation of additive Gaussian noise, grey levels (0 = none).
     pub noise_sigma: f64,

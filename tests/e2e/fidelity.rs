@@ -1,13 +1,14 @@
 //! GPU renderer against the brute-force f64 CPU reference (issue: fidelity acceptance).
 //!
 //! Scene: 1280x1024, f = 1000 px, k1 = -0.25, k2 = 0.12, a 12 x 9 chessboard of 45 mm squares tilted
-//! 40 degrees, 0.75 m away. Reference: 16 x 16 exact samples per pixel, 64 x 64 where those differ.
-//! Tolerances (from the issue): mean |diff| <= 0.5 grey levels, 99th percentile <= 2; the same
-//! corner refiner seeded at the truth corners on both images agrees to <= 0.005 px RMS, <= 0.01 max.
+//! 40 degrees, 0.75 m away. Reference: the exact box filter (`scene::exact`, polygon clipping of
+//! 1/4-pixel footprints). Tolerances: every pixel within 0.25 grey levels (issue 14 asks 0.5; the
+//! first wave's mean / p99 gate let 6.6 grey levels at corners through); the same corner refiner
+//! seeded at the truth corners on both images agrees to <= 0.005 px RMS, <= 0.01 max.
 
 use nalgebra::Point2;
 use synthcam::detect::{refine_corner, ImageF32, SubpixelParams};
-use synthcam::scene::reference::render_reference_adaptive;
+use synthcam::scene::exact::render_exact_planar;
 use synthcam::scene::truth::truth_labels;
 
 use crate::common::{abs_diffs, camera, chessboard_scene, percentile, renderer};
@@ -18,15 +19,14 @@ fn gpu_matches_cpu_reference_on_distorted_tilted_chessboard() {
     let scene = chessboard_scene(cam, [12, 9], 0.045, 40.0, 0.75, [0.0, 0.0]);
     let gpu = renderer().render_linear(&scene).expect("render");
     let t0 = std::time::Instant::now();
-    let cpu = render_reference_adaptive(&scene, 16, 64);
+    let cpu: Vec<f64> = render_exact_planar(&scene, 4).expect("planar").into_iter().map(|v| v.expect("inside the lens fold")).collect();
     eprintln!("CPU reference took {:.1} s", t0.elapsed().as_secs_f64());
     let d = abs_diffs(&gpu, &cpu);
     let mean = d.iter().sum::<f64>() / d.len() as f64;
     let p99 = percentile(&d, 0.99);
     let max = percentile(&d, 1.0);
     eprintln!("grey levels: mean |diff| {mean:.4}, p99 {p99:.3}, max {max:.2}");
-    assert!(mean <= 0.5, "mean |diff| {mean}");
-    assert!(p99 <= 2.0, "p99 {p99}");
+    assert!(max <= 0.25, "max |diff| {max} (mean {mean}, p99 {p99})");
 
     let (w, h) = (1280usize, 1024usize);
     let gpu_img = ImageF32::new(w, h, gpu).expect("size");

@@ -8,6 +8,7 @@ mod calibrate_cli;
 mod calibration;
 mod chessboard_accuracy;
 mod common;
+mod coverage_exact;
 mod dataset;
 mod detect_cli;
 mod determinism;

@@ -1,0 +1,223 @@
+//! Every pixel of the GPU renderer against the exact box filter (issue 14, item 1).
+//!
+//! Randomised planar scenes (seeded, so a failure reproduces): chessboards and dot grids rolled in
+//! all four quadrants, tilted up to 70 degrees about any in-plane axis, squares and dots of 6 to
+//! 200 px, distortion on and off, boards cut by the image border. Each GPU render before
+//! quantisation is compared, pixel by pixel, with `scene::exact::render_exact_planar` (polygon
+//! clipping of exact 1/4-pixel footprints, written apart from the shader). Gate: max |diff|
+//! <= 0.25 grey levels on every pixel (the issue asks 0.5), reported per coverage path (what
+//! crosses the pixel). Before the exact paths: 14.6 grey levels at rolled X-junctions.
+
+use nalgebra::{Isometry3, Point2, Translation3, UnitQuaternion, Vector2, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use synthcam::camera::{CameraModel, Distortion, ImageSize, Intrinsics};
+use synthcam::scene::exact::{plane_point, render_exact_planar};
+use synthcam::scene::{RenderSettings, Scene};
+use synthcam::target::{Chessboard, DotGrid, Target};
+
+use crate::common::renderer;
+
+/// The issue's gate is 0.5 grey levels; measured max 0.08 on lavapipe (LLVM 15), so 0.25 leaves
+/// room for other LLVM versions' f32 rounding while still catching any coverage-path error.
+const GATE: f64 = 0.25;
+const SUBDIVISIONS: u32 = 4;
+
+/// A camera whose whole image stays well inside the lens model's fold (the renderer and the
+/// reference treat rays beyond it alike, as background, but not pixels straddling it).
+fn random_camera(rng: &mut ChaCha8Rng, w: u32, h: u32) -> CameraModel {
+    loop {
+        let f = rng.random_range(250.0..700.0);
+        let distorted = rng.random_bool(0.6);
+        let dist = if distorted {
+            [rng.random_range(-0.3..0.15), rng.random_range(-0.05..0.1), rng.random_range(-0.003..0.003), rng.random_range(-0.003..0.003), 0.0]
+        } else {
+            [0.0; 5]
+        };
+        let skew = if rng.random_bool(0.2) { rng.random_range(-2.0..2.0) } else { 0.0 };
+        let cam = CameraModel {
+            size: ImageSize { width: w, height: h },
+            intrinsics: Intrinsics {
+                fx: f,
+                fy: f * rng.random_range(0.98..1.02),
+                cx: 0.5 * f64::from(w) - 0.5 + rng.random_range(-8.0..8.0),
+                cy: 0.5 * f64::from(h) - 0.5 + rng.random_range(-8.0..8.0),
+                skew,
+            },
+            distortion: Distortion::from_array(dist),
+        };
+        let r_max = cam.distortion.max_monotonic_radius().unwrap_or(f64::INFINITY);
+        let corners = [(-1.0, -1.0), (f64::from(w), -1.0), (-1.0, f64::from(h)), (f64::from(w), f64::from(h))];
+        let inside = corners.iter().all(|&(x, y)| cam.unproject(&Point2::new(x, y)).is_ok_and(|d| d.xy().norm() < 0.9 * r_max));
+        if inside {
+            return cam;
+        }
+    }
+}
+
+/// Target rolled by any angle, tilted up to 70 degrees about a random in-plane axis, its centre
+/// at a random image point (boards may leave the image) at the distance that gives `feature_px`.
+fn random_pose(rng: &mut ChaCha8Rng, cam: &CameraModel, feature_m: f64, feature_px: f64, centre_m: Vector3<f64>) -> Isometry3<f64> {
+    let f = cam.intrinsics.fx;
+    let distance = f * feature_m / feature_px;
+    let roll = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rng.random_range(-std::f64::consts::PI..std::f64::consts::PI));
+    let phi: f64 = rng.random_range(0.0..std::f64::consts::PI);
+    let axis = nalgebra::Unit::new_normalize(Vector3::new(phi.cos(), phi.sin(), 0.0));
+    let tilt = UnitQuaternion::from_axis_angle(&axis, rng.random_range(0f64..70.0).to_radians());
+    let rot = tilt * roll;
+    let (w, h) = (f64::from(cam.size.width), f64::from(cam.size.height));
+    let aim = Vector3::new(rng.random_range(-0.6..0.6) * w / f, rng.random_range(-0.6..0.6) * h / f, 1.0) * distance;
+    Isometry3::from_parts(Translation3::from(aim - rot * centre_m), rot)
+}
+
+fn random_scene(rng: &mut ChaCha8Rng, chessboard: bool) -> Scene {
+    let (w, h) = if rng.random_bool(0.25) { (480, 360) } else { (320, 256) };
+    let camera = random_camera(rng, w, h);
+    let feature_px = (rng.random_range(6f64.ln()..200f64.ln())).exp();
+    let dark = rng.random_range(0.0..80.0);
+    let light = rng.random_range(170.0..255.0);
+    let background = rng.random_range(0.0..255.0);
+    let (target, feature_m, centre) = if chessboard {
+        let s = rng.random_range(0.01..0.08);
+        let squares = [rng.random_range(3..13), rng.random_range(3..11)];
+        let b = Chessboard { squares, square_m: s, margin_m: s * rng.random_range(0.0..1.0), dark, light, margin: rng.random_range(100.0..255.0), background };
+        let c = Vector3::new(0.5 * s * f64::from(squares[0]), 0.5 * s * f64::from(squares[1]), 0.0);
+        (Target::Chessboard(b), s, c)
+    } else {
+        let n = rng.random_range(2..8);
+        let edge = rng.random_range(0.1..0.5);
+        let pitch = edge / f64::from(n - 1);
+        let r = pitch * rng.random_range(0.1..0.45);
+        let g = DotGrid { n, edge_m: edge, dot_radius_m: r, margin_m: r + pitch * rng.random_range(0.0..0.5), dark, light, background };
+        (Target::DotGrid(g), 2.0 * r, Vector3::zeros())
+    };
+    // The target's centre is `distance` in front of the camera, so the scene validates.
+    let pose = random_pose(rng, &camera, feature_m, feature_px, centre);
+    Scene { camera, target, cam_from_target: pose, render: RenderSettings::default() }
+}
+
+/// What crosses pixel (x, y): the coverage path the renderer takes there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Path {
+    Flat,
+    SquareEdge,
+    XJunction,
+    MarginOrBackgroundEdge,
+    SeveralEdges,
+    DiscEdge,
+    PlateEdge,
+}
+
+fn classify(scene: &Scene, x: f64, y: f64) -> Path {
+    let pts: Vec<Vector2<f64>> = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
+        .iter()
+        .filter_map(|(dx, dy)| plane_point(scene, Point2::new(x + dx, y + dy)).flatten())
+        .collect();
+    if pts.len() < 4 {
+        return Path::Flat;
+    }
+    let lo = pts.iter().fold(pts[0], |a, p| a.inf(p));
+    let hi = pts.iter().fold(pts[0], |a, p| a.sup(p));
+    let crosses = |v: f64, a: f64, b: f64| a <= v && v <= b;
+    match &scene.target {
+        Target::Chessboard(b) => {
+            let s = b.square_m;
+            let lines = |lo: f64, hi: f64, n: u32| (0..=n).filter(|i| crosses(f64::from(*i) * s, lo, hi)).count();
+            let nx = lines(lo.x, hi.x, b.squares[0]);
+            let ny = lines(lo.y, hi.y, b.squares[1]);
+            let (wm, hm) = (s * f64::from(b.squares[0]) + b.margin_m, s * f64::from(b.squares[1]) + b.margin_m);
+            let outer = usize::from(crosses(-b.margin_m, lo.x, hi.x) || crosses(wm, lo.x, hi.x) || crosses(-b.margin_m, lo.y, hi.y) || crosses(hm, lo.y, hi.y));
+            match (nx, ny, outer) {
+                (0, 0, 0) => Path::Flat,
+                (1, 0, 0) | (0, 1, 0) => Path::SquareEdge,
+                (1, 1, 0) => Path::XJunction,
+                (_, _, 1) if nx + ny == 0 => Path::MarginOrBackgroundEdge,
+                _ => Path::SeveralEdges,
+            }
+        }
+        Target::DotGrid(g) => {
+            let half = 0.5 * g.edge_m;
+            let outer = half + g.margin_m;
+            if crosses(-outer, lo.x, hi.x) || crosses(outer, lo.x, hi.x) || crosses(-outer, lo.y, hi.y) || crosses(outer, lo.y, hi.y) {
+                return Path::PlateEdge;
+            }
+            let near = g.dot_centres_m().iter().any(|c| {
+                let d: Vec<f64> = pts.iter().map(|p| (p - c.xy().coords).norm()).collect();
+                let (dmin, dmax) = d.iter().fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(*v), b.max(*v)));
+                // The nearest point of the footprint may be inside its corners' hull: use the bbox.
+                let inside_box = c.x >= lo.x && c.x <= hi.x && c.y >= lo.y && c.y <= hi.y;
+                (dmin <= g.dot_radius_m || inside_box) && dmax >= g.dot_radius_m
+            });
+            if near { Path::DiscEdge } else { Path::Flat }
+        }
+        Target::SPath(_) => Path::Flat,
+    }
+}
+
+#[derive(Default)]
+struct Stats {
+    pixels: usize,
+    max: f64,
+    sum: f64,
+}
+
+#[test]
+fn every_pixel_matches_the_exact_box_filter() {
+    let mut rng = ChaCha8Rng::seed_from_u64(14);
+    let mut per_path: std::collections::BTreeMap<Path, Stats> = Default::default();
+    let mut worst = (0.0, String::new());
+    let (mut scenes, mut pixels, mut undefined) = (0, 0usize, 0usize);
+    for k in 0..40 {
+        let chess = k % 2 == 0;
+        let scene = random_scene(&mut rng, chess);
+        let gpu = renderer().render_linear(&scene).expect("render");
+        let exact = render_exact_planar(&scene, SUBDIVISIONS).expect("exact");
+        let w = scene.camera.size.width as usize;
+        let mut scene_max = 0.0f64;
+        for (i, (g, e)) in gpu.iter().zip(&exact).enumerate() {
+            let Some(e) = e else {
+                undefined += 1;
+                continue;
+            };
+            let d = (f64::from(*g) - e).abs();
+            pixels += 1;
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            let path = classify(&scene, x, y);
+            let st = per_path.entry(path).or_default();
+            st.pixels += 1;
+            st.max = st.max.max(d);
+            st.sum += d;
+            scene_max = scene_max.max(d);
+            if d > worst.0 {
+                worst = (d, format!("scene {k} ({}) pixel ({x}, {y}): gpu {g:.3} exact {e:.3}, {path:?}", scene.target.kind_name()));
+            }
+        }
+        scenes += 1;
+        eprintln!("scene {k:2} {:9} {}x{} max |diff| {scene_max:.3}", scene.target.kind_name(), w, scene.camera.size.height);
+    }
+    eprintln!("{scenes} scenes, {pixels} pixels compared ({undefined} beyond the lens fold skipped)");
+    for (path, st) in &per_path {
+        eprintln!("  {path:?}: {} pixels, max |diff| {:.4}, mean {:.5}", st.pixels, st.max, st.sum / st.pixels.max(1) as f64);
+    }
+    eprintln!("worst: {:.4} grey levels at {}", worst.0, worst.1);
+    assert!(undefined * 100 < pixels, "too many pixels beyond the fold: {undefined}");
+    assert!(worst.0 <= GATE, "max |diff| {:.4} > {GATE}: {}", worst.0, worst.1);
+}
+
+#[test]
+fn exact_reference_has_converged() {
+    // The reference's only approximation is a straight footprint per sub-square; 4 vs 8
+    // subdivisions must agree far inside the gate.
+    let mut rng = ChaCha8Rng::seed_from_u64(1414);
+    for chess in [true, false] {
+        let mut scene = random_scene(&mut rng, chess);
+        scene.camera.size = ImageSize { width: 160, height: 128 };
+        scene.camera.intrinsics.cx = 79.5;
+        scene.camera.intrinsics.cy = 63.5;
+        let a = render_exact_planar(&scene, 4).expect("exact");
+        let b = render_exact_planar(&scene, 8).expect("exact");
+        let max = a.iter().zip(&b).filter_map(|(x, y)| Some((x.as_ref()? - y.as_ref()?).abs())).fold(0.0, f64::max);
+        eprintln!("{}: 4 vs 8 subdivisions max |diff| {max:.2e} grey levels", scene.target.kind_name());
+        assert!(max < 0.02, "{max}");
+    }
+}
