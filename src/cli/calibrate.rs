@@ -59,15 +59,33 @@ struct Output {
     std: serde_json::Value,
     views: Vec<ViewOut>,
     used: usize,
-    skipped: Vec<String>,
+    /// Inputs not used, each with the reason (board not found, unreadable, other image size).
+    skipped: Vec<Skipped>,
     iterations: usize,
     converged: bool,
     /// Time of the calibration itself (after detection or loading), milliseconds.
     time_ms: f64,
 }
 
-/// (file, width, height, points) of every image in which the board was found, and the skipped ones.
-type Detections = (Vec<(String, usize, usize, Vec<Point2<f64>>)>, Vec<String>);
+/// An input left out of the calibration, and why.
+#[derive(Debug, Clone, Serialize)]
+pub struct Skipped {
+    /// File name.
+    pub file: String,
+    /// Why it was left out.
+    pub reason: String,
+}
+
+impl Skipped {
+    fn new(file: impl Into<String>, reason: impl Into<String>) -> Self {
+        Self { file: file.into(), reason: reason.into() }
+    }
+}
+
+/// (file, width, height, points) of one image in which the board was found.
+type Found = (String, usize, usize, Vec<Point2<f64>>);
+/// The images in which the board was found, and the skipped ones.
+type Detections = (Vec<Found>, Vec<Skipped>);
 
 fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
@@ -77,7 +95,7 @@ fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
     for (i, im) in images.iter().enumerate() {
         let file = im["file"].as_str().map_or_else(|| format!("#{i}"), str::to_string);
         if im["found"].as_bool() != Some(true) {
-            skipped.push(file);
+            skipped.push(Skipped::new(file, "board not found"));
             continue;
         }
         let pts = im["points_px"].as_array().with_context(|| format!("{file}: `points_px` missing"))?;
@@ -94,6 +112,19 @@ fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
         found.push((file, w, h, pts));
     }
     Ok((found, skipped))
+}
+
+/// Keep the images of the first image's size; the others go to `skipped` with a warning (one
+/// camera has one image size: a resized or cropped frame would bias the intrinsics).
+fn keep_first_size(found: Vec<Found>, mut skipped: Vec<Skipped>) -> (Vec<Found>, Vec<Skipped>) {
+    let Some(&(_, w, h, _)) = found.first() else { return (found, skipped) };
+    let (same, other): (Vec<Found>, Vec<Found>) = found.into_iter().partition(|f| f.1 == w && f.2 == h);
+    for (file, fw, fh, _) in other {
+        let reason = format!("image size {fw}x{fh} differs from the first image's {w}x{h}");
+        eprintln!("warning: skipping {file}: {reason}");
+        skipped.push(Skipped::new(file, reason));
+    }
+    (same, skipped)
 }
 
 /// Run `calibrate`.
@@ -115,19 +146,19 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
                     if det.found {
                         found.push((name, img.width, img.height, det.points_px));
                     } else {
-                        skipped.push(name);
+                        skipped.push(Skipped::new(name, "board not found"));
                     }
                 }
                 Err(e) => {
                     eprintln!("error: {e}");
-                    skipped.push(name);
+                    skipped.push(Skipped::new(name, e.to_string()));
                 }
             }
         }
         (found, skipped)
     };
+    let (found, skipped) = keep_first_size(found, skipped);
     let Some(&(_, w, h, _)) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
-    anyhow::ensure!(found.iter().all(|f| f.1 == w && f.2 == h), "the images differ in size");
     let board: Vec<Point3<f64>> = (0..n).map(|k| Point3::new((k % cols) as f64 * args.square, (k / cols) as f64 * args.square, 0.0)).collect();
     let views: Vec<View> = found.iter().map(|(_, _, _, pts)| board.iter().copied().zip(pts.iter().copied()).collect()).collect();
     let size = ImageSize { width: w as u32, height: h as u32 };

@@ -23,6 +23,17 @@ pub struct DetectArgs {
     /// Write each image with its points and their order drawn into this folder.
     #[arg(long)]
     pub draw: Option<PathBuf>,
+    /// Detect in images of any size. By default, images whose size differs from the first
+    /// readable image's are skipped with a warning (one camera, one size), as `calibrate` does.
+    #[arg(long)]
+    pub any_size: bool,
+}
+
+/// An image left out, and why.
+#[derive(Debug, Serialize)]
+struct Skipped {
+    file: String,
+    reason: String,
 }
 
 
@@ -52,6 +63,8 @@ struct Output {
     target: TargetSpec,
     pixel_convention: &'static str,
     images: Vec<ImageResult>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    skipped: Vec<Skipped>,
 }
 
 /// Expand folders into their image files, in name order.
@@ -87,6 +100,8 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let mut results = Vec::new();
+    let mut skipped = Vec::new();
+    let mut first_size = None;
     let mut errors = 0;
     for f in &files {
         let name = file_name(f);
@@ -109,6 +124,14 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
                 continue;
             }
         };
+        let size = (img.width, img.height);
+        let first = *first_size.get_or_insert(size);
+        if size != first && !args.any_size {
+            let reason = format!("image size {}x{} differs from the first image's {}x{} (--any-size detects it)", size.0, size.1, first.0, first.1);
+            eprintln!("warning: skipping {name}: {reason}");
+            skipped.push(Skipped { file: name, reason });
+            continue;
+        }
         // time_ms: detection on the decoded 8-bit image (as OpenCV's call on a uint8 array); any
         // conversion to f32 the detector needs is included
         let t0 = std::time::Instant::now();
@@ -140,7 +163,7 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
     }
     let found = results.iter().filter(|r| r.found).count();
     if let Some(path) = &args.json {
-        let out = Output { target: args.target, pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0)", images: results };
+        let out = Output { target: args.target, pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0)", images: results, skipped };
         let bytes = serde_json::to_vec_pretty(&out).context("serialising JSON")?;
         write_atomic(path, &bytes)?;
         println!("{found} of {} images found; wrote {}", files.len(), path.display());

@@ -72,3 +72,38 @@ fn calib_sweep_runs_in_both_modes() {
     eprintln!("rendered mode, M = 5, N = 5: % errors {:?}", rendered[0].err_pct);
     assert!(rendered[0].err_pct.iter().all(|e| *e < 1.0));
 }
+
+#[test]
+fn images_of_another_size_are_skipped_not_fatal() {
+    // Six rendered views at 640 x 480 and one at 641 x 481 (as a real set with two odd frames):
+    // calibrate uses the six, lists the odd one in `skipped` with its reason, exits 0.
+    let dir = std::env::temp_dir().join(format!("synthcam-cal-{}-mixed", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("tmp");
+    for (k, (tilt, offset)) in [(25.0, [0.0, 0.0]), (35.0, [0.03, 0.0]), (-30.0, [0.0, 0.02]), (40.0, [-0.03, 0.01]), (-20.0, [0.02, -0.02]), (30.0, [-0.02, -0.01]), (30.0, [0.0, 0.0])].iter().enumerate() {
+        let (w, h) = if k == 6 { (641, 481) } else { (640, 480) };
+        let mut cam = crate::common::camera(w, h, 600.0, [-0.1, 0.0, 0.0, 0.0, 0.0]);
+        cam.intrinsics.cx = 319.5;
+        cam.intrinsics.cy = 239.5;
+        let mut scene = crate::common::chessboard_scene(cam, [9, 7], 0.03, *tilt, 0.55, *offset);
+        if k % 2 == 1 {
+            // Tilt some views about y as well, so the views are not all alike.
+            let rot = nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::y_axis(), 0.3);
+            scene.cam_from_target = nalgebra::Isometry3::from_parts(scene.cam_from_target.translation, rot * scene.cam_from_target.rotation);
+        }
+        let img = renderer().render(&scene).expect("render");
+        std::fs::write(dir.join(format!("v{k}.png")), synthcam::dataset::encode_png(&img).expect("png")).expect("write");
+    }
+    let json = dir.join("calib.json");
+    let o = Command::new(bin()).arg("calibrate").arg(&dir).args(["--target", "chessboard:8x6", "--square", "0.03", "--json"]).arg(&json).output().expect("run");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "exit {:?}: {stderr}", o.status);
+    assert!(stderr.contains("warning: skipping v6.png"), "{stderr}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("parse");
+    assert_eq!(v["used"], 6, "{v}");
+    let skipped = v["skipped"].as_array().expect("skipped");
+    assert_eq!(skipped.len(), 1, "{skipped:?}");
+    assert_eq!(skipped[0]["file"], "v6.png");
+    assert!(skipped[0]["reason"].as_str().is_some_and(|r| r.contains("641x481") && r.contains("640x480")), "{skipped:?}");
+    assert!((v["K"][0][0].as_f64().expect("fx") - 600.0).abs() < 1.0, "fx {}", v["K"][0][0]);
+}
