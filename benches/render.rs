@@ -11,10 +11,8 @@ fn bench_render(c: &mut Criterion) {
         Ok(ctx) => Renderer::new(ctx),
         Err(e) => panic!("no GPU adapter: {e}"),
     };
-    let scenes = [
-        ("chessboard_k1", include_str!("../assets/scenes/chessboard_k1.toml")),
-        ("course_s_path", include_str!("../assets/scenes/course_s_path.toml")),
-    ];
+    let scenes =
+        [("chessboard_k1", include_str!("../assets/scenes/chessboard_k1.toml")), ("course_s_path", include_str!("../assets/scenes/course_s_path.toml"))];
     let mut group = c.benchmark_group("render+readback 1280x1024");
     group.sample_size(30);
     for (name, text) in scenes {

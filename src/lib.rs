@@ -17,7 +17,7 @@
 //! - Camera frame: x right, y down, z forward.
 //! - Pixels: OpenCV's; the centre of the top-left pixel is (0, 0), an image spans
 //!   [-0.5, W-0.5] x [-0.5, H-0.5].
-//! - Distortion: OpenCV order (k1, k2, p1, p2, k3) plus skew = K[0][1] in pixels; see [`camera`] for
+//! - Distortion: OpenCV order (k1, k2, p1, p2, k3) plus skew = `K[0][1]` in pixels; see [`camera`] for
 //!   the mapping to the course's k1..k5 and alpha.
 //! - Transforms: `Isometry3<f64>` named `a_from_b` (maps b coordinates into a), e.g.
 //!   `cam_from_target`.

@@ -55,7 +55,7 @@ pub enum CalibError {
 /// Options of [`calibrate`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CalibParams {
-    /// Estimate the skew K[0][1] (OpenCV never does).
+    /// Estimate the skew `K[0][1]` (OpenCV never does).
     pub estimate_skew: bool,
     /// Fix distortion coefficients (k1, k2, p1, p2, k3) at 0.
     pub fix_distortion: [bool; 5],
@@ -188,13 +188,7 @@ pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Resul
             let ss: f64 = res.iter().map(|e| e.norm_squared()).sum();
             total += ss;
             count += res.len();
-            ViewResult {
-                rvec: w,
-                tvec: t,
-                rms_px: (ss / res.len() as f64).sqrt(),
-                max_px: res.iter().map(|e| e.norm()).fold(0.0, f64::max),
-                residuals_px: res,
-            }
+            ViewResult { rvec: w, tvec: t, rms_px: (ss / res.len() as f64).sqrt(), max_px: res.iter().map(|e| e.norm()).fold(0.0, f64::max), residuals_px: res }
         })
         .collect();
     Ok(CalibResult { camera, rms_px: (total / count.max(1) as f64).sqrt(), views: view_results, std, iterations: r.iterations, converged: r.converged })

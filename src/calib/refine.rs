@@ -25,7 +25,7 @@ pub fn camera_of(size: ImageSize, a: &[f64; 10]) -> CameraModel {
     }
 }
 
-/// d(R(w) x)/dw = -R [x]x Jr(w), with Jr the right Jacobian of SO(3).
+/// d(R(w) x)/dw = -R `[x]x` Jr(w), with Jr the right Jacobian of SO(3).
 pub fn drotated_drvec(w: &Vector3<f64>, x: &Vector3<f64>) -> Matrix3<f64> {
     let th = w.norm();
     let wx = skew(w);

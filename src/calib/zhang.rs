@@ -12,14 +12,7 @@ use crate::math::so3::project_to_so3;
 
 fn v_ij(h: &Matrix3<f64>, i: usize, j: usize) -> [f64; 6] {
     let (hi, hj) = (h.column(i), h.column(j));
-    [
-        hi[0] * hj[0],
-        hi[0] * hj[1] + hi[1] * hj[0],
-        hi[1] * hj[1],
-        hi[2] * hj[0] + hi[0] * hj[2],
-        hi[2] * hj[1] + hi[1] * hj[2],
-        hi[2] * hj[2],
-    ]
+    [hi[0] * hj[0], hi[0] * hj[1] + hi[1] * hj[0], hi[1] * hj[1], hi[2] * hj[0] + hi[0] * hj[2], hi[2] * hj[1] + hi[1] * hj[2], hi[2] * hj[2]]
 }
 
 /// Intrinsics from homographies (board plane z = 0 to pixels). With `zero_skew`, B12 = 0 is
@@ -51,7 +44,12 @@ pub fn intrinsics_from_homographies(hs: &[Matrix3<f64>], zero_skew: bool) -> Res
     if sv.len() >= 2 && !(sv[1] > 1e-9 * sv[sv.len() - 1]) {
         return Err(CalibError::Degenerate { reason: "the views leave the intrinsics undetermined (parallel or too few distinct views)".into() });
     }
-    let (imin, _) = svd.singular_values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).ok_or_else(|| CalibError::Degenerate { reason: "no singular values".into() })?;
+    let (imin, _) = svd
+        .singular_values
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .ok_or_else(|| CalibError::Degenerate { reason: "no singular values".into() })?;
     let b = vt.row(imin);
     let (b11, b12, b22, b13, b23, b33) = (b[0], b[1], b[2], b[3], b[4], b[5]);
     let den = b11 * b22 - b12 * b12;

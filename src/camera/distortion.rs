@@ -39,13 +39,7 @@ pub struct Distortion {
 impl Distortion {
     /// From `[k1, k2, p1, p2, k3]` (OpenCV order).
     pub fn from_array(a: [f64; 5]) -> Self {
-        Self {
-            k1: a[0],
-            k2: a[1],
-            p1: a[2],
-            p2: a[3],
-            k3: a[4],
-        }
+        Self { k1: a[0], k2: a[1], p1: a[2], p2: a[3], k3: a[4] }
     }
 
     /// To `[k1, k2, p1, p2, k3]` (OpenCV order).
@@ -63,10 +57,7 @@ impl Distortion {
         let (x, y) = (xu.x, xu.y);
         let r2 = x * x + y * y;
         let g = 1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3));
-        Vector2::new(
-            g * x + 2.0 * self.p1 * x * y + self.p2 * (r2 + 2.0 * x * x),
-            g * y + self.p1 * (r2 + 2.0 * y * y) + 2.0 * self.p2 * x * y,
-        )
+        Vector2::new(g * x + 2.0 * self.p1 * x * y + self.p2 * (r2 + 2.0 * x * x), g * y + self.p1 * (r2 + 2.0 * y * y) + 2.0 * self.p2 * x * y)
     }
 
     /// Analytic Jacobian `d xd / d xu` (2x2).
@@ -77,12 +68,7 @@ impl Distortion {
         // dg/dr2
         let gp = self.k1 + r2 * (2.0 * self.k2 + 3.0 * self.k3 * r2);
         let off = 2.0 * x * y * gp + 2.0 * self.p1 * x + 2.0 * self.p2 * y;
-        Matrix2::new(
-            g + 2.0 * x * x * gp + 2.0 * self.p1 * y + 6.0 * self.p2 * x,
-            off,
-            off,
-            g + 2.0 * y * y * gp + 6.0 * self.p1 * y + 2.0 * self.p2 * x,
-        )
+        Matrix2::new(g + 2.0 * x * x * gp + 2.0 * self.p1 * y + 6.0 * self.p2 * x, off, off, g + 2.0 * y * y * gp + 6.0 * self.p1 * y + 2.0 * self.p2 * x)
     }
 
     /// Analytic Jacobian `d xd / d (k1, k2, p1, p2, k3)` (columns in that order).
@@ -91,18 +77,7 @@ impl Distortion {
         let r2 = x * x + y * y;
         let r4 = r2 * r2;
         let r6 = r4 * r2;
-        SMatrix::<f64, 2, 5>::new(
-            x * r2,
-            x * r4,
-            2.0 * x * y,
-            r2 + 2.0 * x * x,
-            x * r6,
-            y * r2,
-            y * r4,
-            r2 + 2.0 * y * y,
-            2.0 * x * y,
-            y * r6,
-        )
+        SMatrix::<f64, 2, 5>::new(x * r2, x * r4, 2.0 * x * y, r2 + 2.0 * x * x, x * r6, y * r2, y * r4, r2 + 2.0 * y * y, 2.0 * x * y, y * r6)
     }
 
     /// Radial factor derivative `h(r) = d(r g(r))/dr = 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3`, `s = r^2`.
@@ -179,25 +154,20 @@ impl Distortion {
     ///   solution found lies on a folded part of the model.
     pub fn undistort(&self, xd: &Vector2<f64>) -> Result<Vector2<f64>, CameraError> {
         if !(xd.x.is_finite() && xd.y.is_finite()) {
-            return Err(CameraError::NonFinite {
-                what: "distorted normalised point",
-            });
+            return Err(CameraError::NonFinite { what: "distorted normalised point" });
         }
         if self.is_zero() {
             return Ok(*xd);
         }
         let fold = self.max_monotonic_radius();
-        let first = self
-            .newton(xd, *xd)
-            .and_then(|xu| self.check_branch(&xu, fold));
+        let first = self.newton(xd, *xd).and_then(|xu| self.check_branch(&xu, fold));
         match (first, fold) {
             (Ok(xu), _) => Ok(xu),
             (Err(e), Some(rf)) if rf > 0.0 => {
                 let n = xd.norm();
                 if n > 0.5 * rf {
                     let start = xd * (0.5 * rf / n);
-                    self.newton(xd, start)
-                        .and_then(|xu| self.check_branch(&xu, fold))
+                    self.newton(xd, start).and_then(|xu| self.check_branch(&xu, fold))
                 } else {
                     Err(e)
                 }
@@ -206,28 +176,16 @@ impl Distortion {
         }
     }
 
-    fn check_branch(
-        &self,
-        xu: &Vector2<f64>,
-        fold: Option<f64>,
-    ) -> Result<Vector2<f64>, CameraError> {
+    fn check_branch(&self, xu: &Vector2<f64>, fold: Option<f64>) -> Result<Vector2<f64>, CameraError> {
         if let Some(rf) = fold {
             let r = xu.norm();
             if r > rf {
-                return Err(CameraError::NotInvertible {
-                    reason: format!(
-                        "solution radius {r:.6} lies beyond the first radial fold at {rf:.6}"
-                    ),
-                });
+                return Err(CameraError::NotInvertible { reason: format!("solution radius {r:.6} lies beyond the first radial fold at {rf:.6}") });
             }
         }
         let det = self.dxd_dxu(xu).determinant();
         if det.is_nan() || det <= 0.0 {
-            return Err(CameraError::NotInvertible {
-                reason: format!(
-                    "distortion Jacobian determinant {det:.3e} <= 0 at the solution (folded model)"
-                ),
-            });
+            return Err(CameraError::NotInvertible { reason: format!("distortion Jacobian determinant {det:.3e} <= 0 at the solution (folded model)") });
         }
         Ok(*xu)
     }
@@ -242,9 +200,7 @@ impl Distortion {
             }
             let j = self.dxd_dxu(&xu);
             let Some(jinv) = j.try_inverse() else {
-                return Err(CameraError::NotInvertible {
-                    reason: "singular distortion Jacobian during Newton iteration".into(),
-                });
+                return Err(CameraError::NotInvertible { reason: "singular distortion Jacobian during Newton iteration".into() });
             };
             let step = -(jinv * res);
             let mut t = 1.0;
@@ -270,9 +226,7 @@ impl Distortion {
             return Ok(xu);
         }
         Err(CameraError::NotInvertible {
-            reason: format!(
-                "Newton did not converge (residual {rn:.3e} > {UNDISTORT_TOL:e} after at most {UNDISTORT_MAX_ITER} iterations)"
-            ),
+            reason: format!("Newton did not converge (residual {rn:.3e} > {UNDISTORT_TOL:e} after at most {UNDISTORT_MAX_ITER} iterations)"),
         })
     }
 }
@@ -293,14 +247,7 @@ mod tests {
         (a - n).amax() / (1.0 + n.amax())
     }
 
-    const PTS: [[f64; 2]; 6] = [
-        [0.0, 0.0],
-        [0.3, -0.2],
-        [-0.5, 0.4],
-        [0.7, 0.6],
-        [-0.05, -0.9],
-        [1.0, 0.0],
-    ];
+    const PTS: [[f64; 2]; 6] = [[0.0, 0.0], [0.3, -0.2], [-0.5, 0.4], [0.7, 0.6], [-0.05, -0.9], [1.0, 0.0]];
 
     #[test]
     fn array_round_trip_and_zero() {
@@ -329,10 +276,7 @@ mod tests {
         // h = 1e-6: truncation O(h^2 * |f'''|) ~ 1e-12 * O(10), rounding
         // ~ eps/h ~ 1e-10. Tolerance 1e-7 relative is 3 orders above that and
         // far below any wrong term (the smallest, p2 x ~ 5e-4 * 0.3, is 1.5e-4).
-        for d in [
-            strong(),
-            Distortion::from_array([0.1, -0.02, -2e-3, 3e-3, -0.004]),
-        ] {
+        for d in [strong(), Distortion::from_array([0.1, -0.02, -2e-3, 3e-3, -0.004])] {
             for p in PTS {
                 let xu = Vector2::new(p[0], p[1]);
                 let a = d.dxd_dxu(&xu);
@@ -380,10 +324,7 @@ mod tests {
         let r = d.max_monotonic_radius().unwrap_or(f64::NAN);
         assert!((r - (4.0f64 / 3.0).sqrt()).abs() < 1e-12);
         // k1=-0.25, k2=0.12: 1 - 0.75 s + 0.6 s^2 has no real root -> None.
-        assert_eq!(
-            Distortion::from_array([-0.25, 0.12, 0.0, 0.0, 0.0]).max_monotonic_radius(),
-            None
-        );
+        assert_eq!(Distortion::from_array([-0.25, 0.12, 0.0, 0.0, 0.0]).max_monotonic_radius(), None);
         assert_eq!(Distortion::default().max_monotonic_radius(), None);
         // Pincushion with negative k3: must find a root and slope must vanish there.
         let d = Distortion::from_array([0.5, 0.0, 0.0, 0.0, -0.3]);
@@ -404,10 +345,7 @@ mod tests {
         for p in PTS {
             let xu = Vector2::new(p[0], p[1]);
             let back = d.undistort(&d.distort(&xu));
-            assert!(
-                matches!(back, Ok(b) if (b - xu).amax() < 1e-10),
-                "{p:?}: {back:?}"
-            );
+            assert!(matches!(back, Ok(b) if (b - xu).amax() < 1e-10), "{p:?}: {back:?}");
         }
     }
 
@@ -425,10 +363,7 @@ mod tests {
         let xd = d.distort(&Vector2::new(1.0, 0.0));
         let rf = d.max_monotonic_radius().unwrap_or(0.0);
         let xu = d.undistort(&xd);
-        assert!(
-            matches!(xu, Ok(v) if v.norm() < rf && (d.distort(&v) - xd).norm() < 1e-10),
-            "{xu:?}"
-        );
+        assert!(matches!(xu, Ok(v) if v.norm() < rf && (d.distort(&v) - xd).norm() < 1e-10), "{xu:?}");
     }
 
     #[test]
@@ -440,23 +375,14 @@ mod tests {
         let rf = d.max_monotonic_radius().unwrap_or(0.0);
         let xd = Vector2::new(1.1, 0.0);
         let xu = d.undistort(&xd);
-        assert!(
-            matches!(xu, Ok(v) if v.norm() < rf && (d.distort(&v) - xd).norm() < 1e-10),
-            "{xu:?}"
-        );
+        assert!(matches!(xu, Ok(v) if v.norm() < rf && (d.distort(&v) - xd).norm() < 1e-10), "{xu:?}");
     }
 
     #[test]
     fn non_finite_input_is_error() {
         let d = strong();
-        for v in [
-            Vector2::new(f64::NAN, 0.0),
-            Vector2::new(0.0, f64::INFINITY),
-        ] {
-            assert!(matches!(
-                d.undistort(&v),
-                Err(CameraError::NonFinite { .. })
-            ));
+        for v in [Vector2::new(f64::NAN, 0.0), Vector2::new(0.0, f64::INFINITY)] {
+            assert!(matches!(d.undistort(&v), Err(CameraError::NonFinite { .. })));
         }
         // NaN coefficients: error, no panic / infinite loop.
         let bad = Distortion::from_array([f64::NAN, 0.0, 0.0, 0.0, 0.0]);

@@ -26,31 +26,20 @@ pub struct Intrinsics {
 impl Intrinsics {
     /// The 3x3 calibration matrix `K`.
     pub fn matrix(&self) -> Matrix3<f64> {
-        Matrix3::new(
-            self.fx, self.skew, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0,
-        )
+        Matrix3::new(self.fx, self.skew, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0)
     }
 
     /// Reads `fx = K[0][0]`, `skew = K[0][1]`, `cx = K[0][2]`, `fy = K[1][1]`,
     /// `cy = K[1][2]`. The matrix is assumed to be normalised (`K[2][2] = 1`,
     /// zero below the diagonal); those entries are ignored.
     pub fn from_matrix(k: &Matrix3<f64>) -> Self {
-        Self {
-            fx: k[(0, 0)],
-            fy: k[(1, 1)],
-            cx: k[(0, 2)],
-            cy: k[(1, 2)],
-            skew: k[(0, 1)],
-        }
+        Self { fx: k[(0, 0)], fy: k[(1, 1)], cx: k[(0, 2)], cy: k[(1, 2)], skew: k[(0, 1)] }
     }
 
     /// Normalised distorted coordinates to pixels:
     /// `u = fx xd + skew yd + cx`, `v = fy yd + cy`.
     pub fn normalized_to_pixel(&self, xd: &Vector2<f64>) -> Point2<f64> {
-        Point2::new(
-            self.fx * xd.x + self.skew * xd.y + self.cx,
-            self.fy * xd.y + self.cy,
-        )
+        Point2::new(self.fx * xd.x + self.skew * xd.y + self.cx, self.fy * xd.y + self.cy)
     }
 
     /// Pixels to normalised distorted coordinates (inverse of
@@ -68,13 +57,7 @@ mod tests {
     use super::*;
 
     fn k() -> Intrinsics {
-        Intrinsics {
-            fx: 1000.0,
-            fy: 980.0,
-            cx: 639.5,
-            cy: 511.5,
-            skew: 0.5,
-        }
+        Intrinsics { fx: 1000.0, fy: 980.0, cx: 639.5, cy: 511.5, skew: 0.5 }
     }
 
     #[test]

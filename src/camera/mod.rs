@@ -106,10 +106,7 @@ fn check_finite(field: &'static str, v: f64) -> Result<(), CameraError> {
     if v.is_finite() {
         Ok(())
     } else {
-        Err(CameraError::InvalidParameter {
-            field,
-            reason: format!("must be finite, got {v}"),
-        })
+        Err(CameraError::InvalidParameter { field, reason: format!("must be finite, got {v}") })
     }
 }
 
@@ -118,16 +115,10 @@ impl CameraModel {
     /// non-empty. The error names the offending field.
     pub fn validate(&self) -> Result<(), CameraError> {
         if self.size.width == 0 {
-            return Err(CameraError::InvalidParameter {
-                field: "size.width",
-                reason: "must be > 0".into(),
-            });
+            return Err(CameraError::InvalidParameter { field: "size.width", reason: "must be > 0".into() });
         }
         if self.size.height == 0 {
-            return Err(CameraError::InvalidParameter {
-                field: "size.height",
-                reason: "must be > 0".into(),
-            });
+            return Err(CameraError::InvalidParameter { field: "size.height", reason: "must be > 0".into() });
         }
         let k = &self.intrinsics;
         check_finite("intrinsics.fx", k.fx)?;
@@ -142,16 +133,10 @@ impl CameraModel {
         check_finite("distortion.p2", d.p2)?;
         check_finite("distortion.k3", d.k3)?;
         if k.fx <= 0.0 {
-            return Err(CameraError::InvalidParameter {
-                field: "intrinsics.fx",
-                reason: format!("must be > 0, got {}", k.fx),
-            });
+            return Err(CameraError::InvalidParameter { field: "intrinsics.fx", reason: format!("must be > 0, got {}", k.fx) });
         }
         if k.fy <= 0.0 {
-            return Err(CameraError::InvalidParameter {
-                field: "intrinsics.fy",
-                reason: format!("must be > 0, got {}", k.fy),
-            });
+            return Err(CameraError::InvalidParameter { field: "intrinsics.fy", reason: format!("must be > 0, got {}", k.fy) });
         }
         Ok(())
     }
@@ -160,17 +145,8 @@ impl CameraModel {
     /// `cy = 512`, no distortion, no skew.
     pub fn course_default() -> Self {
         Self {
-            size: ImageSize {
-                width: 1280,
-                height: 1024,
-            },
-            intrinsics: Intrinsics {
-                fx: 1500.0,
-                fy: 1500.0,
-                cx: 640.0,
-                cy: 512.0,
-                skew: 0.0,
-            },
+            size: ImageSize { width: 1280, height: 1024 },
+            intrinsics: Intrinsics { fx: 1500.0, fy: 1500.0, cx: 640.0, cy: 512.0, skew: 0.0 },
             distortion: Distortion::default(),
         }
     }
@@ -182,10 +158,7 @@ mod tests {
 
     #[test]
     fn contains_px_uses_half_pixel_border() {
-        let s = ImageSize {
-            width: 4,
-            height: 3,
-        };
+        let s = ImageSize { width: 4, height: 3 };
         assert!(s.contains_px(&Point2::new(-0.5, -0.5)));
         assert!(s.contains_px(&Point2::new(3.5, 2.5)));
         assert!(!s.contains_px(&Point2::new(-0.5001, 1.0)));
@@ -207,36 +180,14 @@ mod tests {
     fn validate_names_the_field() {
         let mut c = CameraModel::course_default();
         c.intrinsics.fy = -1.0;
-        assert!(matches!(
-            c.validate(),
-            Err(CameraError::InvalidParameter {
-                field: "intrinsics.fy",
-                ..
-            })
-        ));
+        assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "intrinsics.fy", .. })));
         let mut c = CameraModel::course_default();
         c.distortion.p2 = f64::NAN;
-        assert!(matches!(
-            c.validate(),
-            Err(CameraError::InvalidParameter {
-                field: "distortion.p2",
-                ..
-            })
-        ));
+        assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "distortion.p2", .. })));
         let mut c = CameraModel::course_default();
         c.size.height = 0;
-        assert!(matches!(
-            c.validate(),
-            Err(CameraError::InvalidParameter {
-                field: "size.height",
-                ..
-            })
-        ));
-        let msg = CameraError::InvalidParameter {
-            field: "intrinsics.fx",
-            reason: "must be > 0, got 0".into(),
-        }
-        .to_string();
+        assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "size.height", .. })));
+        let msg = CameraError::InvalidParameter { field: "intrinsics.fx", reason: "must be > 0, got 0".into() }.to_string();
         assert!(msg.contains("intrinsics.fx") && msg.contains("must be > 0"));
     }
 }

@@ -9,8 +9,7 @@ use super::{CameraError, CameraModel};
 use nalgebra::{Matrix2, Matrix2x3, Point2, Point3, SMatrix, Vector2, Vector3};
 
 /// Column order of [`CameraModel::dq_dintrinsics`].
-pub const INTRINSIC_NAMES: [&str; 10] =
-    ["fx", "fy", "cx", "cy", "skew", "k1", "k2", "p1", "p2", "k3"];
+pub const INTRINSIC_NAMES: [&str; 10] = ["fx", "fy", "cx", "cy", "skew", "k1", "k2", "p1", "p2", "k3"];
 
 /// Result of [`CameraModel::project`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,7 +40,11 @@ impl CameraModel {
         let (w, h) = (f64::from(self.size.width), f64::from(self.size.height));
         points.iter().all(|p| {
             let q = self.project(&(cam_from_x * p));
-            q.visible() && q.pixel_px.x >= margin_px - 0.5 && q.pixel_px.x <= w - 0.5 - margin_px && q.pixel_px.y >= margin_px - 0.5 && q.pixel_px.y <= h - 0.5 - margin_px
+            q.visible()
+                && q.pixel_px.x >= margin_px - 0.5
+                && q.pixel_px.x <= w - 0.5 - margin_px
+                && q.pixel_px.y >= margin_px - 0.5
+                && q.pixel_px.y <= h - 0.5 - margin_px
         })
     }
 
@@ -52,33 +55,22 @@ impl CameraModel {
         let z = p_cam.z;
         let in_front = z > 0.0;
         if !(z != 0.0 && z.is_finite() && p_cam.x.is_finite() && p_cam.y.is_finite()) {
-            return Projection {
-                pixel_px: Point2::new(f64::NAN, f64::NAN),
-                in_front: in_front && p_cam.x.is_finite() && p_cam.y.is_finite(),
-                in_image: false,
-            };
+            return Projection { pixel_px: Point2::new(f64::NAN, f64::NAN), in_front: in_front && p_cam.x.is_finite() && p_cam.y.is_finite(), in_image: false };
         }
         let xu = Vector2::new(p_cam.x / z.abs(), p_cam.y / z.abs());
-        let pixel_px = self
-            .intrinsics
-            .normalized_to_pixel(&self.distortion.distort(&xu));
+        let pixel_px = self.intrinsics.normalized_to_pixel(&self.distortion.distort(&xu));
         let beyond_fold = match self.distortion.max_monotonic_radius() {
             Some(rf) => xu.norm() > rf,
             None => false,
         };
-        Projection {
-            pixel_px,
-            in_front,
-            in_image: !beyond_fold && self.size.contains_px(&pixel_px),
-        }
+        Projection { pixel_px, in_front, in_image: !beyond_fold && self.size.contains_px(&pixel_px) }
     }
 
     /// Projects without any check: `K * distort(x/z, y/z)`. Division by `z`
     /// as is (z <= 0 gives meaningless or non-finite output).
     pub fn project_unchecked(&self, p_cam: &Point3<f64>) -> Point2<f64> {
         let xu = Vector2::new(p_cam.x / p_cam.z, p_cam.y / p_cam.z);
-        self.intrinsics
-            .normalized_to_pixel(&self.distortion.distort(&xu))
+        self.intrinsics.normalized_to_pixel(&self.distortion.distort(&xu))
     }
 
     /// Back-projects a pixel to the ray `(xu, yu, 1)` in the camera frame
@@ -94,9 +86,7 @@ impl CameraModel {
         }
         let xd = self.intrinsics.pixel_to_normalized(q_px);
         if !(xd.x.is_finite() && xd.y.is_finite()) {
-            return Err(CameraError::NonFinite {
-                what: "normalised pixel (check fx, fy)",
-            });
+            return Err(CameraError::NonFinite { what: "normalised pixel (check fx, fy)" });
         }
         let xu = self.distortion.undistort(&xd)?;
         Ok(Vector3::new(xu.x, xu.y, 1.0))
@@ -146,17 +136,8 @@ mod tests {
 
     fn strong_cam() -> CameraModel {
         CameraModel {
-            size: ImageSize {
-                width: 1280,
-                height: 1024,
-            },
-            intrinsics: Intrinsics {
-                fx: 1000.0,
-                fy: 1010.0,
-                cx: 639.5,
-                cy: 511.5,
-                skew: 0.5,
-            },
+            size: ImageSize { width: 1280, height: 1024 },
+            intrinsics: Intrinsics { fx: 1000.0, fy: 1010.0, cx: 639.5, cy: 511.5, skew: 0.5 },
             distortion: Distortion::from_array([-0.25, 0.12, 1e-3, -5e-4, 0.01]),
         }
     }
@@ -164,32 +145,18 @@ mod tests {
     fn params(c: &CameraModel) -> DVector<f64> {
         let k = c.intrinsics;
         let d = c.distortion.to_array();
-        DVector::from_vec(vec![
-            k.fx, k.fy, k.cx, k.cy, k.skew, d[0], d[1], d[2], d[3], d[4],
-        ])
+        DVector::from_vec(vec![k.fx, k.fy, k.cx, k.cy, k.skew, d[0], d[1], d[2], d[3], d[4]])
     }
 
     fn with_params(c: &CameraModel, v: &DVector<f64>) -> CameraModel {
         CameraModel {
             size: c.size,
-            intrinsics: Intrinsics {
-                fx: v[0],
-                fy: v[1],
-                cx: v[2],
-                cy: v[3],
-                skew: v[4],
-            },
+            intrinsics: Intrinsics { fx: v[0], fy: v[1], cx: v[2], cy: v[3], skew: v[4] },
             distortion: Distortion::from_array([v[5], v[6], v[7], v[8], v[9]]),
         }
     }
 
-    const POINTS: [[f64; 3]; 5] = [
-        [0.0, 0.0, 1.0],
-        [0.3, -0.2, 1.5],
-        [-0.8, 0.6, 2.0],
-        [1.2, 1.0, 1.7],
-        [-0.02, -3.0, 4.0],
-    ];
+    const POINTS: [[f64; 3]; 5] = [[0.0, 0.0, 1.0], [0.3, -0.2, 1.5], [-0.8, 0.6, 2.0], [1.2, 1.0, 1.7], [-0.02, -3.0, 4.0]];
 
     #[test]
     fn dq_dp_cam_matches_central_diff() {
@@ -262,17 +229,8 @@ mod tests {
         // v = 820*y'' + 240 = 199.13292888671875
         // Tolerance 1e-9 px: double rounding on values ~400 is ~1e-13.
         let cam = CameraModel {
-            size: ImageSize {
-                width: 640,
-                height: 480,
-            },
-            intrinsics: Intrinsics {
-                fx: 800.0,
-                fy: 820.0,
-                cx: 320.0,
-                cy: 240.0,
-                skew: 0.0,
-            },
+            size: ImageSize { width: 640, height: 480 },
+            intrinsics: Intrinsics { fx: 800.0, fy: 820.0, cx: 320.0, cy: 240.0, skew: 0.0 },
             distortion: Distortion::from_array([-0.2, 0.05, 0.001, -0.002, 0.01]),
         };
         let pr = cam.project(&Point3::new(0.2, -0.1, 2.0));
@@ -358,13 +316,7 @@ mod tests {
     #[test]
     fn undistort_round_trip_whole_image_strong() {
         let mut cam = strong_cam();
-        cam.intrinsics = Intrinsics {
-            fx: 1000.0,
-            fy: 1000.0,
-            cx: 639.5,
-            cy: 511.5,
-            skew: 0.0,
-        };
+        cam.intrinsics = Intrinsics { fx: 1000.0, fy: 1000.0, cx: 639.5, cy: 511.5, skew: 0.0 };
         cam.distortion = Distortion::from_array([-0.25, 0.12, 0.0, 0.0, 0.0]);
         image_grid_round_trip(&cam, 8.0);
     }
@@ -379,12 +331,7 @@ mod tests {
     #[test]
     fn unproject_gives_ray_direction() {
         let cam = strong_cam();
-        for p in [
-            [0.1, -0.2, 1.5],
-            [0.0, 0.0, 3.0],
-            [-0.4, 0.3, 1.0],
-            [0.5, 0.4, 1.2],
-        ] {
+        for p in [[0.1, -0.2, 1.5], [0.0, 0.0, 3.0], [-0.4, 0.3, 1.0], [0.5, 0.4, 1.2]] {
             let pt = Point3::new(p[0], p[1], p[2]);
             let ray = cam.unproject(&cam.project(&pt).pixel_px);
             let Ok(ray) = ray else {
@@ -396,10 +343,7 @@ mod tests {
             let d = (ray.normalize() - pt.coords.normalize()).norm();
             assert!(d < 1e-10, "{p:?}: {d}");
         }
-        assert!(matches!(
-            cam.unproject(&Point2::new(f64::NAN, 1.0)),
-            Err(CameraError::NonFinite { .. })
-        ));
+        assert!(matches!(cam.unproject(&Point2::new(f64::NAN, 1.0)), Err(CameraError::NonFinite { .. })));
         let mut bad = cam;
         bad.intrinsics.fy = 0.0;
         assert!(bad.unproject(&Point2::new(1.0, 1.0)).is_err());

@@ -170,7 +170,10 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     let std: serde_json::Map<String, serde_json::Value> =
         names.iter().zip(r.std).filter(|(_, v)| v.is_finite()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect();
     println!("{} views used, {} skipped; RMS {:.4} px", found.len(), skipped.len(), r.rms_px);
-    println!("fx {:.4} +- {:.4}  fy {:.4} +- {:.4}  cx {:.4} +- {:.4}  cy {:.4} +- {:.4}  skew {:.4}", k.fx, r.std[0], k.fy, r.std[1], k.cx, r.std[2], k.cy, r.std[3], k.skew);
+    println!(
+        "fx {:.4} +- {:.4}  fy {:.4} +- {:.4}  cx {:.4} +- {:.4}  cy {:.4} +- {:.4}  skew {:.4}",
+        k.fx, r.std[0], k.fy, r.std[1], k.cx, r.std[2], k.cy, r.std[3], k.skew
+    );
     println!("dist (k1, k2, p1, p2, k3) = {:?}", r.camera.distortion.to_array());
     let out = Output {
         image_size: [size.width, size.height],

@@ -55,7 +55,8 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     let params = GenerateParams { out_dir: out.clone(), spec_text: text, shard: args.shard, jobs: args.jobs };
     let bar = indicatif::ProgressBar::new(0);
     bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} images, {per_sec}, ETA {eta}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} images, {per_sec}, ETA {eta}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
@@ -93,6 +94,11 @@ fn merge(dir: &Path) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(&spec_path).with_context(|| format!("reading {} (is {} a dataset folder?)", spec_path.display(), dir.display()))?;
     let plan = parse_dataset_spec(&text).with_context(|| format!("in {}", spec_path.display()))?;
     let report = merge_manifests(dir, plan.count).with_context(|| format!("merging {}", dir.display()))?;
-    println!("merged {} manifest(s) into {}: {} images, all present, SHA-256 verified", report.sources.len(), dir.join("manifest.jsonl").display(), report.images);
+    println!(
+        "merged {} manifest(s) into {}: {} images, all present, SHA-256 verified",
+        report.sources.len(),
+        dir.join("manifest.jsonl").display(),
+        report.images
+    );
     Ok(())
 }

@@ -56,7 +56,13 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
             det.points_px.len(),
             truth_px.len()
         );
-        report += &format!("| {name} | {} | {ms:.0} | {} | {}/{} | {rms:.4} | {max:.4} |\n", scene.target.kind_name(), det.found, det.points_px.len(), truth_px.len());
+        report += &format!(
+            "| {name} | {} | {ms:.0} | {} | {}/{} | {rms:.4} | {max:.4} |\n",
+            scene.target.kind_name(),
+            det.found,
+            det.points_px.len(),
+            truth_px.len()
+        );
     }
     // Calibration: 10 rendered views of a 8 x 6 board under the chessboard scene's strong
     // distortion, detected, calibrated.
@@ -67,7 +73,18 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
     let kt = base.camera.intrinsics;
     println!(
         "calibration from {views} rendered views: fx {:.3} fy {:.3} cx {:.3} cy {:.3} (truth {} {} {} {}), k1 {:.5} (truth {}), RMS {:.4} px, {:.1} s",
-        k.fx, k.fy, k.cx, k.cy, kt.fx, kt.fy, kt.cx, kt.cy, cal.camera.distortion.k1, base.camera.distortion.k1, cal.rms_px, t0.elapsed().as_secs_f64()
+        k.fx,
+        k.fy,
+        k.cx,
+        k.cy,
+        kt.fx,
+        kt.fy,
+        kt.cx,
+        kt.cy,
+        cal.camera.distortion.k1,
+        base.camera.distortion.k1,
+        cal.rms_px,
+        t0.elapsed().as_secs_f64()
     );
     report += &format!(
         "\n## Calibration from {views} rendered and detected views\n\n| | fx | fy | cx | cy | k1 | k2 |\n|---|---|---|---|---|---|---|\n| truth | {} | {} | {} | {} | {} | {} |\n| estimate | {:.3} | {:.3} | {:.3} | {:.3} | {:.5} | {:.5} |\n\nRMS reprojection error {:.4} px.\n",
@@ -77,12 +94,25 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let he = synthcam::dataset::handeye_run::run_handeye(Some(&renderer), synthcam::dataset::handeye_run::Observation::Rendered, &Default::default(), 5, 0)
         .context("hand-eye experiment")?;
-    let names = ["tool_from_cam (course linear)", "world_from_base (course linear)", "tool_from_cam (Park-Martin)", "world_from_base (Park-Martin)", "tool_from_cam (refined)", "world_from_base (refined)"];
+    let names = [
+        "tool_from_cam (course linear)",
+        "world_from_base (course linear)",
+        "tool_from_cam (Park-Martin)",
+        "world_from_base (Park-Martin)",
+        "tool_from_cam (refined)",
+        "world_from_base (refined)",
+    ];
     report += "\n## Hand-eye (course variant A, 5 rendered views)\n\n| estimate | error mm | error deg |\n|---|---|---|\n";
     for (n, e) in names.iter().zip(he.errors) {
         report += &format!("| {n} | {:.3} | {:.4} |\n", e.mm, e.deg);
     }
-    println!("hand-eye from 5 rendered views: refined tool_from_cam error {:.3} mm / {:.4} deg, world_from_base {:.3} mm, {:.1} s", he.errors[4].mm, he.errors[4].deg, he.errors[5].mm, t0.elapsed().as_secs_f64());
+    println!(
+        "hand-eye from 5 rendered views: refined tool_from_cam error {:.3} mm / {:.4} deg, world_from_base {:.3} mm, {:.1} s",
+        he.errors[4].mm,
+        he.errors[4].deg,
+        he.errors[5].mm,
+        t0.elapsed().as_secs_f64()
+    );
     // Visual servoing: PBVS and IBVS from the course's start, rendered + detected at every step,
     // next to ideal projections + 0.1 px.
     for (law, name) in [(Law::Pbvs, "pbvs"), (Law::Ibvs, "ibvs")] {

@@ -36,7 +36,6 @@ struct Skipped {
     reason: String,
 }
 
-
 /// One image's result, as written to JSON.
 #[derive(Debug, Serialize)]
 struct ImageResult {
@@ -138,14 +137,17 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
         let det = detect_u8(&img, &args.target).with_context(|| format!("detecting in {}", f.display()))?;
         let time_ms = t0.elapsed().as_secs_f64() * 1e3;
         if args.json.is_none() {
-            println!("{name}: {} ({} points, {time_ms:.2} ms){}", if det.found { "found" } else { "not found" }, det.points_px.len(), det.note.as_ref().map(|n| format!(": {n}")).unwrap_or_default());
+            println!(
+                "{name}: {} ({} points, {time_ms:.2} ms){}",
+                if det.found { "found" } else { "not found" },
+                det.points_px.len(),
+                det.note.as_ref().map(|n| format!(": {n}")).unwrap_or_default()
+            );
         }
         if let Some(dir) = &args.draw {
             let overlay = draw_points(&img.to_f32(), &det.points_px);
             let mut png = Vec::new();
-            image::DynamicImage::ImageRgb8(overlay)
-                .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-                .context("encoding overlay")?;
+            image::DynamicImage::ImageRgb8(overlay).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).context("encoding overlay")?;
             let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "image".into());
             write_atomic(&dir.join(format!("{stem}.png")), &png)?;
         }

@@ -86,10 +86,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 /// Embedded default scenes: (name, TOML text).
-pub const DEFAULT_SCENES: [(&str, &str); 2] = [
-    ("course_s_path", include_str!("../../assets/scenes/course_s_path.toml")),
-    ("chessboard_k1", include_str!("../../assets/scenes/chessboard_k1.toml")),
-];
+pub const DEFAULT_SCENES: [(&str, &str); 2] =
+    [("course_s_path", include_str!("../../assets/scenes/course_s_path.toml")), ("chessboard_k1", include_str!("../../assets/scenes/chessboard_k1.toml"))];
 
 /// Open the GPU on the chosen backend and build a renderer, logging the adapter.
 pub fn open_renderer(backend: &str) -> anyhow::Result<synthcam::render::Renderer> {

@@ -29,12 +29,6 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let truth = truth_labels(&scene);
     write_image_and_truth(&args.out, &img, &truth)?;
     let visible = truth.features.iter().filter(|f| f.visible).count();
-    println!(
-        "wrote {} and {} ({} of {} features visible)",
-        args.out.display(),
-        args.out.with_extension("json").display(),
-        visible,
-        truth.features.len()
-    );
+    println!("wrote {} and {} ({} of {} features visible)", args.out.display(), args.out.with_extension("json").display(), visible, truth.features.len());
     Ok(())
 }

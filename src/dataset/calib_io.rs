@@ -64,7 +64,14 @@ pub fn plot_png(r: &CalibResult, points_px: &[Vec<nalgebra::Point2<f64>>]) -> Re
     let frame = Panel { rect: (600, 60, (iw * scale) as i32, (ih * scale) as i32), x: (0.0, iw), y: (ih, 0.0) };
     let big = r.views.iter().flat_map(|v| v.residuals_px.iter().map(|e| e.norm())).fold(1e-9, f64::max);
     let mag = 40.0 / big;
-    frame.axes(&mut img, &format!("residuals x{mag:.0}"), "u px", "v px", &[(0.0, "0".into()), (iw, format!("{iw}"))], &[(0.0, "0".into()), (ih, format!("{ih}"))]);
+    frame.axes(
+        &mut img,
+        &format!("residuals x{mag:.0}"),
+        "u px",
+        "v px",
+        &[(0.0, "0".into()), (iw, format!("{iw}"))],
+        &[(0.0, "0".into()), (ih, format!("{ih}"))],
+    );
     for (k, (v, pts)) in r.views.iter().zip(points_px).enumerate() {
         for (e, p) in v.residuals_px.iter().zip(pts) {
             let a = frame.px(p.x, p.y);

@@ -165,7 +165,13 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Sce
         let dots = match obs {
             Observation::Ideal => {
                 let n = Normal::new(0.0, 0.1).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                Dots { ids: (0..pts.len()).collect(), pixels_px: pts.iter().map(|p| cam.project_unchecked(&(cam_from_world * p)) + Vector3::new(n.sample(&mut rng), n.sample(&mut rng), 0.0).xy()).collect() }
+                Dots {
+                    ids: (0..pts.len()).collect(),
+                    pixels_px: pts
+                        .iter()
+                        .map(|p| cam.project_unchecked(&(cam_from_world * p)) + Vector3::new(n.sample(&mut rng), n.sample(&mut rng), 0.0).xy())
+                        .collect(),
+                }
             }
             Observation::Rendered => {
                 let r = renderer.ok_or_else(|| HandEyeRunError::View { view, reason: "no renderer".into() })?;

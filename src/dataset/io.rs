@@ -15,11 +15,7 @@ use crate::scene::truth::TruthLabels;
 /// [`DatasetError::Encode`].
 pub fn encode_png(img: &GreyImage) -> Result<Vec<u8>, DatasetError> {
     let mut out = Vec::new();
-    let enc = image::codecs::png::PngEncoder::new_with_quality(
-        &mut out,
-        image::codecs::png::CompressionType::Fast,
-        image::codecs::png::FilterType::Adaptive,
-    );
+    let enc = image::codecs::png::PngEncoder::new_with_quality(&mut out, image::codecs::png::CompressionType::Fast, image::codecs::png::FilterType::Adaptive);
     let res = match img {
         GreyImage::U8(i) => enc.write_image(i.as_raw(), i.width(), i.height(), image::ExtendedColorType::L8),
         GreyImage::U16(i) => {

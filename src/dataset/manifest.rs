@@ -49,7 +49,11 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 
 /// File name of shard `index` of `count`'s manifest ([`MANIFEST`] when unsharded).
 pub fn shard_manifest_name(index: u64, count: u64) -> String {
-    if count == 1 { MANIFEST.to_string() } else { format!("manifest-shard{index}-of{count}.jsonl") }
+    if count == 1 {
+        MANIFEST.to_string()
+    } else {
+        format!("manifest-shard{index}-of{count}.jsonl")
+    }
 }
 
 /// Serialise entries sorted by k, one JSON line each.

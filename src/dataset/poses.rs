@@ -48,11 +48,19 @@ fn target_centre(plan: &DatasetPlan) -> Vector3<f64> {
         lo = lo.inf(&p.coords);
         hi = hi.sup(&p.coords);
     }
-    if pts.is_empty() { Vector3::zeros() } else { 0.5 * (lo + hi) }
+    if pts.is_empty() {
+        Vector3::zeros()
+    } else {
+        0.5 * (lo + hi)
+    }
 }
 
 fn uniform(rng: &mut ChaCha8Rng, r: [f64; 2]) -> f64 {
-    if r[0] == r[1] { r[0] } else { rng.random_range(r[0]..=r[1]) }
+    if r[0] == r[1] {
+        r[0]
+    } else {
+        rng.random_range(r[0]..=r[1])
+    }
 }
 
 fn board_pose(rng: &mut ChaCha8Rng, b: &BoardRanges, centre: &Vector3<f64>) -> Isometry3<f64> {
@@ -90,7 +98,11 @@ fn meets_constraint(plan: &DatasetPlan, pts: &[Point3<f64>], cam_from_target: &I
 }
 
 fn constraint_name(plan: &DatasetPlan) -> &'static str {
-    if matches!(plan.mode, PoseMode::Course) { "poses (course mode: full target visible)" } else { "poses.full_target_visible" }
+    if matches!(plan.mode, PoseMode::Course) {
+        "poses (course mode: full target visible)"
+    } else {
+        "poses.full_target_visible"
+    }
 }
 
 fn infeasible(plan: &DatasetPlan, draws: usize) -> SpecError {

@@ -6,7 +6,7 @@ use image::{GrayImage, Rgb, RgbImage};
 use imageproc::drawing::{draw_cross_mut, draw_hollow_circle_mut};
 
 use super::plot::{canvas, png, text, Panel, PALETTE};
-use super::servo_run::{Source, StepRecord, ServoTrace};
+use super::servo_run::{ServoTrace, Source, StepRecord};
 use super::DatasetError;
 
 /// One CSV row per step (features are in the JSON trace).
@@ -57,7 +57,12 @@ type Series<'a> = (&'a str, fn(&StepRecord) -> f64);
 fn log_series_png(title: &str, ylabel: &str, traces: &[(&str, &ServoTrace)], series: &[Series<'_>]) -> Result<Vec<u8>, DatasetError> {
     let mut img = canvas(1150, 520);
     let n = traces.iter().map(|(_, t)| t.steps.len()).max().unwrap_or(1).max(2) - 1;
-    let all: Vec<f64> = traces.iter().flat_map(|(_, t)| t.steps.iter().flat_map(|s| series.iter().map(move |(_, f)| f(s)))).filter(|v| *v > 0.0 && v.is_finite()).map(f64::log10).collect();
+    let all: Vec<f64> = traces
+        .iter()
+        .flat_map(|(_, t)| t.steps.iter().flat_map(|s| series.iter().map(move |(_, f)| f(s))))
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .map(f64::log10)
+        .collect();
     let lo = all.iter().copied().fold(f64::INFINITY, f64::min).min(0.0).floor().max(-6.0);
     let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max).max(lo + 1.0).ceil();
     let panel = Panel { rect: (100, 60, 700, 400), x: (0.0, n as f64), y: (lo, hi) };

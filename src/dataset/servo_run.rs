@@ -211,7 +211,9 @@ impl ServoStatus {
             ServoStatus::MaxSteps => "ran all steps".into(),
             ServoStatus::Stalled => "stalled: the error stopped decreasing far from the goal (unreachable desired pose?)".into(),
             ServoStatus::Singular { sigma_min } => format!("stopped at a singular configuration (sigma_min(J) = {sigma_min:.2e})"),
-            ServoStatus::TargetNeverVisible { tries } => format!("the S-path is not fully in view from the start configuration nor from {tries} perturbed ones"),
+            ServoStatus::TargetNeverVisible { tries } => {
+                format!("the S-path is not fully in view from the start configuration nor from {tries} perturbed ones")
+            }
             ServoStatus::GoalNotVisible { reason } => format!("the desired pose does not show the S-path: {reason}"),
             ServoStatus::Diverged => "diverged: the joints became non-finite".into(),
         }
@@ -352,10 +354,20 @@ struct Setup<'a> {
 }
 
 impl Setup<'_> {
-    fn observe(&self, cam_from_world: &Isometry3<f64>, rng: &mut ChaCha8Rng, frame: &mut dyn FnMut(usize, &GreyImage), step: usize) -> Result<Measured, ServoRunError> {
+    fn observe(
+        &self,
+        cam_from_world: &Isometry3<f64>,
+        rng: &mut ChaCha8Rng,
+        frame: &mut dyn FnMut(usize, &GreyImage),
+        step: usize,
+    ) -> Result<Measured, ServoRunError> {
         match (self.options.observation, self.renderer) {
             (Observation::Rendered, Some(r)) => {
-                let scene = Scene { cam_from_target: *cam_from_world, render: RenderSettings { seed: rand::Rng::random(rng), ..self.scene.render }, ..self.scene.clone() };
+                let scene = Scene {
+                    cam_from_target: *cam_from_world,
+                    render: RenderSettings { seed: rand::Rng::random(rng), ..self.scene.render },
+                    ..self.scene.clone()
+                };
                 let seen = render_and_detect(r, &scene)?;
                 frame(step, &seen.image);
                 let count = seen.dots.as_ref().map_or(0, |d| d.ids.len());
@@ -404,7 +416,12 @@ impl Setup<'_> {
 /// # Errors
 /// A bad scenario, a failed hand-eye experiment or a renderer failure; servoing outcomes
 /// (converged, stalled, singular, target never visible...) are in the trace's status.
-pub fn run_servo(renderer: Option<&Renderer>, scenario: &ServoScenario, options: &ServoOptions, frame: &mut dyn FnMut(usize, &GreyImage)) -> Result<ServoTrace, ServoRunError> {
+pub fn run_servo(
+    renderer: Option<&Renderer>,
+    scenario: &ServoScenario,
+    options: &ServoOptions,
+    frame: &mut dyn FnMut(usize, &GreyImage),
+) -> Result<ServoTrace, ServoRunError> {
     let goal = scenario.goal()?;
     if options.max_steps == 0 || !options.ideal_noise_px.is_finite() || options.ideal_noise_px < 0.0 {
         return Err(ServoRunError::Scenario("max_steps must be positive and the ideal noise finite and >= 0".into()));

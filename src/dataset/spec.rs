@@ -298,12 +298,7 @@ impl DatasetSpec {
         let render = self.render.to_settings();
         // Validate camera, target and render settings with the scene's own rules (a pose straight
         // ahead keeps the depth check quiet; the sampled poses are checked per image).
-        let probe = crate::scene::Scene {
-            camera,
-            target: target.clone(),
-            cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3),
-            render,
-        };
+        let probe = crate::scene::Scene { camera, target: target.clone(), cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3), render };
         probe.validate()?;
         let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target)?;
         Ok(DatasetPlan { count: self.count, seed: self.seed, camera, target, render, mode, full_target_visible, margin_px })

@@ -83,7 +83,12 @@ pub fn run_sweep(mode: SweepMode, ms: &[usize], ns: &[usize], seeds: u64, render
                 match mode {
                     SweepMode::Ideal => {
                         let noise = Normal::new(0.0, 0.5).unwrap_or_else(|_| unreachable!());
-                        pool.push(pts.iter().zip(&proj).map(|(p, q)| (*p, q.pixel_px + nalgebra::Vector2::new(noise.sample(&mut rng), noise.sample(&mut rng)))).collect());
+                        pool.push(
+                            pts.iter()
+                                .zip(&proj)
+                                .map(|(p, q)| (*p, q.pixel_px + nalgebra::Vector2::new(noise.sample(&mut rng), noise.sample(&mut rng))))
+                                .collect(),
+                        );
                     }
                     SweepMode::Rendered => {
                         let Some(r) = renderer else { return out };
@@ -104,7 +109,12 @@ pub fn run_sweep(mode: SweepMode, ms: &[usize], ns: &[usize], seeds: u64, render
                             continue;
                         }
                         // The detector's own order (row-major, no mirror): board point (k % n, k / n).
-                        let view: View = det.points_px.iter().enumerate().map(|(k, q)| (Point3::new(s * (k % n) as f64, s * (k / n) as f64, 0.0), Point2::new(q.x, q.y))).collect();
+                        let view: View = det
+                            .points_px
+                            .iter()
+                            .enumerate()
+                            .map(|(k, q)| (Point3::new(s * (k % n) as f64, s * (k / n) as f64, 0.0), Point2::new(q.x, q.y)))
+                            .collect();
                         pool.push(view);
                     }
                 }

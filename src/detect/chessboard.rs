@@ -18,7 +18,7 @@ use std::borrow::Cow;
 use nalgebra::{Point2, Vector2};
 use rayon::prelude::*;
 
-use super::grid::{grow_grid, GrowParams, Grid};
+use super::grid::{grow_grid, Grid, GrowParams};
 use super::par::worth_parallel;
 use super::response::{find_candidates, local_peak, saddle_response, Candidate};
 use super::saddle_fit::{refine_saddle, SaddleFitParams};
@@ -425,11 +425,7 @@ mod tests {
                 .flat_map(|j| (1..9).map(move |i| (i as f64 * sq, j as f64 * sq)))
                 .map(|(u, v)| Point2::new(origin.0 + c * u - s * v, origin.1 + s * u + c * v))
                 .collect();
-            let worst = b
-                .points_px
-                .iter()
-                .map(|p| truth.iter().map(|t| (t - p).norm()).fold(f64::INFINITY, f64::min))
-                .fold(0.0, f64::max);
+            let worst = b.points_px.iter().map(|p| truth.iter().map(|t| (t - p).norm()).fold(f64::INFINITY, f64::min)).fold(0.0, f64::max);
             assert!(worst < 0.03, "angle {angle}: worst {worst}");
             // ordering rule: rows of 8, handedness kept, first corner nearest the image origin
             let row = b.points_px[7] - b.points_px[0];

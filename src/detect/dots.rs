@@ -33,8 +33,8 @@ use imageproc::region_labelling::{connected_components, Connectivity};
 use nalgebra::Point2;
 
 use super::edge_surround::EdgeSurround;
-use super::outline::Outline;
 use super::filters::{extreme_filter, median_by};
+use super::outline::Outline;
 use super::{DetectError, ImageF32};
 
 /// Parameters of [`find_dots`].
@@ -135,7 +135,8 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     // Only cores darker than their rim own pixels: a patch of mid-grey background that passed the
     // threshold next to a faint sliver (where the local minimum is the sliver's) would otherwise
     // take the sliver's pixels from it.
-    let keep: Vec<usize> = (0..cores.len()).filter(|&k| (params.min_core_px..=params.max_core_px).contains(&cores[k].len()) && darker_than_rim(img, &cores[k], params)).collect();
+    let keep: Vec<usize> =
+        (0..cores.len()).filter(|&k| (params.min_core_px..=params.max_core_px).contains(&cores[k].len()) && darker_than_rim(img, &cores[k], params)).collect();
     // Owner map of the grown cores (label of the grown core covering a pixel, or 0).
     let g = params.grow_px as i64;
     // A pixel in two grown cores goes to the nearer core (squared distance to its nearest core
@@ -229,7 +230,9 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         let thin = core.len() <= 2 * (x1 - x0 + 1).max(y1 - y0 + 1);
         let reach = if thin { params.window_px / 3 } else { 0 };
         let darkness_over = |s: f64, x: usize, y: usize| (s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6);
-        let region_under = |surround: &dyn Fn(usize, usize) -> f64| blob_region(&owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &|x, y| darkness_over(surround(x, y), x, y));
+        let region_under = |surround: &dyn Fn(usize, usize) -> f64| {
+            blob_region(&owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &|x, y| darkness_over(surround(x, y), x, y))
+        };
         // The model must explain the ring outside the blob (a cubic bridging too long a hidden
         // stretch can miss the edge by pixels there): mean error at most 8 grey levels.
         let edge = edge.and_then(|e| {
@@ -272,9 +275,8 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
         // one pixel), only noise at their lever arm: left out.
         let mut sorted: Vec<(usize, usize)> = region.iter().zip(&weights).filter(|(_, w)| **w > SIGNIFICANT_WEIGHT).map(|(p, _)| *p).collect();
         sorted.sort_unstable();
-        let near_dark = |x: usize, y: usize| {
-            (y.saturating_sub(1)..=y + 1).any(|yy| (x.saturating_sub(1)..=x + 1).any(|xx| sorted.binary_search(&(xx, yy)).is_ok()))
-        };
+        let near_dark =
+            |x: usize, y: usize| (y.saturating_sub(1)..=y + 1).any(|yy| (x.saturating_sub(1)..=x + 1).any(|xx| sorted.binary_search(&(xx, yy)).is_ok()));
         let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
         for (&(x, y), &wgt) in region.iter().zip(&weights) {
             if !near_dark(x, y) {
@@ -297,11 +299,7 @@ fn closed_window(img: &ImageF32, bbox: [usize; 4], margin: usize, r: usize) -> (
     let (w, h) = (img.width, img.height);
     let (x0, y0) = (bbox[0].saturating_sub(margin), bbox[1].saturating_sub(margin));
     let (x1, y1) = ((bbox[2] + margin).min(w - 1), (bbox[3] + margin).min(h - 1));
-    let crop = ImageF32 {
-        width: x1 - x0 + 1,
-        height: y1 - y0 + 1,
-        data: (y0..=y1).flat_map(|y| img.data[y * w + x0..=y * w + x1].iter().copied()).collect(),
-    };
+    let crop = ImageF32 { width: x1 - x0 + 1, height: y1 - y0 + 1, data: (y0..=y1).flat_map(|y| img.data[y * w + x0..=y * w + x1].iter().copied()).collect() };
     (extreme_filter(&extreme_filter(&crop, r, true), r, false), [x0, y0, x1, y1])
 }
 
@@ -522,9 +520,9 @@ fn blob_region(
         inside[(y - y0) * bw + (x - x0)] = true;
     }
     let neighbours = |x: usize, y: usize| {
-        (-1i64..=1).flat_map(move |dy| (-1i64..=1).map(move |dx| (x as i64 + dx, y as i64 + dy))).filter_map(move |(xx, yy)| {
-            (xx >= x0 as i64 && yy >= y0 as i64 && xx <= x1 as i64 && yy <= y1 as i64).then_some((xx as usize, yy as usize))
-        })
+        (-1i64..=1)
+            .flat_map(move |dy| (-1i64..=1).map(move |dx| (x as i64 + dx, y as i64 + dy)))
+            .filter_map(move |(xx, yy)| (xx >= x0 as i64 && yy >= y0 as i64 && xx <= x1 as i64 && yy <= y1 as i64).then_some((xx as usize, yy as usize)))
     };
     let mut k = 0;
     while k < region.len() {
@@ -579,7 +577,15 @@ mod tests {
     fn bead_at_outline(bead: [f64; 2], in_front: bool) -> (ImageF32, [f64; 2]) {
         let sphere = [50.3 + 450.0, 47.8];
         let on_bead = |u: f64, v: f64| (u - bead[0]).hypot(v - bead[1]) < 4.5 && (in_front || (u - sphere[0]).hypot(v - sphere[1]) >= 450.0);
-        let img = area_sampled(96, 96, 16, |u, v| if on_bead(u, v) { 20.0 } else if (u - sphere[0]).hypot(v - sphere[1]) < 450.0 { 225.0 } else { 90.0 });
+        let img = area_sampled(96, 96, 16, |u, v| {
+            if on_bead(u, v) {
+                20.0
+            } else if (u - sphere[0]).hypot(v - sphere[1]) < 450.0 {
+                225.0
+            } else {
+                90.0
+            }
+        });
         // The exact centroid of the visible part: the bead's coverage of each pixel, weighted.
         let cov = area_sampled(96, 96, 16, |u, v| f64::from(u8::from(on_bead(u, v))));
         let (mut a, mut su, mut sv) = (0.0, 0.0, 0.0);

@@ -305,7 +305,9 @@ mod tests {
         let local = EdgeSurround::fit(&img, rect, &all, &hidden, 40.0).expect("local edge");
         let outline = Outline::fit(&img, 90.0, 225.0, &hidden).expect("outline");
         let bridged = local.along(&outline, rect).expect("same edge");
-        let worst = |e: &EdgeSurround| (62..=150).flat_map(|y| (12..=35).map(move |x| (x, y))).map(|(x, y)| (e.level_at(x, y) - f64::from(img.at(x, y))).abs()).fold(0.0, f64::max);
+        let worst = |e: &EdgeSurround| {
+            (62..=150).flat_map(|y| (12..=35).map(move |x| (x, y))).map(|(x, y)| (e.level_at(x, y) - f64::from(img.at(x, y))).abs()).fold(0.0, f64::max)
+        };
         // The test image's own 32 x 32 sampling is off by up to 135 / 64 = 2.1 grey levels.
         assert!(worst(&bridged) < 2.5, "bridged: {}", worst(&bridged));
         assert!(worst(&local) > 10.0, "the local cubic alone: {}", worst(&local));

@@ -30,7 +30,19 @@ fn vhgw(lanes: &[&[f32]], r: usize, max: bool, out: &mut [Vec<f32>]) {
     }
     let width = lanes[0].len();
     // Plain comparisons (not f32::max, which handles NaN) so that the loops vectorise.
-    let pick = |a: f32, b: f32| if max { if a > b { a } else { b } } else if a < b { a } else { b };
+    let pick = |a: f32, b: f32| {
+        if max {
+            if a > b {
+                a
+            } else {
+                b
+            }
+        } else if a < b {
+            a
+        } else {
+            b
+        }
+    };
     let k = 2 * r + 1;
     let ident = if max { f32::NEG_INFINITY } else { f32::INFINITY };
     // Padded index p in [0, n + 2r): element p - r, identity outside.
@@ -84,7 +96,19 @@ pub fn extreme_filter(img: &ImageF32, r: usize, max: bool) -> ImageF32 {
     // Rows: the scalar form of the same algorithm.
     let mut tmp = vec![0.0f32; w * h];
     // Plain comparisons (not f32::max, which handles NaN) so that the loops vectorise.
-    let pick = |a: f32, b: f32| if max { if a > b { a } else { b } } else if a < b { a } else { b };
+    let pick = |a: f32, b: f32| {
+        if max {
+            if a > b {
+                a
+            } else {
+                b
+            }
+        } else if a < b {
+            a
+        } else {
+            b
+        }
+    };
     let ident = if max { f32::NEG_INFINITY } else { f32::INFINITY };
     let k = 2 * r + 1;
     let padded = w + 2 * r;

@@ -172,7 +172,11 @@ impl Grid {
             sum += pred;
             n += 1.0;
             let s = (p1 - p2) * f64::from(di + dj);
-            if di != 0 { step_i.get_or_insert(s); } else { step_j.get_or_insert(s); }
+            if di != 0 {
+                step_i.get_or_insert(s);
+            } else {
+                step_j.get_or_insert(s);
+            }
         }
         // parallelogram rule from an L of three neighbours
         for (di, dj) in [(1, 1), (1, -1), (-1, 1), (-1, -1)] {
@@ -312,10 +316,7 @@ fn try_add(g: &mut Grid, resp: &ResponseMap, i: i32, j: i32, min_r: f32, params:
     if !(step > 2.0) {
         return false;
     }
-    let nb_strength = [(1, 0), (-1, 0), (0, 1), (0, -1)]
-        .iter()
-        .filter_map(|(di, dj)| g.strength.get(&(i + di, j + dj)).copied())
-        .fold(0.0f32, f32::max);
+    let nb_strength = [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().filter_map(|(di, dj)| g.strength.get(&(i + di, j + dj)).copied()).fold(0.0f32, f32::max);
     let min_r = min_r.max(nb_strength * params.min_neighbour_frac);
     let Some((p, strength)) = best_peak(resp, pred, params.search_frac * step, min_r) else { return false };
     if (p - pred).norm() > params.max_offset_frac * step {

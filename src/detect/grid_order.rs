@@ -26,14 +26,13 @@ pub fn order_grid(dots: &[Dot], n: usize) -> Option<Vec<Point2<f64>>> {
     let pts: Vec<Point2<f64>> = dots.iter().map(|d| d.centre_px).collect();
     let pick = |f: &dyn Fn(&Point2<f64>) -> f64, max: bool| -> Option<Point2<f64>> {
         let it = pts.iter().copied();
-        if max { it.max_by(|a, b| f(a).total_cmp(&f(b))) } else { it.min_by(|a, b| f(a).total_cmp(&f(b))) }
+        if max {
+            it.max_by(|a, b| f(a).total_cmp(&f(b)))
+        } else {
+            it.min_by(|a, b| f(a).total_cmp(&f(b)))
+        }
     };
-    let corners = [
-        pick(&|p| p.x + p.y, false)?,
-        pick(&|p| p.x - p.y, true)?,
-        pick(&|p| p.x + p.y, true)?,
-        pick(&|p| p.x - p.y, false)?,
-    ];
+    let corners = [pick(&|p| p.x + p.y, false)?, pick(&|p| p.x - p.y, true)?, pick(&|p| p.x + p.y, true)?, pick(&|p| p.x - p.y, false)?];
     let m = (n - 1) as f64;
     let grid = [Point2::new(0.0, 0.0), Point2::new(m, 0.0), Point2::new(m, m), Point2::new(0.0, m)];
     let h = homography(&corners, &grid)?;

@@ -132,10 +132,13 @@ impl Outline {
         let kept: Vec<&Crossing> = found.iter().zip(&keep).filter(|(_, k)| **k).map(|(c, _)| c).collect();
         let mut darks: Vec<f64> = kept.iter().map(|c| c.dark).collect();
         let mut brights: Vec<f64> = kept.iter().map(|c| c.bright).collect();
-        let bright_votes: f64 = kept.iter().map(|c| {
-            let p = [(c.at[0] + c.to_bright[0] - centre[0]) / scale, (c.at[1] + c.to_bright[1] - centre[1]) / scale];
-            eval(&conic, &p).0.signum()
-        }).sum();
+        let bright_votes: f64 = kept
+            .iter()
+            .map(|c| {
+                let p = [(c.at[0] + c.to_bright[0] - centre[0]) / scale, (c.at[1] + c.to_bright[1] - centre[1]) / scale];
+                eval(&conic, &p).0.signum()
+            })
+            .sum();
         let (lo, hi) = (median_by(&mut darks, f64::total_cmp)?, median_by(&mut brights, f64::total_cmp)?);
         (rms_px <= MAX_RMS_PX).then_some(Self { conic, centre, scale, bright_sign: bright_votes.signum(), lo, hi, points: dist.len(), rms_px })
     }
@@ -349,12 +352,7 @@ fn crossing_at(img: &ImageF32, rows: bool, line: usize, k: usize, lo: f64, hi: f
     let cov_sum: f64 = (s0..=s1).map(|j| (at(j) - dark) / (bright - dark)).sum();
     let e = if r > l { s1 as f64 + 0.5 - cov_sum } else { s0 as f64 - 0.5 + cov_sum };
     let step = if r > l { 1.0 } else { -1.0 };
-    Some(Crossing {
-        at: if rows { [e, line as f64] } else { [line as f64, e] },
-        dark,
-        bright,
-        to_bright: if rows { [step, 0.0] } else { [0.0, step] },
-    })
+    Some(Crossing { at: if rows { [e, line as f64] } else { [line as f64, e] }, dark, bright, to_bright: if rows { [step, 0.0] } else { [0.0, step] } })
 }
 
 #[cfg(test)]
@@ -368,7 +366,11 @@ mod tests {
         area_sampled(w, h, 16, |x, y| {
             let (dx, dy) = (x - c[0], y - c[1]);
             let (u, v) = (co * dx + s * dy, -s * dx + co * dy);
-            if (u / ab[0]).powi(2) + (v / ab[1]).powi(2) <= 1.0 { 225.0 } else { 90.0 }
+            if (u / ab[0]).powi(2) + (v / ab[1]).powi(2) <= 1.0 {
+                225.0
+            } else {
+                90.0
+            }
         })
     }
 

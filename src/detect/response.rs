@@ -183,7 +183,11 @@ pub fn peak_subpixel(r: &ImageF32, x: usize, y: usize) -> Point2<f64> {
     let c = f64::from(r.data[y * w + x]);
     let off = |m: f64, p: f64| {
         let den = m - 2.0 * c + p;
-        if den < -1e-12 { (0.5 * (m - p) / den).clamp(-0.5, 0.5) } else { 0.0 }
+        if den < -1e-12 {
+            (0.5 * (m - p) / den).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        }
     };
     let dx = off(f64::from(r.data[y * w + x - 1]), f64::from(r.data[y * w + x + 1]));
     let dy = off(f64::from(r.data[(y - 1) * w + x]), f64::from(r.data[(y + 1) * w + x]));
@@ -192,7 +196,11 @@ pub fn peak_subpixel(r: &ImageF32, x: usize, y: usize) -> Point2<f64> {
 
 /// Reach of the smoothing of [`saddle_response`] with `sigma`, pixels (kernel radius).
 fn blur_reach(sigma: f64) -> usize {
-    if sigma == 1.0 { 2 } else { (3.0 * sigma).ceil().max(1.0) as usize }
+    if sigma == 1.0 {
+        2
+    } else {
+        (3.0 * sigma).ceil().max(1.0) as usize
+    }
 }
 
 /// The saddle-response peak near `p` in `img`, with the response recomputed on a small patch only:
@@ -282,11 +290,8 @@ fn max_or_zero(v: &[f32]) -> f32 {
 /// `rel_threshold` x the global maximum, strongest first, at most `max_count`.
 pub fn find_candidates(r: &ImageF32, nms_radius: usize, rel_threshold: f32, max_count: usize) -> Vec<Candidate> {
     let (w, h) = (r.width, r.height);
-    let maxv = if worth_parallel(w * h, PARALLEL_MIN_PIXELS) {
-        r.data.par_chunks(w.max(1)).map(max_or_zero).reduce(|| 0.0, f32::max)
-    } else {
-        max_or_zero(&r.data)
-    };
+    let maxv =
+        if worth_parallel(w * h, PARALLEL_MIN_PIXELS) { r.data.par_chunks(w.max(1)).map(max_or_zero).reduce(|| 0.0, f32::max) } else { max_or_zero(&r.data) };
     if !(maxv > 0.0) || w < 3 || h < 3 {
         return Vec::new();
     }

@@ -303,10 +303,8 @@ fn predict_locally(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, i: usi
     // camera centre is poorly determined.
     let q = dlt.project(&path.points_m[i])?;
     let projected = dlt.spacing_at(path, i, &q);
-    let observed = near
-        .iter()
-        .filter_map(|&(k, j)| near.iter().find(|&&(k2, _)| k2 == k + 1).map(|&(_, j2)| (dots[j2].centre_px - dots[j].centre_px).norm()))
-        .next()?;
+    let observed =
+        near.iter().filter_map(|&(k, j)| near.iter().find(|&&(k2, _)| k2 == k + 1).map(|&(_, j2)| (dots[j2].centre_px - dots[j].centre_px).norm())).next()?;
     Some((q, fraction * projected.min(1.5 * observed)))
 }
 
@@ -332,12 +330,7 @@ fn extend_locally(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, p
         for i in frontier {
             tried[i] = true;
             let Some((q, tol)) = predict_locally(&labels, dots, path, i, params.match_fraction) else { continue };
-            let best = dots
-                .iter()
-                .enumerate()
-                .filter(|(j, _)| !dot_used[*j])
-                .map(|(j, d)| (j, (d.centre_px - q).norm()))
-                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let best = dots.iter().enumerate().filter(|(j, _)| !dot_used[*j]).map(|(j, d)| (j, (d.centre_px - q).norm())).min_by(|a, b| a.1.total_cmp(&b.1));
             if let Some((j, _)) = best.filter(|b| b.1 <= tol) {
                 point_used[i] = true;
                 dot_used[j] = true;
@@ -371,10 +364,8 @@ fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px
     let keep: Vec<bool> = (0..labels.len())
         .map(|k| {
             let Some(r) = residual[k] else { return false };
-            let near: Vec<nalgebra::Vector2<f64>> = (0..labels.len())
-                .filter(|&m| m != k && labels[m].0.abs_diff(labels[k].0) <= 3)
-                .filter_map(|m| residual[m])
-                .collect();
+            let near: Vec<nalgebra::Vector2<f64>> =
+                (0..labels.len()).filter(|&m| m != k && labels[m].0.abs_diff(labels[k].0) <= 3).filter_map(|m| residual[m]).collect();
             if near.len() < 2 {
                 return true;
             }
@@ -480,8 +471,7 @@ mod tests {
     fn indexes_the_path_without_its_start_and_across_a_gap() {
         // Start hidden (dots 0-7 gone), a gap of five (40-44), shuffled.
         let (path, pts) = projected();
-        let mut dots: Vec<Dot> =
-            (0..101).filter(|i| *i >= 8 && !(40..45).contains(i)).map(|i| dot(pts[i].unwrap(), 30.0)).collect();
+        let mut dots: Vec<Dot> = (0..101).filter(|i| *i >= 8 && !(40..45).contains(i)).map(|i| dot(pts[i].unwrap(), 30.0)).collect();
         dots.reverse();
         dots.swap(5, 50);
         let out = index_s_path(&dots, &path, &SPathFitParams::default()).unwrap();

@@ -60,8 +60,7 @@ pub struct IndexedDot {
 
 /// Two nearest other dots of dot `i`: (index, distance) pairs, nearest first.
 fn two_nearest(dots: &[Dot], i: usize) -> Vec<(usize, f64)> {
-    let mut d: Vec<(usize, f64)> =
-        dots.iter().enumerate().filter(|(j, _)| *j != i).map(|(j, o)| (j, (o.centre_px - dots[i].centre_px).norm())).collect();
+    let mut d: Vec<(usize, f64)> = dots.iter().enumerate().filter(|(j, _)| *j != i).map(|(j, o)| (j, (o.centre_px - dots[i].centre_px).norm())).collect();
     d.sort_by(|a, b| a.1.total_cmp(&b.1));
     d.truncate(2);
     d
@@ -74,11 +73,7 @@ fn two_nearest(dots: &[Dot], i: usize) -> Vec<(usize, f64)> {
 pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>, tolerance: f64, index_limit: i64) {
     let radius = |d: &Dot| (d.area_px / std::f64::consts::PI).sqrt();
     let nearest_unused = |p: Point2<f64>, used: &[bool]| {
-        dots.iter()
-            .enumerate()
-            .filter(|(j, _)| !used[*j])
-            .map(|(j, d)| (j, (d.centre_px - p).norm()))
-            .min_by(|a, b| a.1.total_cmp(&b.1))
+        dots.iter().enumerate().filter(|(j, _)| !used[*j]).map(|(j, d)| (j, (d.centre_px - p).norm())).min_by(|a, b| a.1.total_cmp(&b.1))
     };
     while chain.len() >= 2 {
         let n = chain.len();
@@ -198,9 +193,7 @@ pub fn start_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i64, 
     };
     let (start, best) = (0..dots.len()).map(|i| (i, ratio(i))).max_by(|a, b| a.1.total_cmp(&b.1)).unwrap_or((0, 0.0));
     if best < params.start_area_ratio {
-        return Err(DetectError::NotFound {
-            reason: format!("start dot not recognised (largest relative area {best:.2} < {})", params.start_area_ratio),
-        });
+        return Err(DetectError::NotFound { reason: format!("start dot not recognised (largest relative area {best:.2} < {})", params.start_area_ratio) });
     }
     let mut used = vec![false; dots.len()];
     used[start] = true;

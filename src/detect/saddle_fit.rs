@@ -43,7 +43,17 @@ pub struct SaddleFitParams {
 
 impl Default for SaddleFitParams {
     fn default() -> Self {
-        Self { half_window: 4, max_iterations: 10, epsilon_px: 1e-3, fit_curvature: false, fit_gradient: false, fast_epsilon_px: 0.05, fast_half_window: 3, exact_iterations: 1, max_shift_px: 2.0 }
+        Self {
+            half_window: 4,
+            max_iterations: 10,
+            epsilon_px: 1e-3,
+            fit_curvature: false,
+            fit_gradient: false,
+            fast_epsilon_px: 0.05,
+            fast_half_window: 3,
+            exact_iterations: 1,
+            max_shift_px: 2.0,
+        }
     }
 }
 
@@ -241,7 +251,7 @@ fn model(x: &SVector<f64, NP>, g: &Geo, dx: f64, dy: f64, jac: &mut SVector<f64,
     let a = x[5];
     let ad1 = a * e2 * p1.dp_dd; // dI/dd1
     let ad2 = a * e1 * p2.dp_dd; // dI/dd2
-    // dd/dq = -n - 2 k t e
+                                 // dd/dq = -n - 2 k t e
     jac[0] = ad1 * (s1 - 2.0 * k1 * t1 * c1) + ad2 * (s2 - 2.0 * k2 * t2 * c2);
     jac[1] = ad1 * (-c1 - 2.0 * k1 * t1 * s1) + ad2 * (-c2 - 2.0 * k2 * t2 * s2);
     jac[2] = ad1 * (-t1 + 2.0 * k1 * t1 * n1);
@@ -313,7 +323,11 @@ const A_SCALED: [bool; NP] = [true, true, true, true, false, false, true, true, 
 /// their linear least-squares values for this geometry and return the normal equations at the
 /// updated `x`: with r' = r - m + (1 - a) f the sums are linear combinations of the given ones,
 /// the `a`-scaled columns scale by a. `None` when m and a are not determined (flat geometry).
-fn solve_linear_part(x: &mut SVector<f64, NP>, normal: (SMatrix<f64, NP, NP>, SVector<f64, NP>, f64), active: &[bool; NP]) -> Option<(SMatrix<f64, NP, NP>, SVector<f64, NP>, f64)> {
+fn solve_linear_part(
+    x: &mut SVector<f64, NP>,
+    normal: (SMatrix<f64, NP, NP>, SVector<f64, NP>, f64),
+    active: &[bool; NP],
+) -> Option<(SMatrix<f64, NP, NP>, SVector<f64, NP>, f64)> {
     let (mut jtj, mut jtr, c) = normal;
     let (cnt, sf, sff) = (jtj[(4, 4)], jtj[(4, 5)], jtj[(5, 5)]);
     let (sv, sfv) = (jtr[4] + sf, jtr[5] + sff);
@@ -373,10 +387,7 @@ pub fn refine_saddle(
     x[2] = dir1.y.atan2(dir1.x);
     x[3] = dir2.y.atan2(dir2.x);
     x[6] = 0.7_f64.ln();
-    let active: [bool; NP] = [
-        true, true, true, true, true, true, true, params.fit_curvature, params.fit_curvature, params.fit_gradient,
-        params.fit_gradient,
-    ];
+    let active: [bool; NP] = [true, true, true, true, true, true, true, params.fit_curvature, params.fit_curvature, params.fit_gradient, params.fit_gradient];
     let idx_store: Vec<usize> = (0..NP).filter(|&p| active[p]).collect();
     let idx = &idx_store[..];
     let mut lambda: f64 = 1e-3;
@@ -475,14 +486,7 @@ pub fn refine_saddle(
     if !point.x.is_finite() || !point.y.is_finite() || (point - seed).norm() > params.max_shift_px {
         return Err(fail("fit diverged"));
     }
-    Ok(SaddleFit {
-        point,
-        angles: [x[2], x[3]],
-        amplitude: x[5],
-        sigma_px: x[6].exp(),
-        rms_residual: (cost / cost_pixels as f64).sqrt(),
-        iterations,
-    })
+    Ok(SaddleFit { point, angles: [x[2], x[3]], amplitude: x[5], sigma_px: x[6].exp(), rms_residual: (cost / cost_pixels as f64).sqrt(), iterations })
 }
 
 #[cfg(test)]
@@ -501,10 +505,7 @@ pub(crate) mod tests {
                 let mut acc = 0.0;
                 for j in 0..n {
                     for i in 0..n {
-                        let p = Vector2::new(
-                            x as f64 - 0.5 + (i as f64 + 0.5) / n as f64 - cx,
-                            y as f64 - 0.5 + (j as f64 + 0.5) / n as f64 - cy,
-                        );
+                        let p = Vector2::new(x as f64 - 0.5 + (i as f64 + 0.5) / n as f64 - cx, y as f64 - 0.5 + (j as f64 + 0.5) / n as f64 - cy);
                         acc += if (n1.dot(&p) > 0.0) == (n2.dot(&p) > 0.0) { 200.0 } else { 30.0 };
                     }
                 }

@@ -140,12 +140,13 @@ mod tests {
         assert!((a.tool_from_cam.rotation * x.rotation.inverse()).angle() < 1e-9);
         assert!((a.world_from_base.translation.vector - wb.translation.vector).norm() < 1e-9);
         let order = [3, 0, 4, 1, 2];
-        let (bt2, wc2, obs2): (Vec<_>, Vec<_>, Vec<_>) = order.iter().map(|&i| (bt[i], wc[i], obs[i].clone())).fold((vec![], vec![], vec![]), |mut acc, (b, w, o)| {
-            acc.0.push(b);
-            acc.1.push(w);
-            acc.2.push(o);
-            acc
-        });
+        let (bt2, wc2, obs2): (Vec<_>, Vec<_>, Vec<_>) =
+            order.iter().map(|&i| (bt[i], wc[i], obs[i].clone())).fold((vec![], vec![], vec![]), |mut acc, (b, w, o)| {
+                acc.0.push(b);
+                acc.1.push(w);
+                acc.2.push(o);
+                acc
+            });
         let b = refine_joint(&cam, &bt2, &obs2, &park_martin(&bt2, &wc2).unwrap());
         assert!((a.tool_from_cam.translation.vector - b.tool_from_cam.translation.vector).norm() < 1e-9);
         assert!((a.world_from_base.translation.vector - b.world_from_base.translation.vector).norm() < 1e-9);

@@ -14,11 +14,7 @@ use nalgebra::{DMatrix, DVector};
 /// `eps |f| / h`, so `h ~ 1e-6 * scale(x)` is a good default for f64.
 /// If `f` returns vectors of inconsistent length the extra/missing entries are
 /// ignored/treated as zero rather than panicking.
-pub fn central_diff<F: Fn(&DVector<f64>) -> DVector<f64>>(
-    f: F,
-    x: &DVector<f64>,
-    h: f64,
-) -> DMatrix<f64> {
+pub fn central_diff<F: Fn(&DVector<f64>) -> DVector<f64>>(f: F, x: &DVector<f64>, h: f64) -> DMatrix<f64> {
     let m = f(x).len();
     let n = x.len();
     let mut jac = DMatrix::<f64>::zeros(m, n);
@@ -58,13 +54,8 @@ mod tests {
     fn nonlinear_matches_closed_form() {
         // f(x, y) = (x^2 y, sin x); O(h^2) truncation with h = 1e-5 is ~1e-10.
         let x = DVector::from_vec(vec![0.7, -1.3]);
-        let j = central_diff(
-            |v| DVector::from_vec(vec![v[0] * v[0] * v[1], v[0].sin()]),
-            &x,
-            1e-5,
-        );
-        let expect =
-            DMatrix::from_row_slice(2, 2, &[2.0 * 0.7 * -1.3, 0.7 * 0.7, 0.7f64.cos(), 0.0]);
+        let j = central_diff(|v| DVector::from_vec(vec![v[0] * v[0] * v[1], v[0].sin()]), &x, 1e-5);
+        let expect = DMatrix::from_row_slice(2, 2, &[2.0 * 0.7 * -1.3, 0.7 * 0.7, 0.7f64.cos(), 0.0]);
         assert!((j - expect).amax() < 1e-8);
     }
 }

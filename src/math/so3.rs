@@ -40,21 +40,13 @@ pub fn rotation_from_rvec(rvec: &Vector3<f64>) -> Rotation3<f64> {
 /// arbitrary (both vectors describe the same rotation).
 pub fn rvec_from_rotation(r: &Rotation3<f64>) -> Vector3<f64> {
     let m = r.matrix();
-    let w = Vector3::new(
-        0.5 * (m[(2, 1)] - m[(1, 2)]),
-        0.5 * (m[(0, 2)] - m[(2, 0)]),
-        0.5 * (m[(1, 0)] - m[(0, 1)]),
-    );
+    let w = Vector3::new(0.5 * (m[(2, 1)] - m[(1, 2)]), 0.5 * (m[(0, 2)] - m[(2, 0)]), 0.5 * (m[(1, 0)] - m[(0, 1)]));
     let c = (0.5 * (m.trace() - 1.0)).clamp(-1.0, 1.0);
     let s = w.norm();
     let theta = s.atan2(c);
     if c > -0.5 {
         // theta < 120 degrees: sin(theta) is not small unless theta is small.
-        let factor = if s < 1e-6 {
-            1.0 + theta * theta / 6.0
-        } else {
-            theta / s
-        };
+        let factor = if s < 1e-6 { 1.0 + theta * theta / 6.0 } else { theta / s };
         return w * factor;
     }
     // Near pi: recover the axis from the symmetric part.
@@ -135,24 +127,9 @@ mod tests {
 
     #[test]
     fn round_trips_generic_small_and_near_pi() {
-        let axes = [
-            Vector3::new(1.0, 0.0, 0.0),
-            Vector3::new(0.0, -1.0, 0.0),
-            Vector3::new(0.3, -0.5, 0.81).normalize(),
-            Vector3::new(-0.6, 0.2, -0.3).normalize(),
-        ];
-        let angles = [
-            0.0,
-            1e-12,
-            1e-7,
-            1e-4,
-            0.3,
-            1.5,
-            2.5,
-            3.0,
-            PI - 1e-4,
-            PI - 1e-8,
-        ];
+        let axes =
+            [Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.0, -1.0, 0.0), Vector3::new(0.3, -0.5, 0.81).normalize(), Vector3::new(-0.6, 0.2, -0.3).normalize()];
+        let angles = [0.0, 1e-12, 1e-7, 1e-4, 0.3, 1.5, 2.5, 3.0, PI - 1e-4, PI - 1e-8];
         for a in &axes {
             for &t in &angles {
                 let v = a * t;
@@ -161,10 +138,7 @@ mod tests {
                 // scale is ~2, so the error stays at rounding level; 1e-9 is
                 // loose enough for atan2 conditioning, tight enough to catch
                 // a sign flip or a wrong branch (errors of order t).
-                assert!(
-                    (back - v).amax() < 1e-9,
-                    "axis {a:?} angle {t}: got {back:?}"
-                );
+                assert!((back - v).amax() < 1e-9, "axis {a:?} angle {t}: got {back:?}");
             }
         }
     }

@@ -22,9 +22,7 @@
 pub enum SplineError {
     /// Fewer knots than the construction needs, or `x` and `y` differ in length
     /// (`actual` is then the shorter length).
-    #[error(
-        "cubic spline needs at least {required} points with matching x/y lengths, got {actual}"
-    )]
+    #[error("cubic spline needs at least {required} points with matching x/y lengths, got {actual}")]
     TooFewPoints {
         /// Minimum number of knots.
         required: usize,
@@ -117,10 +115,7 @@ impl CubicSpline {
     fn build(x: &[f64], y: &[f64], end: EndCondition) -> Result<Self, SplineError> {
         let n = x.len().min(y.len());
         if n < 2 || x.len() != y.len() {
-            return Err(SplineError::TooFewPoints {
-                required: 2,
-                actual: n,
-            });
+            return Err(SplineError::TooFewPoints { required: 2, actual: n });
         }
         if x.iter().chain(y.iter()).any(|v| !v.is_finite()) {
             return Err(SplineError::NonFinite);
@@ -170,8 +165,7 @@ impl CubicSpline {
                     let d0 = x[2] - x[0];
                     diag[0] = dx[1];
                     sup[0] = d0;
-                    rhs[0] =
-                        ((dx[0] + 2.0 * d0) * dx[1] * slope[0] + dx[0] * dx[0] * slope[1]) / d0;
+                    rhs[0] = ((dx[0] + 2.0 * d0) * dx[1] * slope[0] + dx[0] * dx[0] * slope[1]) / d0;
                     let d1 = x[n - 1] - x[n - 3];
                     let (a, b) = (dx[n - 2], dx[n - 3]);
                     sub[n - 1] = d1;
@@ -191,10 +185,7 @@ impl CubicSpline {
         if coeffs.iter().flatten().any(|c| !c.is_finite()) {
             return Err(SplineError::NonFinite);
         }
-        Ok(Self {
-            x: x[..n].to_vec(),
-            coeffs,
-        })
+        Ok(Self { x: x[..n].to_vec(), coeffs })
     }
 }
 
@@ -211,17 +202,9 @@ fn solve_tridiagonal_pivoting(sub: &[f64], diag: &[f64], sup: &[f64], rhs: &[f64
     let mut cur = [diag[0], sup[0], 0.0];
     let mut cur_b = rhs[0];
     for i in 0..n - 1 {
-        let next = [
-            sub[i + 1],
-            diag[i + 1],
-            if i + 2 < n { sup[i + 1] } else { 0.0 },
-        ];
+        let next = [sub[i + 1], diag[i + 1], if i + 2 < n { sup[i + 1] } else { 0.0 }];
         let next_b = rhs[i + 1];
-        let (piv, piv_b, oth, oth_b) = if cur[0].abs() >= next[0].abs() {
-            (cur, cur_b, next, next_b)
-        } else {
-            (next, next_b, cur, cur_b)
-        };
+        let (piv, piv_b, oth, oth_b) = if cur[0].abs() >= next[0].abs() { (cur, cur_b, next, next_b) } else { (next, next_b, cur, cur_b) };
         let f = oth[0] / piv[0];
         u[i] = piv;
         b[i] = piv_b;
@@ -281,11 +264,7 @@ mod tests {
         }
         // C² continuity at an interior knot.
         let e = 1e-9;
-        assert_relative_eq!(
-            s.eval_second_derivative(1.1 - e),
-            s.eval_second_derivative(1.1 + e),
-            epsilon = 1e-6
-        );
+        assert_relative_eq!(s.eval_second_derivative(1.1 - e), s.eval_second_derivative(1.1 + e), epsilon = 1e-6);
     }
 
     #[test]
@@ -312,20 +291,8 @@ mod tests {
         assert_relative_eq!(p.eval(4.0), SCIPY_PARABOLA[1], epsilon = 1e-12);
     }
 
-    const SCIPY_NAK: [f64; 5] = [
-        2.6150130841121495,
-        1.5007003115264799,
-        3.6536971962616818,
-        7.134579439252335,
-        -16.78193146417445,
-    ];
-    const SCIPY_NAT: [f64; 5] = [
-        1.9483440860215056,
-        1.5957626443647954,
-        3.845763440860214,
-        3.4285145360414173,
-        -3.428514536041419,
-    ];
+    const SCIPY_NAK: [f64; 5] = [2.6150130841121495, 1.5007003115264799, 3.6536971962616818, 7.134579439252335, -16.78193146417445];
+    const SCIPY_NAT: [f64; 5] = [1.9483440860215056, 1.5957626443647954, 3.845763440860214, 3.4285145360414173, -3.428514536041419];
     const SCIPY_PARABOLA: [f64; 2] = [1.6666666666666667, -3.000000000000001];
 
     #[test]
@@ -338,28 +305,10 @@ mod tests {
 
     #[test]
     fn rejects_bad_input() {
-        assert!(matches!(
-            CubicSpline::natural(&[1.0], &[1.0]),
-            Err(SplineError::TooFewPoints {
-                required: 2,
-                actual: 1
-            })
-        ));
-        assert!(matches!(
-            CubicSpline::natural(&[1.0, 2.0, 3.0], &[1.0, 2.0]),
-            Err(SplineError::TooFewPoints { .. })
-        ));
-        assert!(matches!(
-            CubicSpline::not_a_knot(&[0.0, 1.0, 1.0, 2.0], &[0.0; 4]),
-            Err(SplineError::NotIncreasing { index: 2 })
-        ));
-        assert!(matches!(
-            CubicSpline::not_a_knot(&[0.0, 1.0, 2.0], &[0.0, f64::NAN, 1.0]),
-            Err(SplineError::NonFinite)
-        ));
-        assert!(matches!(
-            CubicSpline::not_a_knot(&[0.0, 1.0, 2.0, 1e308 * 10.0], &[0.0; 4]),
-            Err(SplineError::NonFinite)
-        ));
+        assert!(matches!(CubicSpline::natural(&[1.0], &[1.0]), Err(SplineError::TooFewPoints { required: 2, actual: 1 })));
+        assert!(matches!(CubicSpline::natural(&[1.0, 2.0, 3.0], &[1.0, 2.0]), Err(SplineError::TooFewPoints { .. })));
+        assert!(matches!(CubicSpline::not_a_knot(&[0.0, 1.0, 1.0, 2.0], &[0.0; 4]), Err(SplineError::NotIncreasing { index: 2 })));
+        assert!(matches!(CubicSpline::not_a_knot(&[0.0, 1.0, 2.0], &[0.0, f64::NAN, 1.0]), Err(SplineError::NonFinite)));
+        assert!(matches!(CubicSpline::not_a_knot(&[0.0, 1.0, 2.0, 1e308 * 10.0], &[0.0; 4]), Err(SplineError::NonFinite)));
     }
 }

@@ -11,9 +11,9 @@
 
 use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6, Point2, Point3, Translation3, UnitQuaternion, Vector3, Vector6};
 
-use crate::math::homography::homography;
 use crate::calib::refine::drotated_drvec;
 use crate::camera::CameraModel;
+use crate::math::homography::homography;
 use crate::math::so3::{project_to_so3, rotation_from_rvec, rvec_from_rotation};
 
 /// Errors of the pose solvers.
@@ -126,11 +126,7 @@ pub fn refine_pose(camera: &CameraModel, points: &[Point3<f64>], pixels: &[Point
         }
     }
     let rot = UnitQuaternion::from_rotation_matrix(&rotation_from_rvec(&Vector3::new(x[0], x[1], x[2])));
-    PnpResult {
-        cam_from_target: Isometry3::from_parts(Translation3::new(x[3], x[4], x[5]), rot),
-        rms_px: (cost / points.len() as f64).sqrt(),
-        iterations: it,
-    }
+    PnpResult { cam_from_target: Isometry3::from_parts(Translation3::new(x[3], x[4], x[5]), rot), rms_px: (cost / points.len() as f64).sqrt(), iterations: it }
 }
 
 /// Undistorted normalised rays (z = 1) of the pixels.
@@ -162,7 +158,8 @@ pub fn pnp_general(camera: &CameraModel, points: &[Point3<f64>], pixels: &[Point
     }
     let svd = a.svd(false, true);
     let vt = svd.v_t.ok_or_else(|| PnpError::Degenerate { reason: "SVD failed".into() })?;
-    let (imin, _) = svd.singular_values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).ok_or_else(|| PnpError::Degenerate { reason: "empty system".into() })?;
+    let (imin, _) =
+        svd.singular_values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).ok_or_else(|| PnpError::Degenerate { reason: "empty system".into() })?;
     let v = vt.row(imin);
     let rt = Matrix3::new(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8]);
     let mut r = project_to_so3(&rt).into_inner();
@@ -255,7 +252,13 @@ mod tests {
         // Behind the camera: the S seen from a camera that faces away.
         let s = course_s_path().points_m;
         let away = Isometry3::from_parts(Translation3::new(0.0, 0.0, -3.0), UnitQuaternion::identity());
-        let pxs: Vec<Point2<f64>> = s.iter().map(|p| { let q = away * p; Point2::new(640.0 + 1500.0 * q.x / q.z, 512.0 + 1500.0 * q.y / q.z) }).collect();
+        let pxs: Vec<Point2<f64>> = s
+            .iter()
+            .map(|p| {
+                let q = away * p;
+                Point2::new(640.0 + 1500.0 * q.x / q.z, 512.0 + 1500.0 * q.y / q.z)
+            })
+            .collect();
         assert!(pnp_general(&cam, &s, &pxs).is_err());
     }
 }

@@ -64,9 +64,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
             let t = scene.cam_from_target.translation.vector;
             let m = r.matrix();
             let n_from_t = Matrix3::from_columns(&[m.column(0).into_owned(), m.column(1).into_owned(), t]);
-            let t_from_n = n_from_t
-                .try_inverse()
-                .ok_or_else(|| RenderError::Degenerate("the target plane passes through the camera centre".into()))?;
+            let t_from_n = n_from_t.try_inverse().ok_or_else(|| RenderError::Degenerate("the target plane passes through the camera centre".into()))?;
             let scale = t_from_n.abs().max();
             if !(scale > 0.0) || !scale.is_finite() {
                 return Err(RenderError::Degenerate("singular plane homography".into()));
@@ -219,8 +217,7 @@ fn classify_tiles(scene: &Scene, grid: &TileCornerRays, tiles_x: u32, tiles_y: u
                     let mut yl: Vec<f64> = (0..=b.squares[1]).map(|i| f64::from(i) * s).collect();
                     xl.extend([-m, f64::from(b.squares[0]) * s + m]);
                     yl.extend([-m, f64::from(b.squares[1]) * s + m]);
-                    (!any_in(&xl, bb[0], bb[2]) && !any_in(&yl, bb[1], bb[3]))
-                        .then(|| b.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
+                    (!any_in(&xl, bb[0], bb[2]) && !any_in(&yl, bb[1], bb[3])).then(|| b.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
                 }),
                 Target::DotGrid(g) => plane_bbox(&target_from_cam, &rays).and_then(|bb| {
                     let outer = 0.5 * g.edge_m + g.margin_m;

@@ -92,10 +92,7 @@ impl Renderer {
     /// Compile the shader and build the pipelines on `ctx`.
     pub fn new(ctx: GpuContext) -> Self {
         let device = &ctx.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("render.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("render.wgsl"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("synthcam"),
             entries: &[
@@ -113,11 +110,8 @@ impl Renderer {
                 storage_entry(6, false),
             ],
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("synthcam"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
+        let pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("synthcam"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
         let pipelines = ENTRY_POINTS
             .iter()
             .map(|pair| {

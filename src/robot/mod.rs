@@ -53,7 +53,11 @@ pub enum RobotError {
 /// Wrap an angle into (-pi, pi].
 pub fn wrap(a: f64) -> f64 {
     let t = (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-    if t <= -std::f64::consts::PI { t + std::f64::consts::TAU } else { t }
+    if t <= -std::f64::consts::PI {
+        t + std::f64::consts::TAU
+    } else {
+        t
+    }
 }
 
 /// Check every joint against [`LIMITS_RAD`].

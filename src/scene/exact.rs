@@ -72,7 +72,8 @@ fn pixel_value(scene: &Scene, x: f64, y: f64, n: u32) -> Option<f64> {
     let mut sum = 0.0;
     for j in 0..n as usize {
         for i in 0..n as usize {
-            let quad: Option<Polygon> = [corners[j * m + i], corners[j * m + i + 1], corners[(j + 1) * m + i + 1], corners[(j + 1) * m + i]].into_iter().collect();
+            let quad: Option<Polygon> =
+                [corners[j * m + i], corners[j * m + i + 1], corners[(j + 1) * m + i + 1], corners[(j + 1) * m + i]].into_iter().collect();
             // A corner beyond the plane's horizon: the rays there see infinitely far parts of the
             // plane, never the (finite) target.
             sum += quad.map_or(background, |q| region_mean(&scene.target, &q));

@@ -53,7 +53,7 @@ pub struct CameraSpec {
     pub cx: f64,
     /// Principal point y, pixels.
     pub cy: f64,
-    /// K[0][1], pixels.
+    /// `K[0][1]`, pixels.
     #[serde(default)]
     pub skew: f64,
     /// k1, k2, p1, p2, k3.
@@ -74,16 +74,7 @@ impl CameraSpec {
     /// The table describing `camera`.
     pub fn from_model(camera: &CameraModel) -> Self {
         let k = &camera.intrinsics;
-        Self {
-            width: camera.size.width,
-            height: camera.size.height,
-            fx: k.fx,
-            fy: k.fy,
-            cx: k.cx,
-            cy: k.cy,
-            skew: k.skew,
-            dist: camera.distortion.to_array(),
-        }
+        Self { width: camera.size.width, height: camera.size.height, fx: k.fx, fy: k.fy, cx: k.cx, cy: k.cy, skew: k.skew, dist: camera.distortion.to_array() }
     }
 }
 

@@ -107,10 +107,7 @@ impl Scene {
             return Err(SceneError::InvalidField { field: "render.noise_sigma".into(), reason: format!("must be finite and >= 0, got {}", rs.noise_sigma) });
         }
         if !rs.blur_sigma_px.is_finite() || rs.blur_sigma_px < 0.0 || rs.blur_sigma_px > 50.0 {
-            return Err(SceneError::InvalidField {
-                field: "render.blur_sigma_px".into(),
-                reason: format!("must be in [0, 50], got {}", rs.blur_sigma_px),
-            });
+            return Err(SceneError::InvalidField { field: "render.blur_sigma_px".into(), reason: format!("must be in [0, 50], got {}", rs.blur_sigma_px) });
         }
         if rs.bit_depth != 8 && rs.bit_depth != 16 {
             return Err(SceneError::InvalidField { field: "render.bit_depth".into(), reason: format!("must be 8 or 16, got {}", rs.bit_depth) });

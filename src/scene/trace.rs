@@ -68,13 +68,7 @@ impl<'a> Tracer<'a> {
         let (sphere, dots) = match &scene.target {
             Target::SPath(s) => {
                 let sphere = SphereCam { centre: scene.cam_from_target * s.path.sphere_center_m, radius: s.path.sphere_radius_m };
-                let dots = s
-                    .path
-                    .points_m
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| SphereCam { centre: scene.cam_from_target * p, radius: s.dot_radius(i) })
-                    .collect();
+                let dots = s.path.points_m.iter().enumerate().map(|(i, p)| SphereCam { centre: scene.cam_from_target * p, radius: s.dot_radius(i) }).collect();
                 (Some(sphere), dots)
             }
             _ => (None, Vec::new()),

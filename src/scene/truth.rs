@@ -213,7 +213,8 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
     };
     // Each blob only needs the dots whose boxes overlap its own (conservative: a dot without a
     // box, partly behind the camera, is always a candidate).
-    let boxes: Vec<Option<[f64; 4]>> = if kind == FeatureKind::Dot { pts.iter().enumerate().map(|(i, p)| dot_bbox_px(scene, p, radius(i), 1.5)).collect() } else { Vec::new() };
+    let boxes: Vec<Option<[f64; 4]>> =
+        if kind == FeatureKind::Dot { pts.iter().enumerate().map(|(i, p)| dot_bbox_px(scene, p, radius(i), 1.5)).collect() } else { Vec::new() };
     let overlapping = |id: usize, bb: &[f64; 4]| -> Vec<usize> {
         boxes
             .iter()

@@ -163,14 +163,27 @@ pub fn interaction_matrix(camera: &CameraModel, points_cam: &[Point3<f64>]) -> D
         let dq_dp: SMatrix<f64, 2, 3> = camera.dq_dp_cam(pc);
         let p = pc.coords;
         // dp/dv = -I, dp/dw_i = p x e_i.
-        let dp_dtwist = SMatrix::<f64, 3, 6>::from_columns(&[-Vector3::x(), -Vector3::y(), -Vector3::z(), p.cross(&Vector3::x()), p.cross(&Vector3::y()), p.cross(&Vector3::z())]);
+        let dp_dtwist = SMatrix::<f64, 3, 6>::from_columns(&[
+            -Vector3::x(),
+            -Vector3::y(),
+            -Vector3::z(),
+            p.cross(&Vector3::x()),
+            p.cross(&Vector3::y()),
+            p.cross(&Vector3::z()),
+        ]);
         out.fixed_view_mut::<2, 6>(2 * k, 0).copy_from(&(dq_dp * dp_dtwist));
     }
     out
 }
 
 /// Exact d(pixel_j)/d(q) for world points `points` (2N x 6) seen from the camera at `q`.
-pub fn image_jacobian(camera: &CameraModel, q: &Joints, world_from_base: &Isometry3<f64>, tool_from_cam: &Isometry3<f64>, points: &[Point3<f64>]) -> DMatrix<f64> {
+pub fn image_jacobian(
+    camera: &CameraModel,
+    q: &Joints,
+    world_from_base: &Isometry3<f64>,
+    tool_from_cam: &Isometry3<f64>,
+    points: &[Point3<f64>],
+) -> DMatrix<f64> {
     let cam_from_world = (world_from_base * base_from_tool(q) * tool_from_cam).inverse();
     let pc: Vec<Point3<f64>> = points.iter().map(|p| cam_from_world * p).collect();
     joint_image_jacobian(&interaction_matrix(camera, &pc), &cam_twist_jacobian(q, tool_from_cam))
@@ -221,10 +234,13 @@ mod tests {
         let f = |v: &DVector<f64>| {
             let qq = Joints::from_column_slice(v.as_slice());
             let cw = (wb * base_from_tool(&qq) * x).inverse();
-            DVector::from_iterator(2 * pts.len(), pts.iter().flat_map(|p| {
-                let u = cam.project_unchecked(&(cw * p));
-                [u.x, u.y]
-            }))
+            DVector::from_iterator(
+                2 * pts.len(),
+                pts.iter().flat_map(|p| {
+                    let u = cam.project_unchecked(&(cw * p));
+                    [u.x, u.y]
+                }),
+            )
         };
         let num = central_diff(f, &DVector::from_column_slice(q.as_slice()), 1e-7);
         let ana = image_jacobian(&cam, &q, &wb, &x, &pts);
@@ -238,7 +254,10 @@ mod tests {
     fn pbvs_converges_in_the_noise_free_course_setting() {
         // course-scenario 1.8 / 3.9: from q0, 30 steps of the PBVS law reduce the error ~190 x.
         let (wb, x) = variant_a();
-        let goal_world_from_cam = Isometry3::from_parts(Translation3::new(1.8, 0.0, 0.55), UnitQuaternion::from_matrix(&Matrix3::from_columns(&[-Vector3::y(), Vector3::z(), -Vector3::x()])));
+        let goal_world_from_cam = Isometry3::from_parts(
+            Translation3::new(1.8, 0.0, 0.55),
+            UnitQuaternion::from_matrix(&Matrix3::from_columns(&[-Vector3::y(), Vector3::z(), -Vector3::x()])),
+        );
         let goal = wb.inverse() * goal_world_from_cam * x.inverse();
         let mut q = Joints::from_row_slice(&[0.1, 1.6, 3.5, 3.0, 2.0, 0.0]).map(wrap);
         let e0 = pbvs_error(&base_from_tool(&q), &goal).norm();

@@ -61,10 +61,7 @@ impl Chessboard {
     /// [`TargetError::InvalidField`] naming the first bad field.
     pub fn validate(&self) -> Result<(), TargetError> {
         if self.squares[0] < 2 || self.squares[1] < 2 || self.squares[0] > 4096 || self.squares[1] > 4096 {
-            return Err(TargetError::InvalidField {
-                field: "squares",
-                reason: format!("needs 2..=4096 squares per side, got {:?}", self.squares),
-            });
+            return Err(TargetError::InvalidField { field: "squares", reason: format!("needs 2..=4096 squares per side, got {:?}", self.squares) });
         }
         require_positive("square_m", self.square_m)?;
         if !self.margin_m.is_finite() || self.margin_m < 0.0 {
@@ -83,7 +80,11 @@ impl Chessboard {
         if x >= 0.0 && x < w && y >= 0.0 && y < h {
             let j = (x / self.square_m).floor() as i64;
             let i = (y / self.square_m).floor() as i64;
-            if (i + j) % 2 == 0 { self.dark } else { self.light }
+            if (i + j) % 2 == 0 {
+                self.dark
+            } else {
+                self.light
+            }
         } else if x >= -self.margin_m && x < w + self.margin_m && y >= -self.margin_m && y < h + self.margin_m {
             self.margin
         } else {

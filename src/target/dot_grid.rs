@@ -36,7 +36,11 @@ impl Default for DotGrid {
 impl DotGrid {
     /// Distance between neighbouring dot centres, metres.
     pub fn pitch_m(&self) -> f64 {
-        if self.n < 2 { 0.0 } else { self.edge_m / f64::from(self.n - 1) }
+        if self.n < 2 {
+            0.0
+        } else {
+            self.edge_m / f64::from(self.n - 1)
+        }
     }
 
     /// Dot centres in the target frame, x slow and y fast.
@@ -89,7 +93,11 @@ impl DotGrid {
         let iy = ((y + h) / p).round().clamp(0.0, last);
         let dx = x - (-h + p * ix);
         let dy = y - (-h + p * iy);
-        if dx * dx + dy * dy < self.dot_radius_m * self.dot_radius_m { self.dark } else { self.light }
+        if dx * dx + dy * dy < self.dot_radius_m * self.dot_radius_m {
+            self.dark
+        } else {
+            self.light
+        }
     }
 }
 

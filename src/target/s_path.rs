@@ -142,14 +142,8 @@ pub fn course_s_path() -> SPath {
     // The input is compile-time data, and the unit test
     // `embedded_data_parses_and_builds` proves this cannot fail; a failure
     // here would be a build defect, not a runtime condition.
-    let points_m = course_planar_s()
-        .and_then(|planar| build_s_path(&planar, S_PATH_POINTS))
-        .expect("embedded planar S data is valid (checked by unit test)");
-    SPath {
-        points_m,
-        sphere_center_m: Point3::from(SPHERE_CENTER_M),
-        sphere_radius_m: SPHERE_RADIUS_M,
-    }
+    let points_m = course_planar_s().and_then(|planar| build_s_path(&planar, S_PATH_POINTS)).expect("embedded planar S data is valid (checked by unit test)");
+    SPath { points_m, sphere_center_m: Point3::from(SPHERE_CENTER_M), sphere_radius_m: SPHERE_RADIUS_M }
 }
 
 /// The embedded planar S (`Sls`, 101 points, unitless) parsed from
@@ -167,22 +161,13 @@ pub fn parse_planar_csv(text: &str) -> Result<Vec<Point2<f64>>, SPathError> {
         if line.is_empty() || (k == 0 && line.eq_ignore_ascii_case("x,y")) {
             continue;
         }
-        let err = |reason: String| SPathError::Parse {
-            line: k + 1,
-            reason,
-        };
+        let err = |reason: String| SPathError::Parse { line: k + 1, reason };
         let mut fields = line.split(',');
         let (Some(xs), Some(ys), None) = (fields.next(), fields.next(), fields.next()) else {
             return Err(err(format!("expected 2 fields, got {line:?}")));
         };
-        let x: f64 = xs
-            .trim()
-            .parse()
-            .map_err(|e| err(format!("x {xs:?}: {e}")))?;
-        let y: f64 = ys
-            .trim()
-            .parse()
-            .map_err(|e| err(format!("y {ys:?}: {e}")))?;
+        let x: f64 = xs.trim().parse().map_err(|e| err(format!("x {xs:?}: {e}")))?;
+        let y: f64 = ys.trim().parse().map_err(|e| err(format!("y {ys:?}: {e}")))?;
         out.push(Point2::new(x, y));
     }
     Ok(out)
@@ -213,21 +198,12 @@ pub fn polyline_length_m(points: &[Point3<f64>]) -> f64 {
 /// and last planar points.
 pub fn build_s_path(planar: &[Point2<f64>], n_out: usize) -> Result<Vec<Point3<f64>>, SPathError> {
     if planar.len() < 2 {
-        return Err(SPathError::TooFewPlanarPoints {
-            required: 2,
-            actual: planar.len(),
-        });
+        return Err(SPathError::TooFewPlanarPoints { required: 2, actual: planar.len() });
     }
     if n_out < 2 {
-        return Err(SPathError::TooFewOutputPoints {
-            required: 2,
-            actual: n_out,
-        });
+        return Err(SPathError::TooFewOutputPoints { required: 2, actual: n_out });
     }
-    if let Some(index) = planar
-        .iter()
-        .position(|p| !(p.x.is_finite() && p.y.is_finite()))
-    {
+    if let Some(index) = planar.iter().position(|p| !(p.x.is_finite() && p.y.is_finite())) {
         return Err(SPathError::NonFinite { index });
     }
     let mapped: Vec<Point3<f64>> = planar.iter().map(planar_to_sphere).collect();
@@ -339,11 +315,7 @@ mod tests {
         // 1.1e-6, 2.8e-7, 1.2e-6; the mean is l_resampled/100 and inherits the
         // input rounding, see the l_f test). 5e-6 m gives ≥ 4× margin.
         let s = course_s_path();
-        let d: Vec<f64> = s
-            .points_m
-            .windows(2)
-            .map(|w| (w[1] - w[0]).norm())
-            .collect();
+        let d: Vec<f64> = s.points_m.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
         let min = d.iter().copied().fold(f64::MAX, f64::min);
         let max = d.iter().copied().fold(f64::MIN, f64::max);
         let mean = d.iter().sum::<f64>() / d.len() as f64;
@@ -399,22 +371,9 @@ mod tests {
         // 1.1e-16; here three points are pinned to 1e-13 (round-off only).
         let s = course_s_path();
         let want: [(usize, [f64; 3]); 3] = [
-            (
-                13,
-                [
-                    0.30183846633281747,
-                    0.0027659897876157057,
-                    0.10139507388416846,
-                ],
-            ),
-            (
-                50,
-                [0.4957229507673621, 0.06384011885514905, 0.5135342540475754],
-            ),
-            (
-                87,
-                [0.2820768122048407, -0.07431998216067146, 0.9060901457920347],
-            ),
+            (13, [0.30183846633281747, 0.0027659897876157057, 0.10139507388416846]),
+            (50, [0.4957229507673621, 0.06384011885514905, 0.5135342540475754]),
+            (87, [0.2820768122048407, -0.07431998216067146, 0.9060901457920347]),
         ];
         for (i, w) in want {
             assert_relative_eq!(s.points_m[i], Point3::from(w), epsilon = 1e-13);
@@ -437,37 +396,18 @@ mod tests {
     #[test]
     fn rejects_bad_input() {
         let p = |x, y| Point2::new(x, y);
-        assert!(matches!(
-            build_s_path(&[p(1.0, 1.0)], 10),
-            Err(SPathError::TooFewPlanarPoints { .. })
-        ));
-        assert!(matches!(
-            build_s_path(&[p(1.0, 1.0), p(2.0, 1.0)], 1),
-            Err(SPathError::TooFewOutputPoints { .. })
-        ));
-        assert!(matches!(
-            build_s_path(&[p(1.0, 1.0), p(f64::NAN, 1.0)], 5),
-            Err(SPathError::NonFinite { index: 1 })
-        ));
-        assert!(matches!(
-            build_s_path(&[p(1.0, 1.0), p(2.0, 1.0), p(2.0, 1.0)], 5),
-            Err(SPathError::RepeatedPoint { index: 2 })
-        ));
-        assert!(matches!(
-            parse_planar_csv("x,y\n1.0,2.0\n1.0;2.0\n"),
-            Err(SPathError::Parse { line: 3, .. })
-        ));
-        assert!(matches!(
-            parse_planar_csv("1.0,abc"),
-            Err(SPathError::Parse { line: 1, .. })
-        ));
+        assert!(matches!(build_s_path(&[p(1.0, 1.0)], 10), Err(SPathError::TooFewPlanarPoints { .. })));
+        assert!(matches!(build_s_path(&[p(1.0, 1.0), p(2.0, 1.0)], 1), Err(SPathError::TooFewOutputPoints { .. })));
+        assert!(matches!(build_s_path(&[p(1.0, 1.0), p(f64::NAN, 1.0)], 5), Err(SPathError::NonFinite { index: 1 })));
+        assert!(matches!(build_s_path(&[p(1.0, 1.0), p(2.0, 1.0), p(2.0, 1.0)], 5), Err(SPathError::RepeatedPoint { index: 2 })));
+        assert!(matches!(parse_planar_csv("x,y\n1.0,2.0\n1.0;2.0\n"), Err(SPathError::Parse { line: 3, .. })));
+        assert!(matches!(parse_planar_csv("1.0,abc"), Err(SPathError::Parse { line: 1, .. })));
     }
 
     #[test]
     fn two_point_input_gives_a_straight_chord() {
         // Degenerate but valid: a line in λ between the two mapped points.
-        let pts =
-            build_s_path(&[Point2::new(1.0, -1.0), Point2::new(2.0, 0.0)], 3).expect("valid input");
+        let pts = build_s_path(&[Point2::new(1.0, -1.0), Point2::new(2.0, 0.0)], 3).expect("valid input");
         let mid = nalgebra::center(&pts[0], &pts[2]);
         assert_relative_eq!(pts[1], mid, epsilon = 1e-15);
     }

@@ -46,22 +46,18 @@ pub struct SPathDots {
 
 impl Default for SPathDots {
     fn default() -> Self {
-        Self {
-            path: super::course_s_path(),
-            style: DotStyle::Bead,
-            dot_radius_m: 0.006,
-            start_dot_radius_m: 0.010,
-            dark: 20.0,
-            light: 225.0,
-            background: 90.0,
-        }
+        Self { path: super::course_s_path(), style: DotStyle::Bead, dot_radius_m: 0.006, start_dot_radius_m: 0.010, dark: 20.0, light: 225.0, background: 90.0 }
     }
 }
 
 impl SPathDots {
     /// Radius of dot `i`, metres.
     pub fn dot_radius(&self, i: usize) -> f64 {
-        if i == 0 { self.start_dot_radius_m } else { self.dot_radius_m }
+        if i == 0 {
+            self.start_dot_radius_m
+        } else {
+            self.dot_radius_m
+        }
     }
 
     /// Validate every field.

@@ -80,7 +80,18 @@ fn images_of_another_size_are_skipped_not_fatal() {
     let dir = std::env::temp_dir().join(format!("synthcam-cal-{}-mixed", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("tmp");
-    for (k, (tilt, offset)) in [(25.0, [0.0, 0.0]), (35.0, [0.03, 0.0]), (-30.0, [0.0, 0.02]), (40.0, [-0.03, 0.01]), (-20.0, [0.02, -0.02]), (30.0, [-0.02, -0.01]), (30.0, [0.0, 0.0])].iter().enumerate() {
+    for (k, (tilt, offset)) in [
+        (25.0, [0.0, 0.0]),
+        (35.0, [0.03, 0.0]),
+        (-30.0, [0.0, 0.02]),
+        (40.0, [-0.03, 0.01]),
+        (-20.0, [0.02, -0.02]),
+        (30.0, [-0.02, -0.01]),
+        (30.0, [0.0, 0.0]),
+    ]
+    .iter()
+    .enumerate()
+    {
         let (w, h) = if k == 6 { (641, 481) } else { (640, 480) };
         let mut cam = crate::common::camera(w, h, 600.0, [-0.1, 0.0, 0.0, 0.0, 0.0]);
         cam.intrinsics.cx = 319.5;

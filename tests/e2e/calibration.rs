@@ -21,7 +21,8 @@ fn calibration_from_rendered_and_detected_corners() {
     let (mut views, mut det_errs) = (Vec::<View>::new(), Vec::new());
     while views.len() < 20 {
         let axis = nalgebra::Unit::new_normalize(Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 0.0));
-        let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rng.random_range(-0.3..0.3)) * UnitQuaternion::from_axis_angle(&axis, rng.random_range(10f64..45.0).to_radians());
+        let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rng.random_range(-0.3..0.3))
+            * UnitQuaternion::from_axis_angle(&axis, rng.random_range(10f64..45.0).to_radians());
         let mut scene = chessboard_scene(truth_cam, [9, 7], square, 0.0, 0.5, [0.0, 0.0]);
         let centre = Vector3::new(4.5 * square, 3.5 * square, 0.0);
         let offset = Vector3::new(rng.random_range(-0.08..0.08), rng.random_range(-0.06..0.06), rng.random_range(0.35..0.55));

@@ -109,10 +109,8 @@ enum Path {
 }
 
 fn classify(scene: &Scene, x: f64, y: f64) -> Path {
-    let pts: Vec<Vector2<f64>> = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
-        .iter()
-        .filter_map(|(dx, dy)| plane_point(scene, Point2::new(x + dx, y + dy)).flatten())
-        .collect();
+    let pts: Vec<Vector2<f64>> =
+        [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)].iter().filter_map(|(dx, dy)| plane_point(scene, Point2::new(x + dx, y + dy)).flatten()).collect();
     if pts.len() < 4 {
         return Path::Flat;
     }
@@ -148,7 +146,11 @@ fn classify(scene: &Scene, x: f64, y: f64) -> Path {
                 let inside_box = c.x >= lo.x && c.x <= hi.x && c.y >= lo.y && c.y <= hi.y;
                 (dmin <= g.dot_radius_m || inside_box) && dmax >= g.dot_radius_m
             });
-            if near { Path::DiscEdge } else { Path::Flat }
+            if near {
+                Path::DiscEdge
+            } else {
+                Path::Flat
+            }
         }
         Target::SPath(_) => Path::Flat,
     }

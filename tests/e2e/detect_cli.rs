@@ -26,15 +26,7 @@ fn s_path_render_is_detected_in_order_and_bad_files_are_reported() {
     std::fs::write(dir.join("garbage.jpg"), b"not a jpeg").expect("write");
     let json = dir.join("det.json");
     let draw = dir.join("draw");
-    let o = Command::new(bin())
-        .args(["detect"])
-        .arg(&dir)
-        .args(["--target", "s-path", "--json"])
-        .arg(&json)
-        .arg("--draw")
-        .arg(&draw)
-        .output()
-        .expect("detect");
+    let o = Command::new(bin()).args(["detect"]).arg(&dir).args(["--target", "s-path", "--json"]).arg(&json).arg("--draw").arg(&draw).output().expect("detect");
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "unreadable files must give a non-zero exit");
     assert!(stderr.contains("truncated.png") && stderr.contains("garbage.jpg"), "{stderr}");

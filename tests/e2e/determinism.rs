@@ -47,7 +47,13 @@ fn vulkan_and_gl_give_identical_bytes() {
         let differing = a.iter().zip(&b).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
         let maxdiff = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
         if let Some(i) = a.iter().zip(&b).position(|(x, y)| (x - y).abs() == maxdiff) {
-            eprintln!("{name}: max float diff {maxdiff} at pixel ({}, {}): {} vs {}", i % scene.camera.size.width as usize, i / scene.camera.size.width as usize, a[i], b[i]);
+            eprintln!(
+                "{name}: max float diff {maxdiff} at pixel ({}, {}): {} vs {}",
+                i % scene.camera.size.width as usize,
+                i / scene.camera.size.width as usize,
+                a[i],
+                b[i]
+            );
         }
         eprintln!("{name}: {} of {} float pixels differ between {} and {}", differing, a.len(), renderer().context().describe(), gl.context().describe());
         assert!(pa == pb, "{name}: Vulkan and GL PNGs differ");

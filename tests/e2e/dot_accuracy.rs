@@ -40,7 +40,15 @@ fn run_with(style: DotStyle, views: usize, seed: u64, dist: [f64; 5], shift_m: f
     let world_from_cam0 = base.cam_from_target.inverse();
     let centre = Vector3::new(0.0, 0.0, 0.5);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut st = Stats { eligible: 0, recalled: 0, false_dots: 0, centroid_err: Vec::new(), projected_err: Vec::new(), eligible_err: Vec::new(), corrected_err: Vec::new() };
+    let mut st = Stats {
+        eligible: 0,
+        recalled: 0,
+        false_dots: 0,
+        centroid_err: Vec::new(),
+        projected_err: Vec::new(),
+        eligible_err: Vec::new(),
+        corrected_err: Vec::new(),
+    };
     for _ in 0..views {
         let orbit = UnitQuaternion::from_euler_angles(0.0, rng.random_range(-0.17..0.17), rng.random_range(-0.26..0.26));
         let about_centre = Translation3::from(centre) * Isometry3::from_parts(Translation3::identity(), orbit) * Translation3::from(-centre);
@@ -76,7 +84,10 @@ fn run_with(style: DotStyle, views: usize, seed: u64, dist: [f64; 5], shift_m: f
         if std::env::var("DUMP").is_ok() {
             let k = st.eligible;
             eprintln!("view at eligible {k}: found {} dots, note {:?}", det.points_px.len(), det.note);
-            image::GrayImage::from_raw(w as u32, h as u32, img.data.iter().map(|v| *v as u8).collect()).expect("img").save(format!("/tmp/pv_{k}.png")).expect("save");
+            image::GrayImage::from_raw(w as u32, h as u32, img.data.iter().map(|v| *v as u8).collect())
+                .expect("img")
+                .save(format!("/tmp/pv_{k}.png"))
+                .expect("save");
         }
         let indices = det.indices.clone().unwrap_or_default();
         for f in &truth.features {
@@ -84,7 +95,14 @@ fn run_with(style: DotStyle, views: usize, seed: u64, dist: [f64; 5], shift_m: f
             if f.visible && big {
                 st.eligible += 1;
                 if std::env::var("MISSED").is_ok() && !indices.contains(&f.id) {
-                    eprintln!("missed dot {} area {:.1} at {:?} (found {} dots, note {:?})", f.id, f.area_px.unwrap_or(0.0), f.pixel_px, det.points_px.len(), det.note);
+                    eprintln!(
+                        "missed dot {} area {:.1} at {:?} (found {} dots, note {:?})",
+                        f.id,
+                        f.area_px.unwrap_or(0.0),
+                        f.pixel_px,
+                        det.points_px.len(),
+                        det.note
+                    );
                 }
             }
         }

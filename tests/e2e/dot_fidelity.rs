@@ -139,7 +139,9 @@ fn s_path_disc_slivers_match_the_traced_image() {
     // The desired view orbited 12 degrees about the sphere's centre: the S runs along the outline.
     let centre = nalgebra::Vector3::new(0.0, 0.0, 0.5);
     let orbit = nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, 0.21);
-    let about = nalgebra::Translation3::from(centre) * nalgebra::Isometry3::from_parts(nalgebra::Translation3::identity(), orbit) * nalgebra::Translation3::from(-centre);
+    let about = nalgebra::Translation3::from(centre)
+        * nalgebra::Isometry3::from_parts(nalgebra::Translation3::identity(), orbit)
+        * nalgebra::Translation3::from(-centre);
     scene.cam_from_target = (about * world_from_cam).inverse();
     if let Target::SPath(s) = &mut scene.target {
         s.style = DotStyle::Disc;

@@ -18,8 +18,20 @@ fn random_image(rng: &mut ChaCha8Rng, k: usize) -> ImageF32 {
         .map(|i| match style {
             0 => 128.0,
             1 => rng.random_range(0.0..255.0),
-            2 => if (i % w.max(1)) / 7 % 2 == 0 { 20.0 } else { 230.0 },
-            3 => if rng.random_bool(0.02) { 0.0 } else { 220.0 },
+            2 => {
+                if (i % w.max(1)) / 7 % 2 == 0 {
+                    20.0
+                } else {
+                    230.0
+                }
+            }
+            3 => {
+                if rng.random_bool(0.02) {
+                    0.0
+                } else {
+                    220.0
+                }
+            }
             _ => f32::from(rng.random_range(0u8..=255)) * 0.5 + ((i % w.max(1)) as f32),
         })
         .collect();

@@ -86,7 +86,8 @@ fn bad_scenarios_end_with_a_status_and_exit_1() {
         for law in ["pbvs", "ibvs"] {
             let (ok, text, out) = servo_cli(&format!("{root}/assets/scenarios/{file}.toml"), law, &["--ideal"]);
             assert!(!ok, "{file} {law}: exit 0: {text}");
-            let trace: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("trace.json")).expect("trace.json written")).expect("trace.json complete");
+            let trace: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(out.join("trace.json")).expect("trace.json written")).expect("trace.json complete");
             assert_eq!(trace["status"]["status"], status, "{file} {law}");
             assert!(out.join("trace.csv").exists() && out.join("summary.md").exists() && out.join("error.png").exists());
             let _ = std::fs::remove_dir_all(&out);
