@@ -12,10 +12,10 @@
 // over the pixel square:
 //   - chessboard: one line across the (locally affine) pixel footprint, the closed-form area of a
 //     half-plane; corners and every other pixel near an edge, the exact area of the footprint in
-//     each square, the margin and the board by polygon clipping (supersampled only when the
+//     each square, the margin and the board (Green's theorem over the clipped boundary lines; supersampled only when the
 //     footprint meets more than MAX_CELLS squares per axis: squares of about a pixel);
 //   - dot grid: flat pixels take one sample, pixels near a disc or plate edge the exact area of the
-//     footprint on the plate and in each disc (polygon clipping, polygon-disc areas);
+//     pixel on the plate and in each disc (the disc's image ellipse mapped onto the unit circle);
 //   - S-path: flat pixels one ray; the sphere's outline in closed form; one smooth dot boundary
 //     in closed form; elsewhere near a dot the outline in closed form plus the dots' change from
 //     `samples^2` exact rays (nearest hit among the sphere and the dots of the pixel's 16x16 tile).
@@ -218,76 +218,71 @@ fn board_jacobian(pc: vec3<f32>, ray: Ray) -> mat2x2<f32> {
     return dbdxu * ray.dxu_dq;
 }
 
-// ---------------------------------------------------------------- exact footprint coverage
-// The pixel's locally affine footprint on the target plane (a parallelogram, coordinates relative
-// to the pixel centre's plane point) is clipped against axis-aligned rectangles (Sutherland-Hodgman)
-// and intersected with discs; the areas are exact for the affine footprint. The CPU reference
-// src/scene/exact.rs does the same independently, with exact sub-pixel footprints, in f64.
+// ---------------------------------------------------------------- exact pixel coverage
+// Areas of the pixel square S = [-0.5, 0.5]^2 (pixel offsets d) inside regions of the target
+// plane, with no arrays (llvmpipe lowers indexed local arrays into long code, and LLVM then
+// takes seconds to compile it). A board rectangle is the intersection of four half-planes
+// n.d >= c (board_line, exact under the homography; only the distortion is linearised over the
+// pixel); its area inside S follows from Green's theorem: the sum over the eight boundary lines
+// (four of S, four of the rectangle) of the part of each line inside the other seven. A dot-grid
+// disc is the ellipse it images to, mapped onto the unit circle. The CPU reference
+// src/scene/exact.rs computes the same areas independently, in f64, by polygon clipping.
 
-struct Poly { v: array<vec2<f32>, 8>, n: u32, };
-
-fn footprint(a: mat2x2<f32>) -> Poly {
-    var p: Poly;
-    p.v[0] = a * vec2<f32>(-0.5, -0.5);
-    p.v[1] = a * vec2<f32>(0.5, -0.5);
-    p.v[2] = a * vec2<f32>(0.5, 0.5);
-    p.v[3] = a * vec2<f32>(-0.5, 0.5);
-    p.n = 4u;
-    return p;
-}
-
-// The part of p where dot(n, d) <= c.
-fn clip_line(p: Poly, n: vec2<f32>, c: f32) -> Poly {
-    var out: Poly;
-    out.n = 0u;
-    for (var i = 0u; i < p.n; i = i + 1u) {
-        let a = p.v[i];
-        let b = p.v[select(i + 1u, 0u, i + 1u == p.n)];
-        let da = dot2(n, a) - c;
-        let db = dot2(n, b) - c;
-        if (da <= 0.0) { out.v[min(out.n, 7u)] = a; out.n = out.n + 1u; }
-        if ((da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0)) {
-            out.v[min(out.n, 7u)] = a + (b - a) * (da / (da - db));
-            out.n = out.n + 1u;
-        }
-    }
-    out.n = min(out.n, 8u);
-    return out;
-}
-
-// The part of p inside the axis-aligned rectangle [lo, hi].
-fn clip_rect(p: Poly, lo: vec2<f32>, hi: vec2<f32>) -> Poly {
-    let x = vec2<f32>(1.0, 0.0);
-    let y = vec2<f32>(0.0, 1.0);
-    return clip_line(clip_line(clip_line(clip_line(p, x, hi.x), -x, -lo.x), y, hi.y), -y, -lo.y);
-}
-
-// The board line {board coordinate `axis` = v} in pixel offsets d from the pixel centre, exact
-// under the homography (only the distortion is linearised over the pixel): board coordinate >= v
-// where dot(l.xy, d) >= l.z. The affine footprint would use the centre's pc for v in the normal.
+// The board line {board coordinate `axis` = v} in pixel offsets d: board coordinate >= v where
+// dot(l.xy, d) >= l.z. (The affine footprint would put the centre's pc for v in the normal.)
 fn board_line(axis: u32, v: f32, pc: vec3<f32>, ray: Ray) -> vec3<f32> {
     let h = select(P.h0, P.h1, axis == 1u);
     let g = (vec2<f32>(h.x, h.y) - v * vec2<f32>(P.h2.x, P.h2.y)) / pc.z;
     return vec3<f32>(dot2(g, ray.dxu_dq[0]), dot2(g, ray.dxu_dq[1]), v - select(pc.x, pc.y, axis == 1u));
 }
 
-// The part of the pixel offsets p whose board point lies in the rectangle [lo, hi].
-fn clip_board_rect(p: Poly, lo: vec2<f32>, hi: vec2<f32>, pc: vec3<f32>, ray: Ray) -> Poly {
-    let x0 = board_line(0u, lo.x, pc, ray);
-    let x1 = board_line(0u, hi.x, pc, ray);
-    let y0 = board_line(1u, lo.y, pc, ray);
-    let y1 = board_line(1u, hi.y, pc, ray);
-    return clip_line(clip_line(clip_line(clip_line(p, -x0.xy, -x0.z), x1.xy, x1.z), -y0.xy, -y0.z), y1.xy, y1.z);
+// Clip the parameter interval st of the line p0 + s u to the half-plane dot(l.xy, d) >= l.z.
+fn clip_param(st: vec2<f32>, p0: vec2<f32>, u: vec2<f32>, l: vec3<f32>) -> vec2<f32> {
+    let rate = dot2(l.xy, u);
+    let gap = dot2(l.xy, p0) - l.z;
+    let scale = len2(l.xy);
+    // Parallel (the line itself, or a parallel side): all of it or none of it.
+    if (abs(rate) <= 1e-6 * scale) { return select(vec2<f32>(1.0, 0.0), st, gap >= -1e-5 * scale); }
+    let s = -gap / rate;
+    return select(vec2<f32>(st.x, min(st.y, s)), vec2<f32>(max(st.x, s), st.y), rate > 0.0);
 }
 
-fn poly_area(p: Poly) -> f32 {
-    var s = 0.0;
-    for (var i = 0u; i < p.n; i = i + 1u) {
-        let a = p.v[i];
-        let b = p.v[select(i + 1u, 0u, i + 1u == p.n)];
-        s = s + (a.x * b.y - a.y * b.x);
+// Half-plane k of the region S (k = 0..3: x >= -0.5, x <= 0.5, y >= -0.5, y <= 0.5) intersected
+// with the rectangle r0..r3 (k = 4..7), as dot(l.xy, d) >= l.z. Chosen by select, not from an
+// array: the loops below then compile to one copy of their body.
+fn region_line(k: u32, r0: vec3<f32>, r1: vec3<f32>, r2: vec3<f32>, r3: vec3<f32>) -> vec3<f32> {
+    let sx = select(-1.0, 1.0, k == 0u);
+    let sy = select(-1.0, 1.0, k == 2u);
+    let square = select(vec3<f32>(0.0, sy, -0.5), vec3<f32>(sx, 0.0, -0.5), k < 2u);
+    let rect = select(select(r3, r2, k == 6u), select(r1, r0, k == 4u), k < 6u);
+    return select(rect, square, k < 4u);
+}
+
+// Twice the signed area term of the part of the boundary line of region half-plane `k` that lies
+// in all the others, traversed with the region on its left.
+fn line_term(k: u32, r0: vec3<f32>, r1: vec3<f32>, r2: vec3<f32>, r3: vec3<f32>) -> f32 {
+    let l = region_line(k, r0, r1, r2, r3);
+    let nn = dot2(l.xy, l.xy);
+    let p0 = l.xy * (l.z / max(nn, 1e-30));
+    let u = vec2<f32>(l.y, -l.x) / sqrt(max(nn, 1e-30));
+    var st = vec2<f32>(-1e30, 1e30);
+    for (var j = 0u; j < 8u; j = j + 1u) {
+        st = clip_param(st, p0, u, region_line(j, r0, r1, r2, r3));
     }
-    return abs(0.5 * s);
+    return select(0.0, max(st.y - st.x, 0.0) * (p0.x * u.y - p0.y * u.x), nn > 0.0);
+}
+
+// Area of S whose board points lie in the rectangle [lo, hi] (board coordinates).
+fn rect_area(lo: vec2<f32>, hi: vec2<f32>, pc: vec3<f32>, ray: Ray) -> f32 {
+    let a = board_line(0u, lo.x, pc, ray);
+    let b = -board_line(0u, hi.x, pc, ray);
+    let c = board_line(1u, lo.y, pc, ray);
+    let d = -board_line(1u, hi.y, pc, ray);
+    var s = 0.0;
+    for (var k = 0u; k < 8u; k = k + 1u) {
+        s = s + line_term(k, a, b, c, d);
+    }
+    return clamp(0.5 * s, 0.0, 1.0);
 }
 
 // Twice the signed area between the chord e -> s of the unit circle and its arc, going round in
@@ -311,29 +306,31 @@ fn arc_term(e: vec2<f32>, s: vec2<f32>, sigma: f32) -> f32 {
     return cr + sigma * seg;
 }
 
-// Area of the convex polygon p inside the unit circle about the origin, from the boundary of the
-// intersection: the parts of p's edges inside the circle (shoelace terms) and, from each point
-// where the boundary leaves the circle to the point where it next enters, the arc (arc_term).
-fn unit_disc_area(p: Poly) -> f32 {
-    var signed = 0.0;
-    for (var i = 0u; i < p.n; i = i + 1u) {
-        let a = p.v[i];
-        let b = p.v[select(i + 1u, 0u, i + 1u == p.n)];
-        signed = signed + (a.x * b.y - a.y * b.x);
-    }
-    let sigma = select(-1.0, 1.0, signed >= 0.0);
+// Corner k (counter-clockwise) of S.
+fn square_corner(k: u32) -> vec2<f32> {
+    return vec2<f32>(select(-0.5, 0.5, k == 1u || k == 2u), select(-0.5, 0.5, k >= 2u));
+}
+
+// Area of S inside the unit circle after the affine map d -> m (d - o) (m upper triangular:
+// m.x, m.y first row, m.z second row's diagonal), in mapped units, from the boundary of the
+// intersection: the parts of S's mapped edges inside the circle (shoelace terms) and, from each
+// point where the boundary leaves the circle to the point where it next enters, the arc.
+fn unit_disc_area(o: vec2<f32>, m: vec3<f32>) -> f32 {
     var s = 0.0;
     var exit = vec2<f32>(0.0);
     var first_entry = vec2<f32>(0.0);
     var have_exit = false;
     var have_first = false;
     var crossings = 0u;
-    var origin_inside = p.n >= 3u;
-    for (var i = 0u; i < p.n; i = i + 1u) {
-        let a = p.v[i];
-        let b = p.v[select(i + 1u, 0u, i + 1u == p.n)];
+    var origin_inside = true;
+    let sigma = 1.0; // the map keeps orientation (positive diagonal)
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        let ea = square_corner(i) - o;
+        let eb = square_corner((i + 1u) & 3u) - o;
+        let a = vec2<f32>(m.x * ea.x + m.y * ea.y, m.z * ea.y);
+        let b = vec2<f32>(m.x * eb.x + m.y * eb.y, m.z * eb.y);
         let d = b - a;
-        origin_inside = origin_inside && sigma * (a.x * d.y - a.y * d.x) >= 0.0;
+        origin_inside = origin_inside && (a.x * d.y - a.y * d.x) >= 0.0;
         let qa = dot2(d, d);
         let qb = 2.0 * dot2(a, d);
         let qc = dot2(a, a) - 1.0;
@@ -358,12 +355,12 @@ fn unit_disc_area(p: Poly) -> f32 {
         }
     }
     if (have_exit && have_first) { s = s + arc_term(exit, first_entry, sigma); }
-    // No crossing and no edge inside: the circle is inside p, or they are apart.
+    // No crossing and no edge inside: the circle is inside S, or they are apart.
     let whole = crossings == 0u && s == 0.0 && origin_inside;
     return select(abs(0.5 * s), 3.14159265, whole);
 }
 
-// Most cells (chessboard squares, dot-grid discs) per axis the exact fine pass clips against;
+// Most cells (chessboard squares, dot-grid discs) per axis the exact fine pass handles;
 // larger footprints (squares or dots of about a pixel or less) are supersampled.
 const MAX_CELLS: f32 = 6.0;
 
@@ -404,8 +401,8 @@ fn chess_coarse(ray: Ray) -> Coarse {
 }
 
 // Chessboard, fine: the exact area of the pixel square whose board points fall in the margin, on
-// the board and in every dark square it meets (the board's lines clipped in pixel offsets, see
-// board_line); supersampled only when the pixel meets more than MAX_CELLS squares per axis.
+// the board and in every dark square it meets (rect_area); supersampled only when the pixel
+// meets more than MAX_CELLS squares per axis. One loop over the rectangles keeps the code small.
 fn chess_fine(ray: Ray) -> f32 {
     let pc = plane_point(ray.xu);
     let a = board_jacobian(pc, ray);
@@ -418,21 +415,26 @@ fn chess_fine(ray: Ray) -> f32 {
     let j0 = clamp(floor((pc.y - ey) / s), 0.0, P.board.y - 1.0);
     let j1 = clamp(floor((pc.y + ey) / s), 0.0, P.board.y - 1.0);
     let exact = i1 - i0 < MAX_CELLS && j1 - j0 < MAX_CELLS;
-    let px = footprint(mat2x2<f32>(vec2<f32>(1.0, 0.0), vec2<f32>(0.0, 1.0)));
-    let a_margin = poly_area(clip_board_rect(px, vec2<f32>(-m, -m), vec2<f32>(w + m, h + m), pc, ray));
-    let board = clip_board_rect(px, vec2<f32>(0.0, 0.0), vec2<f32>(w, h), pc, ray);
-    let a_board = poly_area(board);
-    let ni = select(0u, u32(i1 - i0) + 1u, exact);
-    let nj = select(0u, u32(j1 - j0) + 1u, exact);
-    var dark = 0.0;
-    for (var jj = 0u; jj < nj; jj = jj + 1u) {
-        for (var ii = 0u; ii < ni; ii = ii + 1u) {
-            let i = i0 + f32(ii);
-            let j = j0 + f32(jj);
-            if (((u32(i) + u32(j)) & 1u) == 0u) {
-                dark = dark + poly_area(clip_board_rect(board, vec2<f32>(i * s, j * s), vec2<f32>(i * s + s, j * s + s), pc, ray));
-            }
-        }
+    let ni = u32(i1 - i0) + 1u;
+    let cells = select(0u, ni * (u32(j1 - j0) + 1u), exact);
+    // Rectangle 0: the margin's outline; 1: the board; 2..: the squares (dark ones only).
+    var a_margin = 0.0; var a_board = 0.0; var dark = 0.0;
+    for (var k = 0u; k < 2u + cells; k = k + 1u) {
+        let c = k - 2u;
+        let i = i0 + f32(c % ni);
+        let j = j0 + f32(c / ni);
+        var lo = vec2<f32>(i * s, j * s);
+        var hi = lo + vec2<f32>(s, s);
+        lo = select(lo, vec2<f32>(0.0, 0.0), k == 1u);
+        hi = select(hi, vec2<f32>(w, h), k == 1u);
+        lo = select(lo, vec2<f32>(-m, -m), k == 0u);
+        hi = select(hi, vec2<f32>(w + m, h + m), k == 0u);
+        let is_dark = k < 2u || ((u32(i) + u32(j)) & 1u) == 0u;
+        var area = 0.0;
+        if (is_dark) { area = rect_area(lo, hi, pc, ray); }
+        a_margin = select(a_margin, area, k == 0u);
+        a_board = select(a_board, area, k == 1u);
+        dark = dark + select(0.0, area, k >= 2u);
     }
     let v = P.grey.w * (1.0 - a_margin) + P.grey.z * (a_margin - a_board) + P.grey.x * dark + P.grey.y * (a_board - dark);
     let sup = plane_supersample(ray, select(P.size.w, 0u, exact));
@@ -457,13 +459,13 @@ fn grid_coarse(ray: Ray) -> Coarse {
     return out;
 }
 
-// Area of the pixel offsets p whose board point lies in the disc of radius r, where u0 is the
-// pixel centre's board point minus the disc's centre, a = board_jacobian and g the gradient of the
-// homography's w over the pixel divided by w: the board point of offset d is
-// u0 + (a + u0 g^T) d over (1 + g.d) (exact under the homography), so the disc is the ellipse
-// |u0 + M d|^2 <= r^2 (1 + g.d)^2 in offsets. It is mapped onto the unit circle and intersected
-// there. Negative when the conic is no ellipse (then the pixel is supersampled).
-fn disc_in_pixels(p: Poly, u0: vec2<f32>, a: mat2x2<f32>, g: vec2<f32>, r: f32) -> f32 {
+// Area of S whose board points lie in the disc of radius r, where u0 is the pixel centre's board
+// point minus the disc's centre, a = board_jacobian and g the gradient of the homography's w over
+// the pixel divided by w: the board point of offset d is (u0 + (a + u0 g^T) d) / (1 + g.d) (exact
+// under the homography), so the disc is the ellipse |u0 + M d|^2 <= r^2 (1 + g.d)^2 in offsets,
+// mapped here onto the unit circle (unit_disc_area). Negative when the conic is no ellipse (then
+// the pixel is supersampled).
+fn disc_in_pixels(u0: vec2<f32>, a: mat2x2<f32>, g: vec2<f32>, r: f32) -> f32 {
     let m0 = a[0] + u0 * g.x;
     let m1 = a[1] + u0 * g.y;
     let r2 = r * r;
@@ -475,23 +477,18 @@ fn disc_in_pixels(p: Poly, u0: vec2<f32>, a: mat2x2<f32>, g: vec2<f32>, r: f32) 
     let c = (lu - r) * (lu + r);
     let det = q00 * q11 - q01 * q01;
     if (!(det > 0.0 && q00 > 0.0)) { return -1.0; }
+    // Centre -qb, then (d + qb)^T Q (d + qb) <= k; Q / k = L^T L with L upper triangular.
     let qb = vec2<f32>(q11 * b.x - q01 * b.y, q00 * b.y - q01 * b.x) / det;
     let k = dot2(b, qb) - c;
     if (!(k > 0.0)) { return 0.0; }
     let l11 = sqrt(q00 / k);
     let l12 = q01 / (k * l11);
     let l22 = sqrt(max(q11 / k - l12 * l12, 1e-30));
-    var v: Poly;
-    v.n = p.n;
-    for (var i = 0u; i < p.n; i = i + 1u) {
-        let e = p.v[i] + qb;
-        v.v[i] = vec2<f32>(l11 * e.x + l12 * e.y, l22 * e.y);
-    }
-    return unit_disc_area(v) / (l11 * l22);
+    return unit_disc_area(-qb, vec3<f32>(l11, l12, l22)) / (l11 * l22);
 }
 
 // Dot grid, fine: the exact area of the pixel square whose board points fall on the plate
-// (board_line) and in every disc within reach (disc_in_pixels); supersampled only when more than
+// (rect_area) and in every disc within reach (disc_in_pixels); supersampled only when more than
 // MAX_CELLS discs per axis are in reach.
 fn grid_fine(ray: Ray) -> f32 {
     let pc = plane_point(ray.xu);
@@ -506,16 +503,15 @@ fn grid_fine(ray: Ray) -> f32 {
     let j1 = clamp(floor((pc.y + ey + hh + rad) / pitch), 0.0, n - 1.0);
     var exact = i1 - i0 < MAX_CELLS && j1 - j0 < MAX_CELLS && pc.z > 0.0;
     let g = vec2<f32>(dot2(P.h2.xy, ray.dxu_dq[0]), dot2(P.h2.xy, ray.dxu_dq[1])) / pc.z;
-    let px = footprint(mat2x2<f32>(vec2<f32>(1.0, 0.0), vec2<f32>(0.0, 1.0)));
-    let plate = clip_board_rect(px, vec2<f32>(-outer, -outer), vec2<f32>(outer, outer), pc, ray);
-    let a_plate = poly_area(plate);
+    let a_plate = rect_area(vec2<f32>(-outer, -outer), vec2<f32>(outer, outer), pc, ray);
     let ni = select(0u, u32(max(i1 - i0 + 1.0, 0.0)), exact);
     let nj = select(0u, u32(max(j1 - j0 + 1.0, 0.0)), exact);
     var dark = 0.0;
     for (var jj = 0u; jj < nj; jj = jj + 1u) {
         for (var ii = 0u; ii < ni; ii = ii + 1u) {
             let c = vec2<f32>(pitch * (i0 + f32(ii)) - hh, pitch * (j0 + f32(jj)) - hh);
-            let area = disc_in_pixels(plate, pc.xy - c, a, g, rad);
+            // Discs lie inside the plate (margin_m >= dot_radius_m is validated).
+            let area = disc_in_pixels(pc.xy - c, a, g, rad);
             exact = exact && area >= 0.0;
             dark = dark + max(area, 0.0);
         }

@@ -18,10 +18,8 @@ pub fn encode_png(img: &GreyImage) -> Result<Vec<u8>, DatasetError> {
     let enc = image::codecs::png::PngEncoder::new_with_quality(&mut out, image::codecs::png::CompressionType::Fast, image::codecs::png::FilterType::Adaptive);
     let res = match img {
         GreyImage::U8(i) => enc.write_image(i.as_raw(), i.width(), i.height(), image::ExtendedColorType::L8),
-        GreyImage::U16(i) => {
-            let bytes: Vec<u8> = i.as_raw().iter().flat_map(|v| v.to_be_bytes()).collect();
-            enc.write_image(&bytes, i.width(), i.height(), image::ExtendedColorType::L16)
-        }
+        // The encoder takes 16-bit samples in native byte order and writes PNG's big-endian.
+        GreyImage::U16(i) => enc.write_image(bytemuck::cast_slice(i.as_raw()), i.width(), i.height(), image::ExtendedColorType::L16),
     };
     res.map_err(|e| DatasetError::Encode(e.to_string()))?;
     Ok(out)
@@ -101,4 +99,20 @@ pub fn load_grey_u8(path: &Path) -> Result<crate::detect::ImageU8, DatasetError>
     let grey = img.decode().map_err(|e| err(e.to_string()))?.to_luma8();
     let (w, h) = grey.dimensions();
     crate::detect::ImageU8::new(w as usize, h as usize, grey.into_raw()).map_err(|e| err(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sixteen_bit_png_keeps_its_values() {
+        // 0x0102 and 0xfe01 read back byte-swapped (0x0201, 0x01fe) when the encoder is given
+        // big-endian bytes on a little-endian machine.
+        let raw: Vec<u16> = vec![0x0102, 0xfe01, 0, 65535, 257 * 110, 12345];
+        let img = GreyImage::U16(image::ImageBuffer::from_raw(3, 2, raw.clone()).expect("size"));
+        let png = encode_png(&img).expect("encode");
+        let back = image::load_from_memory(&png).expect("decode").into_luma16();
+        assert_eq!(back.into_raw(), raw);
+    }
 }

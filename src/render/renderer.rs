@@ -6,7 +6,7 @@
 //! closed-form coverage; the *fine* pass runs one invocation per flagged pixel. Values come back
 //! in work-list order and the CPU scatters them into the image.
 
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use super::context::GpuContext;
 use super::gpu_scene::{gpu_scene, GpuScene, TileCornerRays, TILE_PX};
@@ -59,10 +59,15 @@ struct Buffers {
 }
 
 /// A GPU renderer bound to one device. Safe to share between threads (frames are serialised).
+///
+/// Pipelines are compiled on first use: a process that renders one chessboard compiles the
+/// chessboard's two entry points, not all seven (on lavapipe each costs LLVM time at start-up).
 #[derive(Debug)]
 pub struct Renderer {
     ctx: GpuContext,
-    pipelines: Vec<[wgpu::ComputePipeline; 2]>,
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    pipelines: [[OnceLock<wgpu::ComputePipeline>; 2]; 4],
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     buffers: Mutex<Buffers>,
@@ -112,28 +117,40 @@ impl Renderer {
         });
         let pipeline_layout =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("synthcam"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
-        let pipelines = ENTRY_POINTS
-            .iter()
-            .map(|pair| {
-                pair.map(|entry| {
-                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(entry),
-                        layout: Some(&pipeline_layout),
-                        module: &module,
-                        entry_point: Some(entry),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    })
-                })
-            })
-            .collect();
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("params"),
             size: std::mem::size_of::<super::uniforms::Params>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        Self { ctx, pipelines, layout, uniform, buffers: Mutex::new(Buffers::default()), corner_rays: Mutex::new(None) }
+        Self {
+            ctx,
+            module,
+            pipeline_layout,
+            pipelines: Default::default(),
+            layout,
+            uniform,
+            buffers: Mutex::new(Buffers::default()),
+            corner_rays: Mutex::new(None),
+        }
+    }
+
+    /// The pipeline of pass `kind` (coarse or fine), compiled on first use.
+    fn pipeline(&self, kind: usize, fine: bool) -> &wgpu::ComputePipeline {
+        self.pipelines[kind][usize::from(fine)].get_or_init(|| {
+            let entry = ENTRY_POINTS[kind][usize::from(fine)];
+            let t0 = std::time::Instant::now();
+            let p = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&self.pipeline_layout),
+                module: &self.module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            log::debug!("pipeline {entry} compiled in {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+            p
+        })
     }
 
     /// The device this renderer runs on.
@@ -197,7 +214,7 @@ impl Renderer {
         let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render") });
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(if fine { "fine" } else { "coarse" }), timestamp_writes: None });
-            pass.set_pipeline(&self.pipelines[kind][usize::from(fine)]);
+            pass.set_pipeline(self.pipeline(kind, fine));
             pass.set_bind_group(0, &bind, &[]);
             let (gx, gy) = grid(groups);
             pass.dispatch_workgroups(gx, gy, 1);

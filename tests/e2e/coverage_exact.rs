@@ -4,7 +4,7 @@
 //! all four quadrants, tilted up to 70 degrees about any in-plane axis, squares and dots of 6 to
 //! 200 px, distortion on and off, boards cut by the image border. Each GPU render before
 //! quantisation is compared, pixel by pixel, with `scene::exact::render_exact_planar` (polygon
-//! clipping of exact 1/4-pixel footprints, written apart from the shader). Gate: max |diff|
+//! clipping of exact 1/8-pixel footprints, written apart from the shader). Gate: max |diff|
 //! <= 0.25 grey levels on every pixel (the issue asks 0.5), reported per coverage path (what
 //! crosses the pixel). Before the exact paths: 14.6 grey levels at rolled X-junctions.
 
@@ -21,7 +21,7 @@ use crate::common::renderer;
 /// The issue's gate is 0.5 grey levels; measured max 0.08 on lavapipe (LLVM 15), so 0.25 leaves
 /// room for other LLVM versions' f32 rounding while still catching any coverage-path error.
 const GATE: f64 = 0.25;
-const SUBDIVISIONS: u32 = 4;
+const SUBDIVISIONS: u32 = 8;
 
 /// A camera whose whole image stays well inside the lens model's fold (the renderer and the
 /// reference treat rays beyond it alike, as background, but not pixels straddling it).
@@ -208,18 +208,23 @@ fn every_pixel_matches_the_exact_box_filter() {
 
 #[test]
 fn exact_reference_has_converged() {
-    // The reference's only approximation is a straight footprint per sub-square; 4 vs 8
-    // subdivisions must agree far inside the gate.
-    let mut rng = ChaCha8Rng::seed_from_u64(1414);
-    for chess in [true, false] {
-        let mut scene = random_scene(&mut rng, chess);
+    // The reference's only approximation is a uniform image-to-plane density within each
+    // sub-square (its error falls as 1 / subdivisions); 8 (the property test's) vs 16
+    // subdivisions must agree far inside the gate. Scenes 16 (chessboard) and 25 (dot grid) of
+    // the property test: the ones with its largest differences.
+    let mut rng = ChaCha8Rng::seed_from_u64(14);
+    let scenes: Vec<Scene> = (0..26).map(|k| random_scene(&mut rng, k % 2 == 0)).collect();
+    for k in [16, 25] {
+        // The central 160 x 128 window (the principal point moves with the crop).
+        let mut scene = scenes[k].clone();
+        let (w, h) = (scene.camera.size.width, scene.camera.size.height);
         scene.camera.size = ImageSize { width: 160, height: 128 };
-        scene.camera.intrinsics.cx = 79.5;
-        scene.camera.intrinsics.cy = 63.5;
-        let a = render_exact_planar(&scene, 4).expect("exact");
-        let b = render_exact_planar(&scene, 8).expect("exact");
+        scene.camera.intrinsics.cx -= f64::from((w - 160) / 2);
+        scene.camera.intrinsics.cy -= f64::from((h - 128) / 2);
+        let a = render_exact_planar(&scene, SUBDIVISIONS).expect("exact");
+        let b = render_exact_planar(&scene, 2 * SUBDIVISIONS).expect("exact");
         let max = a.iter().zip(&b).filter_map(|(x, y)| Some((x.as_ref()? - y.as_ref()?).abs())).fold(0.0, f64::max);
-        eprintln!("{}: 4 vs 8 subdivisions max |diff| {max:.2e} grey levels", scene.target.kind_name());
+        eprintln!("scene {k} ({}): {SUBDIVISIONS} vs {} subdivisions max |diff| {max:.2e} grey levels", scenes[k].target.kind_name(), 2 * SUBDIVISIONS);
         assert!(max < 0.02, "{max}");
     }
 }
