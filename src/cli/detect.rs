@@ -49,6 +49,15 @@ struct ImageResult {
     points_px: Vec<[f64; 2]>,
     #[serde(skip_serializing_if = "Option::is_none")]
     indices: Option<Vec<usize>>,
+    /// S-path: each dot's residual against the fit of the whole nominal path, px.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    path_residuals_px: Option<Vec<[f64; 2]>>,
+    /// S-path: each dot's apparent deviation from its nominal place on the target, mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    path_deviation_mm: Option<Vec<f64>>,
+    /// S-path: RMS of `path_residuals_px`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    path_residual_rms_px: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     time_ms: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -116,6 +125,9 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
                     found: false,
                     points_px: Vec::new(),
                     indices: None,
+                    path_residuals_px: None,
+                    path_deviation_mm: None,
+                    path_residual_rms_px: None,
                     time_ms: None,
                     note: None,
                     error: Some(e.to_string()),
@@ -158,6 +170,12 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
             found: det.found,
             points_px: det.points_px.iter().map(|p| [p.x, p.y]).collect(),
             indices: det.indices,
+            path_residuals_px: det.path_residuals.as_ref().map(|r| r.iter().map(|p| [p.residual_px.x, p.residual_px.y]).collect()),
+            path_deviation_mm: det.path_residuals.as_ref().map(|r| r.iter().map(|p| 1e3 * p.deviation_m).collect()),
+            path_residual_rms_px: det
+                .path_residuals
+                .as_ref()
+                .map(|r| (r.iter().map(|p| p.residual_px.norm_squared()).sum::<f64>() / r.len().max(1) as f64).sqrt()),
             time_ms: Some(time_ms),
             note: det.note,
             error: None,

@@ -352,30 +352,43 @@ const SMALL_BLOB_PX: f64 = 20.0;
 /// Largest deviation of a small blob's residual from its neighbours', pixels.
 const SMALL_BLOB_DEVIATION_PX: f64 = 0.6;
 
+/// A residual's jump is an outlier beyond this many robust standard deviations of all jumps.
+const JUMP_SIGMAS: f64 = 4.0;
+
 /// Drop matches whose reprojection residual differs from the median residual of their path
 /// neighbours (up to 3 indices either side) by more than `max_px` (small blobs: see
 /// [`SMALL_BLOB_DEVIATION_PX`]). The residuals of good dots vary smoothly along the path (the
 /// blob-centroid bias of beads, lens distortion); a blob that lost part of itself (a sliver
-/// along the outline) jumps.
+/// along the outline) jumps. On a target whose dots stray from the nominal path (painted or
+/// glued by hand) every residual jumps: the bound widens to [`JUMP_SIGMAS`] robust standard
+/// deviations (1.4826 median absolute jumps) of all the jumps.
 fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px: f64) -> Vec<(usize, usize)> {
     let (world, image) = correspondences(&labels, dots, path);
     let Some(dlt) = Dlt::fit(&world, &image) else { return labels };
     let residual: Vec<Option<nalgebra::Vector2<f64>>> = world.iter().zip(&image).map(|(x, u)| dlt.project(x).map(|q| u - q)).collect();
-    let keep: Vec<bool> = (0..labels.len())
+    // Each residual's jump against its path neighbours' median (None: behind the camera; 0 with
+    // fewer than two neighbours, which are always kept).
+    let jumps: Vec<Option<f64>> = (0..labels.len())
         .map(|k| {
-            let Some(r) = residual[k] else { return false };
+            let r = residual[k]?;
             let near: Vec<nalgebra::Vector2<f64>> =
                 (0..labels.len()).filter(|&m| m != k && labels[m].0.abs_diff(labels[k].0) <= 3).filter_map(|m| residual[m]).collect();
             if near.len() < 2 {
-                return true;
+                return Some(0.0);
             }
             let med = |f: fn(&nalgebra::Vector2<f64>) -> f64| median_by(&mut near.iter().map(f).collect::<Vec<_>>(), f64::total_cmp).unwrap_or(0.0);
-            let m = nalgebra::Vector2::new(med(|v| v.x), med(|v| v.y));
-            // Small blobs (slivers, far dots) carry little centroid bias: a tighter bound.
-            let bound = if dots[labels[k].1].area_px < SMALL_BLOB_PX { SMALL_BLOB_DEVIATION_PX.min(max_px) } else { max_px };
-            (r - m).norm() <= bound
+            Some((r - nalgebra::Vector2::new(med(|v| v.x), med(|v| v.y))).norm())
         })
         .collect();
+    let sigma = 1.4826 * median_by(&mut jumps.iter().flatten().copied().collect::<Vec<_>>(), f64::total_cmp).unwrap_or(0.0);
+    let spread = JUMP_SIGMAS * sigma;
+    log::debug!("s-path residual jumps: robust sigma {sigma:.3} px");
+    let keep = jumps.iter().zip(&labels).map(|(jump, &(_, j))| {
+        // Small blobs (slivers, far dots) carry little centroid bias: a tighter bound.
+        let base = if dots[j].area_px < SMALL_BLOB_PX { SMALL_BLOB_DEVIATION_PX.min(max_px) } else { max_px };
+        jump.is_some_and(|d| d <= base.max(spread))
+    });
+    let keep: Vec<bool> = keep.collect();
     labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
 }
 
@@ -427,6 +440,52 @@ pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Resu
     Ok(indexed(dots, &labels))
 }
 
+/// One indexed dot's residual against the whole path's fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathResidual {
+    /// Detected centre minus the projection of the dot's nominal path point by the projective
+    /// camera (DLT) fitted to all the indexed dots, pixels.
+    pub residual_px: nalgebra::Vector2<f64>,
+    /// The residual's length turned into metres on the target with the local scale along the
+    /// path (projected over nominal spacing of the path neighbours): how far the dot seems to
+    /// stray from its nominal place.
+    pub deviation_m: f64,
+}
+
+/// Residuals of the indexed dots against the DLT fitted to all of them: how far each dot sits
+/// from where the nominal path puts it (a hand-painted or glued target strays by millimetres).
+/// Bead centroids carry the bead's own offset from its path point (about 1.4 px at the course's
+/// pose, see the README), lens distortion a smooth part. `None` with fewer than 6 dots or a
+/// degenerate fit.
+pub fn path_residuals(ordered: &[IndexedDot], path: &SPath) -> Option<Vec<PathResidual>> {
+    let valid: Vec<&IndexedDot> = ordered.iter().filter(|d| d.index < path.len()).collect();
+    if valid.len() != ordered.len() {
+        return None;
+    }
+    let world: Vec<Point3<f64>> = valid.iter().map(|d| path.points_m[d.index]).collect();
+    let image: Vec<Point2<f64>> = valid.iter().map(|d| d.centre_px).collect();
+    let dlt = Dlt::fit(&world, &image)?;
+    valid
+        .iter()
+        .map(|d| {
+            let q = dlt.project(&path.points_m[d.index])?;
+            let scales: Vec<f64> = [d.index.checked_sub(1), Some(d.index + 1)]
+                .into_iter()
+                .flatten()
+                .filter(|&k| k < path.len())
+                .filter_map(|k| {
+                    let world_m = (path.points_m[k] - path.points_m[d.index]).norm();
+                    Some((dlt.project(&path.points_m[k])? - q).norm() / world_m)
+                })
+                .filter(|s| s.is_finite() && *s > 0.0)
+                .collect();
+            let px_per_m = scales.iter().sum::<f64>() / scales.len().max(1) as f64;
+            let residual_px = d.centre_px - q;
+            Some(PathResidual { residual_px, deviation_m: if px_per_m > 0.0 { residual_px.norm() / px_per_m } else { f64::NAN } })
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -465,6 +524,22 @@ mod tests {
         // The camera centre: world (1.8, 0, 0.55).
         let c = dlt.centre().unwrap();
         assert!((c - Point3::new(1.8, 0.0, 0.55)).norm() < 1e-6, "{c}");
+    }
+
+    #[test]
+    fn path_residuals_find_the_dot_that_strays() {
+        // Every visible dot at its projection, dot 50 moved 3 px across the path: its residual is
+        // the 3 px (the fit spreads a little of it), its deviation 3 px over the local scale.
+        let (path, pts) = projected();
+        let mut ordered: Vec<IndexedDot> = pts.iter().enumerate().filter_map(|(i, p)| p.map(|c| IndexedDot { index: i, centre_px: c })).collect();
+        let k = ordered.iter().position(|d| d.index == 50).unwrap();
+        ordered[k].centre_px += nalgebra::Vector2::new(0.0, 3.0);
+        let r = path_residuals(&ordered, &path).unwrap();
+        assert!((r[k].residual_px.norm() - 3.0).abs() < 0.15, "{:?}", r[k]);
+        let others = r.iter().enumerate().filter(|(m, _)| *m != k).map(|(_, p)| p.residual_px.norm()).fold(0.0, f64::max);
+        assert!(others < 0.3, "{others}");
+        let scale = (pts[51].unwrap() - pts[50].unwrap()).norm() / (path.points_m[51] - path.points_m[50]).norm();
+        assert!((r[k].deviation_m * scale / 3.0 - 1.0).abs() < 0.2, "{} m at {scale} px/m", r[k].deviation_m);
     }
 
     #[test]

@@ -183,6 +183,21 @@ pub fn anonymous_chains(dots: &[Dot], tolerance: f64, points: usize, min_len: us
 /// # Errors
 /// As [`order_s_path`].
 pub fn start_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i64, usize)>, DetectError> {
+    let chain = start_dot_chain(dots, params)?;
+    let need = params.needed(dots.len());
+    if chain.len() < need {
+        return Err(DetectError::NotFound {
+            reason: format!("the chain from the start dot holds {} of {} dots (at least {need} needed)", chain.len(), dots.len()),
+        });
+    }
+    Ok(chain)
+}
+
+/// The chain grown from the start dot, however short: (path index, dot) pairs in path order.
+///
+/// # Errors
+/// [`DetectError::NotFound`] when fewer than 3 dots are given or no dot is recognised as the start.
+pub fn start_dot_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i64, usize)>, DetectError> {
     if dots.len() < 3 {
         return Err(DetectError::NotFound { reason: format!("{} dots, at least 3 needed to order a path", dots.len()) });
     }
@@ -201,12 +216,6 @@ pub fn start_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i64, 
     used[second] = true;
     let mut chain = vec![(0, start), (1, second)];
     grow_chain(dots, &mut used, &mut chain, params.tolerance, params.points as i64);
-    let need = params.needed(dots.len());
-    if chain.len() < need {
-        return Err(DetectError::NotFound {
-            reason: format!("the chain from the start dot holds {} of {} dots (at least {need} needed)", chain.len(), dots.len()),
-        });
-    }
     Ok(chain)
 }
 

@@ -8,7 +8,7 @@ use nalgebra::Point2;
 use super::chessboard::{find_chessboard, find_chessboard_u8, ChessboardCorners, ChessboardParams};
 use super::dots::{find_dots, DotParams};
 use super::grid_order::order_grid;
-use super::s_path_fit::{index_s_path, SPathFitParams};
+use super::s_path_fit::{index_s_path, path_residuals, PathResidual, SPathFitParams};
 use super::{DetectError, ImageF32, ImageU8};
 use crate::target::s_path::{build_s_path, course_planar_s};
 use crate::target::{course_s_path, SPath};
@@ -70,6 +70,9 @@ pub struct Detection {
     pub points_px: Vec<Point2<f64>>,
     /// S-path: the path index of each point.
     pub indices: Option<Vec<usize>>,
+    /// S-path: each point's residual against the fit of the whole nominal path
+    /// ([`super::s_path_fit::path_residuals`]).
+    pub path_residuals: Option<Vec<PathResidual>>,
     /// Why it was not found, when it was not.
     pub note: Option<String>,
 }
@@ -98,6 +101,7 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
                     found: true,
                     points_px: ordered.iter().map(|d| d.centre_px).collect(),
                     indices: Some(ordered.iter().map(|d| d.index).collect()),
+                    path_residuals: path_residuals(&ordered, &path),
                     note: None,
                 }),
                 Err(DetectError::NotFound { reason }) => Ok(Detection { note: Some(reason), ..Default::default() }),

@@ -38,6 +38,13 @@ fn s_path_render_is_detected_in_order_and_bad_files_are_reported() {
     assert_eq!(good["points_px"].as_array().map(Vec::len), Some(101));
     let idx: Vec<u64> = good["indices"].as_array().expect("indices").iter().filter_map(|x| x.as_u64()).collect();
     assert_eq!(idx, (0..101).collect::<Vec<u64>>());
+    // The nominal target's dots sit on the nominal path: only the beads' own centroid offsets
+    // (about 1.4 px at this pose, mostly absorbed by the fit: 0.135 px RMS, 1.6 mm at most).
+    let dev: Vec<f64> = good["path_deviation_mm"].as_array().expect("deviations").iter().filter_map(serde_json::Value::as_f64).collect();
+    assert_eq!(dev.len(), 101);
+    let rms = good["path_residual_rms_px"].as_f64().expect("rms");
+    eprintln!("path residual RMS {rms:.3} px, largest apparent deviation {:.2} mm", dev.iter().fold(0.0f64, |a, b| a.max(*b)));
+    assert!(rms < 0.5 && dev.iter().all(|d| *d < 3.0), "{rms} {dev:?}");
     for bad in ["truncated.png", "garbage.jpg"] {
         let e = images.iter().find(|i| i["file"] == bad).expect("entry");
         assert_eq!(e["found"], false);
