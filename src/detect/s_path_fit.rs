@@ -30,7 +30,7 @@ use nalgebra::{Matrix3x4, Matrix4, Point2, Point3, SMatrix, SymmetricEigen, Vect
 
 use super::dots::Dot;
 use super::filters::median_by;
-use super::s_path_order::{anonymous_chains, indexed, start_chain, IndexedDot, SPathOrderParams};
+use super::s_path_order::{anonymous_chains, indexed, start_chain, start_dot_chain, IndexedDot, SPathOrderParams, MAX_SKIP};
 use super::DetectError;
 use crate::target::SPath;
 
@@ -111,6 +111,22 @@ impl Dlt {
             p = -p;
         }
         p.iter().all(|v| v.is_finite()).then_some(Self { p })
+    }
+
+    /// Fit, then refit to the [`TRIM_KEEP`] share of the pairs it fits best: a few mislabelled
+    /// dots (a skip miscounted where dots stray from the nominal curve) then cannot drag the
+    /// camera, and the matching that follows relabels them.
+    fn fit_trimmed(world: &[Point3<f64>], image: &[Point2<f64>]) -> Option<Self> {
+        let dlt = Self::fit(world, image)?;
+        let keep = ((TRIM_KEEP * world.len() as f64).ceil() as usize).max(12);
+        if keep >= world.len() {
+            return Some(dlt);
+        }
+        let mut err: Vec<(f64, usize)> =
+            world.iter().zip(image).enumerate().map(|(k, (x, u))| (dlt.project(x).map_or(f64::INFINITY, |q| (q - u).norm()), k)).collect();
+        err.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (w, i): (Vec<Point3<f64>>, Vec<Point2<f64>>) = err[..keep].iter().map(|&(_, k)| (world[k], image[k])).unzip();
+        Self::fit(&w, &i).or(Some(dlt))
     }
 
     fn project(&self, x: &Point3<f64>) -> Option<Point2<f64>> {
@@ -270,11 +286,14 @@ fn match_projection(dlt: &Dlt, dots: &[Dot], path: &SPath, fraction: f64) -> Vec
     out
 }
 
-/// Fit to labelled pairs, then alternate projection matching and refitting until stable.
+/// Share of the labelled pairs [`Dlt::fit_trimmed`] refits to.
+const TRIM_KEEP: f64 = 0.8;
+
+/// Fit to labelled pairs (trimmed), then alternate projection matching and refitting until stable.
 fn grow(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
     for _ in 0..6 {
         let (world, image) = correspondences(&labels, dots, path);
-        let Some(dlt) = Dlt::fit(&world, &image) else { break };
+        let Some(dlt) = Dlt::fit_trimmed(&world, &image) else { break };
         let next = match_projection(&dlt, dots, path, params.match_fraction);
         if next.len() < labels.len() || next == labels {
             break;
@@ -409,6 +428,31 @@ fn drop_merged(dots: &[Dot], labels: Vec<(usize, usize)>, start_ratio: f64) -> V
     labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
 }
 
+/// Start dots recognised at this share of `start_area_ratio` are tried last: at the course's
+/// distances a 10 mm cap covers only about 1.7 times the area of its 6 mm neighbours.
+const RELAXED_START: f64 = 0.8;
+
+/// The last resort before giving up: the chain from the start dot, however short of the whole
+/// path, with the start dot recognised at [`RELAXED_START`] of the usual area ratio. Where dots
+/// stray from the nominal path, a jittered chain's labellings all fit about equally (a projective
+/// camera absorbs a shift along a smooth curve), and the start dot is what fixes them; the chain
+/// stops where the curve-following growth loses the jittered dots, the projection does the rest.
+fn relaxed_start_seed(dots: &[Dot], order: &SPathOrderParams, params: &SPathFitParams) -> Option<Labels> {
+    let relaxed = SPathOrderParams { start_area_ratio: RELAXED_START * order.start_area_ratio, ..*order };
+    let chain = start_dot_chain(dots, &relaxed).ok().filter(|c| c.len() >= params.min_seed)?;
+    log::debug!("s-path relaxed start chain: {} dots", chain.len());
+    Some(chain.iter().map(|&(i, j)| (i as usize, j)).collect())
+}
+
+/// Is the labelling free of index gaps longer than [`MAX_SKIP`]? A fallback labelling from the
+/// start dot alone is trusted only then: where dots stray far from the nominal curve, the far
+/// part of the path can be placed one index off beyond a stretch it failed to match.
+fn without_gaps(labels: &[(usize, usize)]) -> bool {
+    let mut idx: Vec<usize> = labels.iter().map(|l| l.0).collect();
+    idx.sort_unstable();
+    idx.windows(2).all(|w| w[1] - w[0] <= MAX_SKIP)
+}
+
 /// Index the S-path's dots: the start chain or a labelled chain, grown by projecting the known
 /// path (see the module docs).
 ///
@@ -417,23 +461,33 @@ fn drop_merged(dots: &[Dot], labels: Vec<(usize, usize)>, start_ratio: f64) -> V
 /// holds too few of the detected dots.
 pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Vec<IndexedDot>, DetectError> {
     let order = SPathOrderParams { points: path.len(), ..params.order };
-    let start = start_chain(dots, &order);
-    // Chain indices from the start dot are 0 and up.
-    let mut seed: Option<Labels> = start.as_ref().ok().filter(|c| c.len() >= params.min_seed).map(|c| c.iter().map(|&(i, j)| (i as usize, j)).collect());
-    if seed.is_none() {
-        let chains = anonymous_chains(dots, order.tolerance, path.len(), params.min_seed);
-        seed = chains.iter().find_map(|c| label_chain(c, dots, path, params)).or_else(|| search_windows(&chains, dots, path, params));
-    }
-    let Some(seed) = seed else {
-        return match start {
-            // A short start chain is all there is: keep the old behaviour.
-            Ok(chain) => Ok(indexed(dots, &chain)),
-            Err(_) => Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) }),
-        };
-    };
-    let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
-    let labels = drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px);
     let need = order.needed(dots.len());
+    let place = |seed: Labels| {
+        let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
+        drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px)
+    };
+    // Chain indices from the start dot are 0 and up.
+    let start: Option<Labels> =
+        start_chain(dots, &order).ok().filter(|c| c.len() >= params.min_seed).map(|c| c.iter().map(|&(i, j)| (i as usize, j)).collect());
+    let labels = match start {
+        Some(seed) => Some(place(seed)),
+        None => {
+            let chains = anonymous_chains(dots, order.tolerance, path.len(), params.min_seed);
+            let by_shape = chains.iter().find_map(|c| label_chain(c, dots, path, params)).or_else(|| search_windows(&chains, dots, path, params)).map(place);
+            match by_shape {
+                Some(l) if l.len() >= need => Some(l),
+                // Where the shape fell short, the start dot's own chain competes (see
+                // relaxed_start_seed); the labelling placing more dots wins.
+                short => match (short, relaxed_start_seed(dots, &order, params).map(place).filter(|l| without_gaps(l))) {
+                    (Some(a), Some(b)) => Some(if b.len() > a.len() { b } else { a }),
+                    (a, b) => a.or(b),
+                },
+            }
+        }
+    };
+    let Some(labels) = labels else {
+        return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
+    };
     if labels.len() < need {
         return Err(DetectError::NotFound { reason: format!("{} of {} dots placed on the S-path (at least {need} needed)", labels.len(), dots.len()) });
     }
@@ -554,6 +608,47 @@ mod tests {
         assert_eq!(idx, (8..101).filter(|i| !(40..45).contains(i)).collect::<Vec<_>>());
         for d in &out {
             assert!((d.centre_px - pts[d.index].unwrap()).norm() < 1e-9);
+        }
+    }
+
+    /// The course view with every dot moved on the sphere by up to `dev_m` (uniform in a disc,
+    /// seeded), the start dot 10/6 times larger in radius than the others.
+    fn jittered(dev_m: f64, seed: u64) -> (SPath, Vec<Dot>, Vec<Point2<f64>>) {
+        use rand::{Rng, SeedableRng};
+        let (path, _) = projected();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let r = nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, 1.0, -1.0, 0.0, 0.0));
+        let cam_from_world = Isometry3::from_parts(Translation3::new(0.0, -0.55, 1.8), UnitQuaternion::from_rotation_matrix(&r));
+        let mut image = Vec::new();
+        for (i, x) in path.points_m.iter().enumerate() {
+            let n = path.normal_at(i);
+            let t1 = n.cross(&Vector3::z()).normalize();
+            let t2 = n.cross(&t1);
+            let (rad, ang) = (dev_m * rng.random::<f64>().sqrt(), rng.random_range(0.0..std::f64::consts::TAU));
+            let c = cam_from_world * (x + t1 * rad * ang.cos() + t2 * rad * ang.sin());
+            image.push(Point2::new(640.0 + 1500.0 * c.x / c.z, 512.0 + 1500.0 * c.y / c.z));
+        }
+        let dots = image.iter().enumerate().map(|(i, p)| dot(*p, if i == 0 { 30.0 * (10.0f64 / 6.0).powi(2) } else { 30.0 })).collect();
+        (path, dots, image)
+    }
+
+    #[test]
+    fn dots_straying_from_the_nominal_path_keep_their_indices() {
+        // 2 mm (about 1.7 px here, 8 % of the dot spacing): every seed fully and rightly indexed.
+        // (At 5 mm most views are not found: see the README; none is mis-indexed.)
+        for seed in 0..10 {
+            let (path, dots, image) = jittered(0.002, seed);
+            let out = index_s_path(&dots, &path, &SPathFitParams::default()).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+            assert_eq!(out.len(), 101, "seed {seed}");
+            for d in &out {
+                assert!((d.centre_px - image[d.index]).norm() < 1e-9, "seed {seed}: index {}", d.index);
+            }
+        }
+        for seed in 0..10 {
+            let (path, dots, image) = jittered(0.005, seed);
+            if let Ok(out) = index_s_path(&dots, &path, &SPathFitParams::default()) {
+                assert!(out.iter().all(|d| (d.centre_px - image[d.index]).norm() < 1e-9), "5 mm, seed {seed}: a dot mis-indexed");
+            }
         }
     }
 

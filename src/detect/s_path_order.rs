@@ -122,7 +122,11 @@ pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>
                 pred += s;
             }
             if let Some((j, dist)) = nearest_unused(pred, used) {
-                if apart(j) && dist <= tolerance * step_len * skip as f64 + 1.0 {
+                // A dot taken `skip` steps on must lie about that far from the last one: where
+                // dots stray from the curve, the next dot itself can fall within the widened
+                // radius of a two-step prediction, and the chain would miscount from there on.
+                let far_enough = (dots[j].centre_px - cur).norm() >= (skip as f64 - 0.5) * step_len;
+                if apart(j) && far_enough && dist <= tolerance * step_len * skip as f64 + 1.0 {
                     found = Some((j, i_cur + skip as i64));
                     break;
                 }
