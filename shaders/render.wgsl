@@ -17,8 +17,9 @@
 //   - dot grid: flat pixels take one sample, pixels near a disc or plate edge the exact area of the
 //     pixel on the plate and in each disc (the disc's image ellipse mapped onto the unit circle);
 //   - S-path: flat pixels one ray; the sphere's outline in closed form; one smooth dot boundary
-//     in closed form; elsewhere near a dot the outline in closed form plus the dots' change from
-//     `samples^2` exact rays (nearest hit among the sphere and the dots of the pixel's 16x16 tile).
+//     in closed form; elsewhere near a dot the outline in closed form plus the dots' change,
+//     integrated along `samples` scan lines with bisected crossings of exact rays (nearest hit
+//     among the sphere and the dots of the pixel's 16x16 tile).
 // Mirrors: src/scene/trace.rs (CPU, f64). Uniform layout: src/render/uniforms.rs `Params`.
 
 struct Params {
@@ -474,16 +475,21 @@ fn disc_in_pixels(u0: vec2<f32>, a: mat2x2<f32>, g: vec2<f32>, r: f32) -> f32 {
     let q11 = dot2(m1, m1) - r2 * g.y * g.y;
     let b = vec2<f32>(dot2(m0, u0) - r2 * g.x, dot2(m1, u0) - r2 * g.y);
     let lu = len2(u0);
-    let c = (lu - r) * (lu + r);
-    let det = q00 * q11 - q01 * q01;
-    if (!(det > 0.0 && q00 > 0.0)) { return -1.0; }
-    // Centre -qb, then (d + qb)^T Q (d + qb) <= k; Q / k = L^T L with L upper triangular.
-    let qb = vec2<f32>(q11 * b.x - q01 * b.y, q00 * b.y - q01 * b.x) / det;
+    return ellipse_area(vec3<f32>(q00, q01, q11), b, (lu - r) * (lu + r));
+}
+
+// Area of the pixel square where o^T Q o + 2 b.o + c <= 0 (Q = (q.x, q.y; q.y, q.z)), when that
+// is an ellipse: mapped onto the unit circle (unit_disc_area). Negative when it is no ellipse.
+fn ellipse_area(q: vec3<f32>, b: vec2<f32>, c: f32) -> f32 {
+    let det = q.x * q.z - q.y * q.y;
+    if (!(det > 0.0 && q.x > 0.0)) { return -1.0; }
+    // Centre -qb, then (o + qb)^T Q (o + qb) <= k; Q / k = L^T L with L upper triangular.
+    let qb = vec2<f32>(q.z * b.x - q.y * b.y, q.x * b.y - q.y * b.x) / det;
     let k = dot2(b, qb) - c;
     if (!(k > 0.0)) { return 0.0; }
-    let l11 = sqrt(q00 / k);
-    let l12 = q01 / (k * l11);
-    let l22 = sqrt(max(q11 / k - l12 * l12, 1e-30));
+    let l11 = sqrt(q.x / k);
+    let l12 = q.y / (k * l11);
+    let l22 = sqrt(max(q.z / k - l12 * l12, 1e-30));
     return unit_disc_area(-qb, vec3<f32>(l11, l12, l22)) / (l11 * l22);
 }
 
@@ -687,6 +693,86 @@ fn spath_coarse_limb(ray: Ray) -> Coarse {
     return out;
 }
 
+fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+
+// The pixel's rays as d(o) = d0 + o.x c0 + o.y c1 (camera frame, distortion linearised).
+struct PixelRays { d0: vec3<f32>, c0: vec3<f32>, c1: vec3<f32>, };
+
+fn pixel_rays(ray: Ray) -> PixelRays {
+    var r: PixelRays;
+    r.d0 = vec3<f32>(ray.xu, 1.0);
+    r.c0 = vec3<f32>(ray.dxu_dq[0], 0.0);
+    r.c1 = vec3<f32>(ray.dxu_dq[1], 0.0);
+    return r;
+}
+
+// Area of the pixel square inside the silhouette of the ball (c, r): in a frame whose third axis
+// points at the centre, the silhouette cone is x^2 + y^2 <= s^2 z^2 with s^2 = r^2 / (|c|^2 - r^2),
+// formed from the rays' small components (no difference of two squared distances near |c|^2).
+fn ball_silhouette_area(ray: Ray, c: vec3<f32>, r: f32) -> f32 {
+    let l = len3(c);
+    let u = c / l;
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(u.x) > 0.9);
+    let e1r = cross3(helper, u);
+    let e1 = e1r / len3(e1r);
+    let e2 = cross3(u, e1);
+    let pr = pixel_rays(ray);
+    let p0 = vec3<f32>(dot3(e1, pr.d0), dot3(e2, pr.d0), dot3(u, pr.d0));
+    let p1 = vec3<f32>(dot3(e1, pr.c0), dot3(e2, pr.c0), dot3(u, pr.c0));
+    let p2 = vec3<f32>(dot3(e1, pr.c1), dot3(e2, pr.c1), dot3(u, pr.c1));
+    let s2 = r * r / ((l - r) * (l + r));
+    let q = vec3<f32>(p1.x * p1.x + p1.y * p1.y - s2 * p1.z * p1.z, p1.x * p2.x + p1.y * p2.y - s2 * p1.z * p2.z, p2.x * p2.x + p2.y * p2.y - s2 * p2.z * p2.z);
+    let b = vec2<f32>(p1.x * p0.x + p1.y * p0.y - s2 * p1.z * p0.z, p2.x * p0.x + p2.y * p0.y - s2 * p2.z * p0.z);
+    let rho = len2(p0.xy);
+    let t = sqrt(s2) * p0.z;
+    return ellipse_area(q, b, (rho - t) * (rho + t));
+}
+
+// Area of the pixel square inside the image of painted cap b (the sphere's points within b.w of
+// the dot centre b.xyz, which lies on the sphere): its rim is the circle of centre m, radius rho
+// in the plane p.nu = h, and the rays through it satisfy |h d - (d.nu) m| <= rho |d.nu|. Negative
+// when the cap is not wholly on the side of the sphere the camera sees (its image is then not
+// that ellipse) or the conic is no ellipse.
+fn cap_area(ray: Ray, b: vec4<f32>) -> f32 {
+    let cs = P.sphere.xyz;
+    let rs = P.sphere.w;
+    let r = b.w;
+    let nr = b.xyz - cs;
+    let nu = nr / len3(nr);
+    let m = cs + nu * (rs - r * r / (2.0 * rs));
+    let rho = r * sqrt(max(1.0 - r * r / (4.0 * rs * rs), 0.0));
+    let h = dot3(m, nu);
+    let view = dot3(nu, b.xyz) / len3(b.xyz);
+    let front = view < -(2.0 * r / rs + 2.0 * r / len3(b.xyz));
+    let pr = pixel_rays(ray);
+    let w0 = dot3(pr.d0, nu);
+    let g = vec2<f32>(dot3(pr.c0, nu), dot3(pr.c1, nu));
+    let v0 = pr.d0 * h - m * w0;
+    let v1 = pr.c0 * h - m * g.x;
+    let v2 = pr.c1 * h - m * g.y;
+    let r2 = rho * rho;
+    let q = vec3<f32>(dot3(v1, v1) - r2 * g.x * g.x, dot3(v1, v2) - r2 * g.x * g.y, dot3(v2, v2) - r2 * g.y * g.y);
+    let bb = vec2<f32>(dot3(v1, v0) - r2 * w0 * g.x, dot3(v2, v0) - r2 * w0 * g.y);
+    let lv = len3(v0);
+    let t = rho * abs(w0);
+    let area = ellipse_area(q, bb, (lv - t) * (lv + t));
+    // The pixel centre's side of the rim must be what the centre ray sees (inside: the dot).
+    let consistent = (lv <= t) == dot_covers(pr.d0, b);
+    return select(-1.0, area, front && consistent);
+}
+
+// Does the ray d see dot b (a bead in front of the sphere, or a painted cap)?
+fn dot_covers(d: vec3<f32>, b: vec4<f32>) -> bool {
+    let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
+    let tb = hit_sphere(d, b.xyz, b.w);
+    let dh = d / len3(d) * ts - b.xyz;
+    let in_cap = ts > 0.0 && dot3(dh, dh) < b.w * b.w;
+    let bead = tb > 0.0 && (ts <= 0.0 || tb <= ts);
+    return select(bead, in_cap, P.tiles.z == 1u);
+}
+
 // Distance (px) beyond which a linearised boundary cannot cross the pixel: the half-diagonal 0.707
 // plus room for the boundary's curvature.
 const MARGIN_PX: f32 = 0.9;
@@ -738,8 +824,15 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     // the cap's rim is close enough to a straight line over the pixel for the closed form.
     let off_sphere = disc && ts <= 0.0;
     let lin = boundary_linear(which, ray, b);
-    let single = n_touch == 1u && !limb && (sil_only || cut_only || hidden || off_sphere || (disc && cap_rim_linear(ray, b, lin)));
-    let cov = select(dot_coverage(which, ray, b, lin), 0.0, off_sphere);
+    // Exact: a bead's silhouette and a wholly visible cap's rim are ellipses in pixel offsets.
+    // (The curve where a bead enters the sphere is the same circle as a cap's rim, but which
+    // side of it the bead shows depends on the view: it keeps the linearised closed form.)
+    let conic = select(select(-1.0, cap_area(ray, b), disc), ball_silhouette_area(ray, b.xyz, b.w), sil_only);
+    let exact = conic >= 0.0;
+    // Pixels crossed by the curve where a bead enters the sphere take the fine pass's scan lines:
+    // its linearised closed form was off by up to 6.8 grey levels on beads of 1-2 px.
+    let single = n_touch == 1u && !limb && (sil_only || hidden || off_sphere || (disc && (exact || cap_rim_linear(ray, b, lin))));
+    let cov = select(select(dot_coverage(which, ray, b, lin), conic, exact), 0.0, off_sphere);
     // The other side of the boundary: the sphere (or the background) as the centre ray sees it.
     let other = select(P.grey.w, P.grey.y, ts > 0.0 || cut_only);
     let analytic = select(P.grey.x * cov + other * (1.0 - cov), other, hidden);
@@ -752,26 +845,52 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     return out;
 }
 
+// What the dots change at pixel offset o: the grey seen there minus the grey of the bare sphere
+// or background.
+fn spath_delta(ray: Ray, o: vec2<f32>, t_begin: u32, t_end: u32) -> f32 {
+    let d = vec3<f32>(ray.xu + ray.dxu_dq * o, 1.0);
+    let bare = select(P.grey.w, P.grey.y, hit_sphere(d, P.sphere.xyz, P.sphere.w) > 0.0);
+    return spath_sample(d, t_begin, t_end) - bare;
+}
+
+// Samples per scan line of the S-path's fine pass (ends included) and bisection steps per change.
+const LINE_SAMPLES: u32 = 17u;
+const LINE_BISECTIONS: u32 = 10u;
+
 // S-path, fine: the sphere's outline in closed form (as in the tiles without dots), plus what
-// the dots change, from samples^2 exact rays over the pixel: each ray's grey minus the grey of
-// the bare sphere or background it would see. A regular grid of samples misplaces a straight
-// edge by up to half a sample row (3 % of the pixel at 16 x 16); this way only the dots'
-// share is sampled, as the truth labels sample it.
+// the dots change, integrated along `samples` scan lines: each line is sampled at LINE_SAMPLES
+// points and every change between two samples is located by bisection, so each line's integral
+// is exact up to features narrower than 1/16 px (a regular grid of points misplaces every edge by
+// up to half a sample row: several grey levels at 16 x 16).
 fn spath_fine(ray: Ray, tile: u32) -> f32 {
     let t_begin = tile_start[tile];
     let t_end = tile_start[tile + 1u];
     let n = P.size.w;
-    let inv = 1.0 / f32(n);
+    let step = 1.0 / f32(LINE_SAMPLES - 1u);
     var acc = 0.0;
     for (var j = 0u; j < n; j = j + 1u) {
-        for (var i = 0u; i < n; i = i + 1u) {
-            let o = vec2<f32>((f32(i) + 0.5) * inv - 0.5, (f32(j) + 0.5) * inv - 0.5);
-            let d = vec3<f32>(ray.xu + ray.dxu_dq * o, 1.0);
-            let bare = select(P.grey.w, P.grey.y, hit_sphere(d, P.sphere.xyz, P.sphere.w) > 0.0);
-            acc = acc + spath_sample(d, t_begin, t_end) - bare;
+        let y = (f32(j) + 0.5) / f32(n) - 0.5;
+        var x0 = -0.5;
+        var g0 = spath_delta(ray, vec2<f32>(x0, y), t_begin, t_end);
+        for (var k = 1u; k < LINE_SAMPLES; k = k + 1u) {
+            let x1 = -0.5 + f32(k) * step;
+            let g1 = spath_delta(ray, vec2<f32>(x1, y), t_begin, t_end);
+            var a = x0;
+            var b = x1;
+            let steps = select(0u, LINE_BISECTIONS, g1 != g0);
+            for (var s = 0u; s < steps; s = s + 1u) {
+                let m = 0.5 * (a + b);
+                let same = spath_delta(ray, vec2<f32>(m, y), t_begin, t_end) == g0;
+                a = select(a, m, same);
+                b = select(m, b, same);
+            }
+            let c = 0.5 * (a + b);
+            acc = acc + g0 * (c - x0) + g1 * (x1 - c);
+            x0 = x1;
+            g0 = g1;
         }
     }
-    return spath_coarse_limb(ray).value + acc * inv * inv;
+    return spath_coarse_limb(ray).value + acc / f32(n);
 }
 
 // ---------------------------------------------------------------- entry points

@@ -3,12 +3,13 @@
 //! No wgpu and no file I/O here: [`mod@file`] parses scene text (TOML or JSON) that the CLI has read,
 //! [`trace`] is the exact CPU ray caster (the twin of `shaders/render.wgsl`), [`mod@reference`] the
 //! brute-force supersampling CPU renderer used to check the GPU, [`exact`] the exact (polygon-clipped)
-//! box filter of planar targets, and [`truth`] the labels written next
+//! box filter of planar targets, [`scanline`] a converged scan-line box filter of any target, and [`truth`] the labels written next
 //! to every image.
 
 pub mod exact;
 pub mod file;
 pub mod reference;
+pub mod scanline;
 pub mod trace;
 pub mod truth;
 
