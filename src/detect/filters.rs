@@ -19,6 +19,23 @@ pub fn median_by<T: Copy>(v: &mut [T], cmp: fn(&T, &T) -> Ordering) -> Option<T>
     Some(v[mid])
 }
 
+/// The larger (`max`) or smaller of `a` and `b`, by plain comparisons (not `f32::max`, which
+/// handles NaN) so that the filter loops vectorise.
+#[inline(always)]
+fn pick_extreme(max: bool, a: f32, b: f32) -> f32 {
+    if max {
+        if a > b {
+            a
+        } else {
+            b
+        }
+    } else if a < b {
+        a
+    } else {
+        b
+    }
+}
+
 /// van Herk / Gil-Werman along a sequence of `n` equal-length lanes (`lanes[k]` is the k-th
 /// element of every lane): the running extreme over `[k - r, k + r]`, clamped to the sequence.
 /// Lanes are rows of an image when filtering vertically (all columns at once, cache-friendly) and
@@ -29,20 +46,7 @@ fn vhgw(lanes: &[&[f32]], r: usize, max: bool, out: &mut [Vec<f32>]) {
         return;
     }
     let width = lanes[0].len();
-    // Plain comparisons (not f32::max, which handles NaN) so that the loops vectorise.
-    let pick = |a: f32, b: f32| {
-        if max {
-            if a > b {
-                a
-            } else {
-                b
-            }
-        } else if a < b {
-            a
-        } else {
-            b
-        }
-    };
+    let pick = |a: f32, b: f32| pick_extreme(max, a, b);
     let k = 2 * r + 1;
     let ident = if max { f32::NEG_INFINITY } else { f32::INFINITY };
     // Padded index p in [0, n + 2r): element p - r, identity outside.
@@ -95,20 +99,7 @@ pub fn extreme_filter(img: &ImageF32, r: usize, max: bool) -> ImageF32 {
     }
     // Rows: the scalar form of the same algorithm.
     let mut tmp = vec![0.0f32; w * h];
-    // Plain comparisons (not f32::max, which handles NaN) so that the loops vectorise.
-    let pick = |a: f32, b: f32| {
-        if max {
-            if a > b {
-                a
-            } else {
-                b
-            }
-        } else if a < b {
-            a
-        } else {
-            b
-        }
-    };
+    let pick = |a: f32, b: f32| pick_extreme(max, a, b);
     let ident = if max { f32::NEG_INFINITY } else { f32::INFINITY };
     let k = 2 * r + 1;
     let padded = w + 2 * r;
