@@ -146,34 +146,51 @@ fn integrate_pixel(tracer: &Tracer<'_>, x: f64, y: f64, cands: &[usize], p: &Sca
 /// Mean over `rows` lines of each line's exact integral (see the module docs).
 fn integrate_rows(tracer: &Tracer<'_>, x: f64, y: f64, cands: &[usize], rows: u32, p: &ScanlineParams) -> f64 {
     let grey = |u: f64, v: f64| tracer.trace_px_among(&Point2::new(u, v), cands).intensity;
-    let step = 1.0 / f64::from(p.samples - 1);
-    let mut sum = 0.0;
+    pixel_moments(&grey, x, y, rows, p.samples, p.bisections)[0]
+}
+
+/// Integrals over the pixel square centred at (x, y) (area 1) of a piecewise-constant `f`, of
+/// `f u` and of `f v`, by `rows` scan lines: each line is sampled at `samples` points (ends
+/// included) and every change of `f` between two samples is located by `bisections` halvings.
+/// Exact up to features narrower than the sample spacing and the midpoint rule across lines.
+pub fn pixel_moments(f: &dyn Fn(f64, f64) -> f64, x: f64, y: f64, rows: u32, samples: u32, bisections: u32) -> [f64; 3] {
+    let samples = samples.max(2);
+    let step = 1.0 / f64::from(samples - 1);
+    let rows = rows.max(1);
+    let mut m = [0.0; 3];
+    // A stretch [a, b] of line v with value g.
+    let mut add = |g: f64, a: f64, b: f64, v: f64| {
+        m[0] += g * (b - a);
+        m[1] += g * 0.5 * (b * b - a * a);
+        m[2] += g * v * (b - a);
+    };
     for r in 0..rows {
         let v = y - 0.5 + (f64::from(r) + 0.5) / f64::from(rows);
         let mut u0 = x - 0.5;
-        let mut g0 = grey(u0, v);
-        for k in 1..p.samples {
+        let mut g0 = f(u0, v);
+        for k in 1..samples {
             let u1 = x - 0.5 + f64::from(k) * step;
-            let g1 = grey(u1, v);
+            let g1 = f(u1, v);
             if g1 == g0 {
-                sum += g0 * step;
+                add(g0, u0, u1, v);
             } else {
-                // Bisect the change: grey g0 up to the crossing, g1 after it.
+                // Bisect the change: g0 up to the crossing, g1 after it.
                 let (mut a, mut b) = (u0, u1);
-                for _ in 0..p.bisections {
-                    let m = 0.5 * (a + b);
-                    if grey(m, v) == g0 {
-                        a = m;
+                for _ in 0..bisections {
+                    let mid = 0.5 * (a + b);
+                    if f(mid, v) == g0 {
+                        a = mid;
                     } else {
-                        b = m;
+                        b = mid;
                     }
                 }
                 let c = 0.5 * (a + b);
-                sum += g0 * (c - u0) + g1 * (u1 - c);
+                add(g0, u0, c, v);
+                add(g1, c, u1, v);
             }
             u0 = u1;
             g0 = g1;
         }
     }
-    sum / f64::from(rows)
+    m.map(|v| v / f64::from(rows))
 }

@@ -14,7 +14,8 @@
 //! Both come from exact ray casting ([`Tracer`]): every pixel of the
 //! dot's conservative bounding box is probed at a 3 x 3 grid of points; pixels whose probes all see
 //! the dot count as whole pixels (centroid at the pixel centre), pixels whose probes disagree are
-//! integrated with `CENTROID_SUBSAMPLES^2` exact samples, and so is every probe-free pixel next to
+//! integrated along `CENTROID_LINES` scan lines with bisected crossings (exact up to features
+//! narrower than 1/32 px along a line), and so is every probe-free pixel next to
 //! a pixel with coverage, flooding outwards (a sliver thinner than the probes' half-pixel spacing
 //! is followed from where it is wider).
 
@@ -23,13 +24,18 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::file::CameraSpec;
+use super::scanline::pixel_moments;
 use super::trace::{dot_bbox_px, Tracer};
 use super::{RenderSettings, Scene};
 use crate::math::so3::rvec_from_rotation;
 use crate::target::{FeatureKind, Target};
 
-/// Sub-samples per axis in the boundary pixels of a blob (the renderer's default is the same 16).
-pub const CENTROID_SUBSAMPLES: u32 = 16;
+/// Scan lines per boundary pixel of a blob (see [`super::scanline::pixel_moments`]).
+pub const CENTROID_LINES: u32 = 16;
+/// Samples per scan line, ends included (spacing 1/32 px).
+pub const CENTROID_LINE_SAMPLES: u32 = 33;
+/// Bisection steps per crossing (2^-21 px).
+pub const CENTROID_BISECTIONS: u32 = 16;
 
 /// Pose as written to JSON.
 #[derive(Debug, Clone, Serialize)]
@@ -166,20 +172,10 @@ pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates:
             sv += yf;
             1.0
         } else {
-            let n = CENTROID_SUBSAMPLES;
-            let w = 1.0 / f64::from(n * n);
-            let mut c = 0.0;
-            for j in 0..n {
-                for i in 0..n {
-                    let u = xf - 0.5 + (f64::from(i) + 0.5) / f64::from(n);
-                    let v = yf - 0.5 + (f64::from(j) + 0.5) / f64::from(n);
-                    if sees(u, v) {
-                        c += w;
-                        su += w * u;
-                        sv += w * v;
-                    }
-                }
-            }
+            let inside = |u: f64, v: f64| f64::from(u8::from(sees(u, v)));
+            let [c, mu, mv] = pixel_moments(&inside, xf, yf, CENTROID_LINES, CENTROID_LINE_SAMPLES, CENTROID_BISECTIONS);
+            su += mu;
+            sv += mv;
             c
         };
         area += covered;
