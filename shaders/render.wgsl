@@ -612,18 +612,15 @@ fn smooth_coverage(g0: f32, grad: vec2<f32>, gtt: f32) -> f32 {
 }
 
 // Boundary functions of dot b along the ray through normalised point xu (negative = dark side):
-// which 0, the bead's silhouette; 1, bead entry minus sphere entry (the bead is seen where it is in
-// front of the sphere); 2, distance of the sphere hit point from the dot centre minus its radius
-// (painted cap).
+// which 0, the bead's silhouette; otherwise the distance of the sphere hit point from the dot
+// centre minus its radius (painted cap).
 fn dot_boundary(which: u32, xu: vec2<f32>, b: vec4<f32>) -> f32 {
     let d = vec3<f32>(xu, 1.0);
     let n = d / len3(d);
     let ts = hit_sphere(n, P.sphere.xyz, P.sphere.w);
-    let tb = hit_sphere(n, b.xyz, b.w);
     let sil = len3(b.xyz - n * dot3(n, b.xyz)) - b.w;
-    let cut = select(tb - ts, -1.0, ts <= 0.0);
     let cap = len3(n * ts - b.xyz) - b.w;
-    return select(select(cap, cut, which == 1u), sil, which == 0u);
+    return select(cap, sil, which == 0u);
 }
 
 // (silhouette function, cut function) of bead b along the ray through xu. The cut function is
@@ -809,16 +806,13 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     let v11 = bead_values(ray.xu + ray.dxu_dq * vec2<f32>(0.5, 0.5), b);
     let gxv = 0.5 * ((v10 + v11) - (v00 + v01));
     let gyv = 0.5 * ((v01 + v11) - (v00 + v10));
-    let dist_sil = v0.x / max(len2(vec2<f32>(gxv.x, gyv.x)), 1e-30);
     let dist_cut = v0.y / max(len2(vec2<f32>(gxv.y, gyv.y)), 1e-30);
     let disc = P.tiles.z == 1u;
-    // The bead is in front wherever it is hit: its silhouette is the only boundary.
+    // The bead is in front wherever it is hit: its silhouette is the only boundary. Pixels the
+    // curve where a bead enters the sphere may cross (the linearised tests misjudge it on 1-2 px
+    // beads: up to 6.8 grey levels off) take the fine pass's scan lines.
     let sil_only = !disc && dist_cut < -MARGIN_PX;
-    // The whole pixel is inside the silhouette: the cut is the only boundary.
-    let cut_only = !disc && dist_sil < -MARGIN_PX && !sil_only;
-    // The sphere hides the bead across the whole pixel.
-    let hidden = !disc && dist_cut > MARGIN_PX;
-    let which = select(select(0u, 1u, cut_only), 2u, disc);
+    let which = select(0u, 2u, disc);
     let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
     // A cap off the outline's neighbourhood: the whole pixel misses the sphere (background), or
     // the cap's rim is close enough to a straight line over the pixel for the closed form.
@@ -826,16 +820,14 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     let lin = boundary_linear(which, ray, b);
     // Exact: a bead's silhouette and a wholly visible cap's rim are ellipses in pixel offsets.
     // (The curve where a bead enters the sphere is the same circle as a cap's rim, but which
-    // side of it the bead shows depends on the view: it keeps the linearised closed form.)
+    // side of it shows the bead depends on the view.)
     let conic = select(select(-1.0, cap_area(ray, b), disc), ball_silhouette_area(ray, b.xyz, b.w), sil_only);
     let exact = conic >= 0.0;
-    // Pixels crossed by the curve where a bead enters the sphere take the fine pass's scan lines:
-    // its linearised closed form was off by up to 6.8 grey levels on beads of 1-2 px.
-    let single = n_touch == 1u && !limb && (sil_only || hidden || off_sphere || (disc && (exact || cap_rim_linear(ray, b, lin))));
+    let single = n_touch == 1u && !limb && (sil_only || off_sphere || (disc && (exact || cap_rim_linear(ray, b, lin))));
     let cov = select(select(dot_coverage(which, ray, b, lin), conic, exact), 0.0, off_sphere);
     // The other side of the boundary: the sphere (or the background) as the centre ray sees it.
-    let other = select(P.grey.w, P.grey.y, ts > 0.0 || cut_only);
-    let analytic = select(P.grey.x * cov + other * (1.0 - cov), other, hidden);
+    let other = select(P.grey.w, P.grey.y, ts > 0.0);
+    let analytic = P.grey.x * cov + other * (1.0 - cov);
     // The sphere's outline with no dot near: as in the tiles without dots.
     let limb_only = limb && n_touch == 0u;
     let limb_value = spath_coarse_limb(ray).value;
