@@ -369,6 +369,12 @@ const MAX_CELLS: f32 = 6.0;
 // differ at second order, by far less than 2 % over one pixel.
 const FOOTPRINT_SLACK: f32 = 1.02;
 
+// Half-extent along board x and y of the pixel's footprint (a = board_jacobian), widened by
+// FOOTPRINT_SLACK.
+fn footprint_extent(a: mat2x2<f32>) -> vec2<f32> {
+    return FOOTPRINT_SLACK * 0.5 * vec2<f32>(abs(a[0].x) + abs(a[1].x), abs(a[0].y) + abs(a[1].y));
+}
+
 struct Coarse { value: f32, hard: bool, };
 
 // Chessboard, coarse: flat pixels and pixels crossed by one line (exact closed-form coverage);
@@ -377,8 +383,9 @@ fn chess_coarse(ray: Ray) -> Coarse {
     var out: Coarse;
     let pc = plane_point(ray.xu);
     let a = board_jacobian(pc, ray);
-    let ex = FOOTPRINT_SLACK * 0.5 * (abs(a[0].x) + abs(a[1].x));
-    let ey = FOOTPRINT_SLACK * 0.5 * (abs(a[0].y) + abs(a[1].y));
+    let ext = footprint_extent(a);
+    let ex = ext.x;
+    let ey = ext.y;
     let s = P.board.z;
     let small = ex < 0.25 * s && ey < 0.25 * s;
     let lx = chess_lines(pc.x - ex, pc.x + ex, P.board.x);
@@ -407,8 +414,9 @@ fn chess_coarse(ray: Ray) -> Coarse {
 fn chess_fine(ray: Ray) -> f32 {
     let pc = plane_point(ray.xu);
     let a = board_jacobian(pc, ray);
-    let ex = FOOTPRINT_SLACK * 0.5 * (abs(a[0].x) + abs(a[1].x));
-    let ey = FOOTPRINT_SLACK * 0.5 * (abs(a[0].y) + abs(a[1].y));
+    let ext = footprint_extent(a);
+    let ex = ext.x;
+    let ey = ext.y;
     let s = P.board.z; let m = P.board.w;
     let w = P.board.x * s; let h = P.board.y * s;
     let i0 = clamp(floor((pc.x - ex) / s), 0.0, P.board.x - 1.0);
@@ -499,8 +507,9 @@ fn ellipse_area(q: vec3<f32>, b: vec2<f32>, c: f32) -> f32 {
 fn grid_fine(ray: Ray) -> f32 {
     let pc = plane_point(ray.xu);
     let a = board_jacobian(pc, ray);
-    let ex = FOOTPRINT_SLACK * 0.5 * (abs(a[0].x) + abs(a[1].x));
-    let ey = FOOTPRINT_SLACK * 0.5 * (abs(a[0].y) + abs(a[1].y));
+    let ext = footprint_extent(a);
+    let ex = ext.x;
+    let ey = ext.y;
     let n = P.board.x; let hh = 0.5 * P.board.y; let rad = P.board.z; let outer = hh + P.board.w;
     let pitch = P.board.y / (n - 1.0);
     let i0 = clamp(ceil((pc.x - ex + hh - rad) / pitch), 0.0, n - 1.0);
@@ -623,18 +632,17 @@ fn dot_boundary(which: u32, xu: vec2<f32>, b: vec4<f32>) -> f32 {
     return select(cap, sil, which == 0u);
 }
 
-// (silhouette function, cut function) of bead b along the ray through xu. The cut function is
-// bead entry minus sphere entry, continued outside the silhouette with the ray's closest approach
-// to the bead's centre so that it stays continuous.
-fn bead_values(xu: vec2<f32>, b: vec4<f32>) -> vec2<f32> {
+// Cut function of bead b along the ray through xu: bead entry minus sphere entry, continued
+// outside the silhouette with the ray's closest approach to the bead's centre so that it stays
+// continuous (negative where the bead is in front).
+fn bead_cut(xu: vec2<f32>, b: vec4<f32>) -> f32 {
     let d = vec3<f32>(xu, 1.0);
     let n = d / len3(d);
     let ts = hit_sphere(n, P.sphere.xyz, P.sphere.w);
     let along = dot3(n, b.xyz);
     let perp = b.xyz - n * along;
-    let p2 = dot3(perp, perp);
-    let tb = along - sqrt(max(b.w * b.w - p2, 0.0));
-    return vec2<f32>(sqrt(p2) - b.w, select(tb - ts, -1.0, ts <= 0.0));
+    let tb = along - sqrt(max(b.w * b.w - dot3(perp, perp), 0.0));
+    return select(tb - ts, -1.0, ts <= 0.0);
 }
 
 // dot_boundary `which` of dot b linearised over the pixel: (value at the centre, central
@@ -799,14 +807,14 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     // One bead: which of its two boundaries crosses the pixel? Both functions at the centre and
     // the corners give values and gradients (per pixel); a boundary whose linearised distance from
     // the centre exceeds MARGIN_PX does not cross the pixel.
-    let v0 = bead_values(ray.xu, b);
-    let v00 = bead_values(ray.xu + ray.dxu_dq * vec2<f32>(-0.5, -0.5), b);
-    let v10 = bead_values(ray.xu + ray.dxu_dq * vec2<f32>(0.5, -0.5), b);
-    let v01 = bead_values(ray.xu + ray.dxu_dq * vec2<f32>(-0.5, 0.5), b);
-    let v11 = bead_values(ray.xu + ray.dxu_dq * vec2<f32>(0.5, 0.5), b);
+    let v0 = bead_cut(ray.xu, b);
+    let v00 = bead_cut(ray.xu + ray.dxu_dq * vec2<f32>(-0.5, -0.5), b);
+    let v10 = bead_cut(ray.xu + ray.dxu_dq * vec2<f32>(0.5, -0.5), b);
+    let v01 = bead_cut(ray.xu + ray.dxu_dq * vec2<f32>(-0.5, 0.5), b);
+    let v11 = bead_cut(ray.xu + ray.dxu_dq * vec2<f32>(0.5, 0.5), b);
     let gxv = 0.5 * ((v10 + v11) - (v00 + v01));
     let gyv = 0.5 * ((v01 + v11) - (v00 + v10));
-    let dist_cut = v0.y / max(len2(vec2<f32>(gxv.y, gyv.y)), 1e-30);
+    let dist_cut = v0 / max(len2(vec2<f32>(gxv, gyv)), 1e-30);
     let disc = P.tiles.z == 1u;
     // The bead is in front wherever it is hit: its silhouette is the only boundary. Pixels the
     // curve where a bead enters the sphere may cross (the linearised tests misjudge it on 1-2 px

@@ -11,6 +11,8 @@ use synthcam::dataset::calib_io::{opencv_yaml, plot_png, ros_yaml};
 use synthcam::dataset::{load_grey, write_atomic};
 use synthcam::detect::target::{detect, TargetSpec};
 
+use super::skipped::Skipped;
+
 /// Arguments of `calibrate`.
 #[derive(Debug, clap::Args)]
 pub struct CalibrateArgs {
@@ -67,21 +69,6 @@ struct Output {
     time_ms: f64,
 }
 
-/// An input left out of the calibration, and why.
-#[derive(Debug, Clone, Serialize)]
-pub struct Skipped {
-    /// File name.
-    pub file: String,
-    /// Why it was left out.
-    pub reason: String,
-}
-
-impl Skipped {
-    fn new(file: impl Into<String>, reason: impl Into<String>) -> Self {
-        Self { file: file.into(), reason: reason.into() }
-    }
-}
-
 /// (file, width, height, points) of one image in which the board was found.
 type Found = (String, usize, usize, Vec<Point2<f64>>);
 /// The images in which the board was found, and the skipped ones.
@@ -119,11 +106,7 @@ fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
 fn keep_first_size(found: Vec<Found>, mut skipped: Vec<Skipped>) -> (Vec<Found>, Vec<Skipped>) {
     let Some(&(_, w, h, _)) = found.first() else { return (found, skipped) };
     let (same, other): (Vec<Found>, Vec<Found>) = found.into_iter().partition(|f| f.1 == w && f.2 == h);
-    for (file, fw, fh, _) in other {
-        let reason = format!("image size {fw}x{fh} differs from the first image's {w}x{h}");
-        eprintln!("warning: skipping {file}: {reason}");
-        skipped.push(Skipped::new(file, reason));
-    }
+    skipped.extend(other.into_iter().map(|(file, fw, fh, _)| Skipped::other_size(file, (fw, fh), (w, h), "")));
     (same, skipped)
 }
 

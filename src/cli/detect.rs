@@ -8,6 +8,8 @@ use synthcam::dataset::overlay::draw_points;
 use synthcam::dataset::{load_grey_u8, write_atomic};
 use synthcam::detect::target::{detect_u8, TargetSpec};
 
+use super::skipped::Skipped;
+
 /// Arguments of `detect`.
 #[derive(Debug, clap::Args)]
 pub struct DetectArgs {
@@ -27,13 +29,6 @@ pub struct DetectArgs {
     /// readable image's are skipped with a warning (one camera, one size), as `calibrate` does.
     #[arg(long)]
     pub any_size: bool,
-}
-
-/// An image left out, and why.
-#[derive(Debug, Serialize)]
-struct Skipped {
-    file: String,
-    reason: String,
 }
 
 /// One image's result, as written to JSON.
@@ -138,9 +133,7 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
         let size = (img.width, img.height);
         let first = *first_size.get_or_insert(size);
         if size != first && !args.any_size {
-            let reason = format!("image size {}x{} differs from the first image's {}x{} (--any-size detects it)", size.0, size.1, first.0, first.1);
-            eprintln!("warning: skipping {name}: {reason}");
-            skipped.push(Skipped { file: name, reason });
+            skipped.push(Skipped::other_size(name, size, first, " (--any-size detects it)"));
             continue;
         }
         // time_ms: detection on the decoded 8-bit image (as OpenCV's call on a uint8 array); any

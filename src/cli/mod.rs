@@ -13,6 +13,7 @@ mod experiment;
 mod handeye;
 mod render;
 mod servo;
+mod skipped;
 
 /// synthcam: synthetic camera images with exact ground truth for calibration and visual servoing.
 #[derive(Debug, Parser)]

@@ -94,7 +94,7 @@ const STORAGE_SRC: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::
 const READBACK: wgpu::BufferUsages = wgpu::BufferUsages::MAP_READ.union(wgpu::BufferUsages::COPY_DST);
 
 impl Renderer {
-    /// Compile the shader and build the pipelines on `ctx`.
+    /// Compile the shader on `ctx`; each pipeline is built on first use.
     pub fn new(ctx: GpuContext) -> Self {
         let device = &ctx.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("render.wgsl"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });

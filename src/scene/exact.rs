@@ -13,7 +13,7 @@
 //! reference ([`super::reference`]): it shares only the camera model and the target description,
 //! so it can check every pixel of the shader's closed-form coverage paths.
 
-use nalgebra::{Point2, Point3, Vector2};
+use nalgebra::{Isometry3, Point2, Point3, Vector2};
 use rayon::prelude::*;
 
 use super::{Scene, SceneError};
@@ -38,10 +38,11 @@ pub fn render_exact_planar(scene: &Scene, subdivisions: u32) -> Result<ExactImag
         return Err(SceneError::InvalidField { field: "target.kind".into(), reason: "the exact reference covers planar targets only".into() });
     }
     let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
+    let target_from_cam = scene.cam_from_target.inverse();
     let mut out = vec![None; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
-            *px = pixel_value(scene, x as f64, y as f64, subdivisions);
+            *px = pixel_value(scene, &target_from_cam, x as f64, y as f64, subdivisions);
         }
     });
     Ok(out)
@@ -51,21 +52,25 @@ pub fn render_exact_planar(scene: &Scene, subdivisions: u32) -> Result<ExactImag
 /// `Some(Some(p))`, `Some(None)` when the ray misses the plane (beyond its horizon), `None` when
 /// the pixel cannot be unprojected (beyond the fold of the lens model).
 pub fn plane_point(scene: &Scene, q_px: Point2<f64>) -> Option<Option<Vector2<f64>>> {
+    plane_point_from(scene, &scene.cam_from_target.inverse(), q_px)
+}
+
+/// [`plane_point`] with the scene's `target_from_cam` computed once by the caller.
+fn plane_point_from(scene: &Scene, target_from_cam: &Isometry3<f64>, q_px: Point2<f64>) -> Option<Option<Vector2<f64>>> {
     let d = scene.camera.unproject(&q_px).ok()?;
-    let target_from_cam = scene.cam_from_target.inverse();
     let o = target_from_cam * Point3::origin();
     let dir = target_from_cam.rotation * d;
     let t = -o.z / dir.z;
     Some((t > 0.0 && t.is_finite()).then(|| Vector2::new(o.x + t * dir.x, o.y + t * dir.y)))
 }
 
-fn pixel_value(scene: &Scene, x: f64, y: f64, n: u32) -> Option<f64> {
+fn pixel_value(scene: &Scene, target_from_cam: &Isometry3<f64>, x: f64, y: f64, n: u32) -> Option<f64> {
     let m = n as usize + 1;
     let step = 1.0 / f64::from(n);
     let mut corners = Vec::with_capacity(m * m);
     for j in 0..m {
         for i in 0..m {
-            corners.push(plane_point(scene, Point2::new(x - 0.5 + i as f64 * step, y - 0.5 + j as f64 * step))?);
+            corners.push(plane_point_from(scene, target_from_cam, Point2::new(x - 0.5 + i as f64 * step, y - 0.5 + j as f64 * step))?);
         }
     }
     let background = scene.target.background();

@@ -118,7 +118,7 @@ fn mixed_pixels(tracer: &Tracer<'_>, candidates: &[Vec<usize>], w: usize, h: usi
         for (x, m) in row.iter_mut().enumerate() {
             let cands = &candidates[y * w + x];
             let first = tracer.trace_px_among(&Point2::new(x as f64 - 0.5, y as f64 - 0.5), cands).intensity;
-            *m = (0..25).any(|k| {
+            *m = (1..25).any(|k| {
                 let q = Point2::new(x as f64 - 0.5 + f64::from(k % 5) * 0.25, y as f64 - 0.5 + f64::from(k / 5) * 0.25);
                 tracer.trace_px_among(&q, cands).intensity != first
             });
