@@ -7,16 +7,17 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
 use synthcam::calib::{calibrate, CalibParams, View};
-use synthcam::dataset::handeye_run::{variant_a, Observation};
-use synthcam::dataset::observe::{pose_from_dots, render_and_detect};
-use synthcam::dataset::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
 use synthcam::render::{GpuContext, Renderer};
+use synthcam::robot::variant_a;
 use synthcam::robot::{base_from_tool, Joints};
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::Scene;
 use synthcam::servo::{ibvs_step, image_jacobian, pbvs_error, pbvs_step, IbvsParams, PbvsParams};
+use synthcam::sim::handeye_run::Observation;
+use synthcam::sim::observe::{pose_from_dots, render_and_detect};
+use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
 
 fn renderer() -> Renderer {
     match GpuContext::new_headless() {

@@ -28,16 +28,26 @@
 
 pub mod calib;
 pub mod camera;
+#[cfg(feature = "render")]
 pub mod dataset;
 pub mod detect;
 pub mod error;
 pub mod handeye;
 pub mod math;
 pub mod pnp;
+#[cfg(feature = "render")]
 pub mod render;
+#[cfg(feature = "render")]
+pub mod report;
 pub mod robot;
 pub mod scene;
 pub mod servo;
+#[cfg(feature = "render")]
+pub mod sim;
 pub mod target;
 
 pub use error::Error;
+/// The image types of the API.
+pub use image;
+/// The linear-algebra types of the API (poses, points, matrices).
+pub use nalgebra;

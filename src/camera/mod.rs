@@ -150,6 +150,33 @@ impl CameraModel {
             distortion: Distortion::default(),
         }
     }
+
+    /// The course camera ([`CameraModel::course_default`]).
+    pub fn course() -> Self {
+        Self::course_default()
+    }
+
+    /// A pinhole camera of `width x height` pixels, focal length `f_px`, the principal point at
+    /// the image centre ((W - 1) / 2, (H - 1) / 2 in OpenCV's convention), no distortion.
+    ///
+    /// ```
+    /// let cam = synthcam::camera::CameraModel::pinhole(1920, 1200, 1100.0).with_distortion([-0.2, 0.0, 0.0, 0.0, 0.0]);
+    /// assert_eq!(cam.intrinsics.cx, 959.5);
+    /// assert!(cam.validate().is_ok());
+    /// ```
+    pub fn pinhole(width: u32, height: u32, f_px: f64) -> Self {
+        Self {
+            size: ImageSize { width, height },
+            intrinsics: Intrinsics { fx: f_px, fy: f_px, cx: (f64::from(width) - 1.0) / 2.0, cy: (f64::from(height) - 1.0) / 2.0, skew: 0.0 },
+            distortion: Distortion::default(),
+        }
+    }
+
+    /// The same camera with Brown-Conrady coefficients in OpenCV's order (k1, k2, p1, p2, k3).
+    pub fn with_distortion(self, dist: [f64; 5]) -> Self {
+        let [k1, k2, p1, p2, k3] = dist;
+        Self { distortion: Distortion { k1, k2, p1, p2, k3 }, ..self }
+    }
 }
 
 #[cfg(test)]

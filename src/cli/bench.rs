@@ -73,7 +73,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(steps) = args.servo_steps {
-        use synthcam::dataset::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
+        use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
         let mut o = ServoOptions::new(Law::Ibvs);
         o.max_steps = steps;
         o.stop = None;

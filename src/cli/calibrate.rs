@@ -7,9 +7,9 @@ use nalgebra::{Point2, Point3};
 use serde::Serialize;
 use synthcam::calib::{calibrate, CalibParams, View};
 use synthcam::camera::ImageSize;
-use synthcam::dataset::calib_io::{opencv_yaml, plot_png, ros_yaml};
 use synthcam::dataset::{load_grey, write_atomic};
 use synthcam::detect::target::{detect, TargetSpec};
+use synthcam::report::calib::{opencv_yaml, plot_png, ros_yaml};
 
 use super::skipped::Skipped;
 

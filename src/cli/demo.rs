@@ -8,13 +8,13 @@ use std::path::Path;
 
 use anyhow::Context;
 use nalgebra::Point2;
-use synthcam::dataset::handeye_run::Observation;
-use synthcam::dataset::servo_run::{run_servo, Law, ServoOptions, ServoScenario};
 use synthcam::dataset::{write_atomic, write_image_and_truth};
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::truth::truth_labels;
+use synthcam::sim::handeye_run::Observation;
+use synthcam::sim::servo_run::{run_servo, Law, ServoOptions, ServoScenario};
 use synthcam::target::Target;
 
 /// Run the demo into `out`.
@@ -35,11 +35,7 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
         write_image_and_truth(&path, &img, &truth)?;
         let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
         let grey = ImageF32::from_u8(w, h, &img.to_u8())?;
-        let spec = match &scene.target {
-            Target::Chessboard(b) => TargetSpec::Chessboard { cols: b.inner_corner_count()[0] as usize, rows: b.inner_corner_count()[1] as usize },
-            Target::DotGrid(g) => TargetSpec::DotGrid { n: g.n as usize },
-            Target::SPath(s) => TargetSpec::SPath { points: s.path.points_m.len() },
-        };
+        let spec = TargetSpec::for_target(&scene.target);
         let det = detect(&grey, &spec)?;
         // Dots are compared with the blob centroid, corners with the projected corner; both
         // order-agnostically (nearest truth feature).
@@ -92,7 +88,7 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
     );
     // Hand-eye: the course's variant A, 5 views, rendered and detected S-path dots.
     let t0 = std::time::Instant::now();
-    let he = synthcam::dataset::handeye_run::run_handeye(Some(&renderer), synthcam::dataset::handeye_run::Observation::Rendered, &Default::default(), 5, 0)
+    let he = synthcam::sim::handeye_run::run_handeye(Some(&renderer), synthcam::sim::handeye_run::Observation::Rendered, &Default::default(), 5, 0)
         .context("hand-eye experiment")?;
     let names = [
         "tool_from_cam (course linear)",

@@ -4,9 +4,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use serde::Serialize;
-use synthcam::dataset::overlay::draw_points;
 use synthcam::dataset::{load_grey_u8, write_atomic};
 use synthcam::detect::target::{detect_u8, TargetSpec};
+use synthcam::report::overlay::draw_points;
 
 use super::skipped::Skipped;
 

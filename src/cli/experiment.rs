@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use synthcam::dataset::sweep::{csv, markdown, plot_png, run_sweep, SweepMode};
 use synthcam::dataset::write_atomic;
+use synthcam::report::sweep::{csv, markdown, plot_png};
+use synthcam::sim::sweep::{run_sweep, SweepMode};
 
 /// Experiments.
 #[derive(Debug, clap::Subcommand)]
@@ -29,10 +30,10 @@ pub fn run(e: &Experiment) -> anyhow::Result<()> {
             let ns = [3, 5, 7, 9];
             let renderer = super::open_renderer("auto")?;
             let t0 = std::time::Instant::now();
-            let mut runs = run_sweep(SweepMode::Ideal, &ms, &ns, *seeds, None);
+            let mut runs = run_sweep(SweepMode::Ideal, &ms, &ns, *seeds, None)?;
             eprintln!("ideal mode: {} calibrations in {:.1} s", runs.len(), t0.elapsed().as_secs_f64());
             let t1 = std::time::Instant::now();
-            runs.extend(run_sweep(SweepMode::Rendered, &ms, &ns, *seeds, Some(&renderer)));
+            runs.extend(run_sweep(SweepMode::Rendered, &ms, &ns, *seeds, Some(&renderer))?);
             eprintln!("rendered mode: {:.1} s", t1.elapsed().as_secs_f64());
             let table = markdown(&runs, &ms, &ns);
             write_atomic(&out.join("table.md"), table.as_bytes())?;

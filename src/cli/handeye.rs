@@ -4,8 +4,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use synthcam::dataset::handeye_run::{run_handeye, Observation, Scenario};
 use synthcam::dataset::write_atomic;
+use synthcam::robot::Cell;
+use synthcam::sim::handeye_run::{run_handeye, Observation};
 
 /// Arguments of `handeye`.
 #[derive(Debug, clap::Args)]
@@ -35,9 +36,9 @@ pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
     let scenario = match &args.scenario {
         Some(p) => {
             let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            toml::from_str::<Scenario>(&text).with_context(|| format!("in scenario {}", p.display()))?
+            toml::from_str::<Cell>(&text).with_context(|| format!("in scenario {}", p.display()))?
         }
-        None => Scenario::default(),
+        None => Cell::default(),
     };
     let r = run_handeye(renderer.as_ref(), obs, &scenario, args.views, args.seed).context("hand-eye experiment")?;
     let (x, wb) = scenario.truth();

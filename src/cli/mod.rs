@@ -13,6 +13,7 @@ mod experiment;
 mod handeye;
 mod render;
 mod servo;
+mod sim;
 mod skipped;
 
 /// synthcam: synthetic camera images with exact ground truth for calibration and visual servoing.
@@ -66,6 +67,10 @@ pub enum Command {
     /// SYNOPSIS: synthcam servo --law ibvs -o out/ibvs --frames
     /// writes trace.csv/json, trace_ideal.csv/json, plots and summary.md (error budget).
     Servo(servo::ServoArgs),
+    /// An open scenario (any camera, target and robot): hand-eye from rendered views, then PBVS or IBVS.
+    ///
+    /// SYNOPSIS: synthcam sim assets/scenarios/ur5e_chessboard.toml --law ibvs --json run.json
+    Sim(sim::SimArgs),
 }
 
 /// Run a parsed command line.
@@ -83,6 +88,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Handeye(args) => handeye::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Servo(args) => servo::run(&args),
+        Command::Sim(args) => sim::run(&args),
     }
 }
 

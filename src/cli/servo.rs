@@ -5,11 +5,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use synthcam::dataset::handeye_run::Observation;
-use synthcam::dataset::servo_report::{budget_markdown, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
-use synthcam::dataset::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
 use synthcam::dataset::{encode_png, write_atomic};
+use synthcam::report::servo::{budget_markdown, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
 use synthcam::servo::{IbvsParams, InteractionFrom};
+use synthcam::sim::handeye_run::Observation;
+use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
 
 /// The law on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -196,8 +196,8 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
             return Err(e.context("writing frames"));
         }
         if args.frames && !thumbs.is_empty() {
-            let sheet = contact_sheet(&thumbs, 5);
-            write_atomic(&out.join("contact_sheet.png"), &synthcam::dataset::plot::png(&sheet)?)?;
+            let sheet = contact_sheet(&thumbs, 5)?;
+            write_atomic(&out.join("contact_sheet.png"), &synthcam::report::plot::png(&sheet)?)?;
         }
         print_run("rendered + detected", &t);
         write_trace(&out, "trace", &t)?;

@@ -45,7 +45,7 @@ impl Shard {
 
     /// Whether image k belongs to this shard.
     pub fn contains(&self, k: u64) -> bool {
-        k % self.count == self.index
+        self.count > 0 && k % self.count == self.index
     }
 }
 
@@ -205,6 +205,12 @@ fn finish_image(dir: &Path, view: &SampledView, scene: &Scene, img: &GreyImage, 
 /// a render failure or a write failure (no partial file is left behind).
 pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams, progress: ProgressFn<'_>) -> Result<GenerateReport, DatasetError> {
     let wall = Instant::now();
+    if params.shard.count == 0 || params.shard.index >= params.shard.count {
+        return Err(DatasetError::InvalidArgument {
+            what: "shard".into(),
+            reason: format!("{}/{}: need 0 <= index < count", params.shard.index, params.shard.count),
+        });
+    }
     check_feasible(plan)?;
     let ks: Vec<u64> = (0..plan.count).filter(|k| params.shard.contains(*k)).collect();
     let views: Vec<SampledView> = ks.par_iter().map(|k| sample_view(plan, *k)).collect::<Result<_, _>>()?;

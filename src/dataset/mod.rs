@@ -1,19 +1,11 @@
 //! Everything that touches files: PNG and JSON output written atomically (temporary name, then
 //! rename), so a failed run never leaves a truncated image behind.
 
-pub mod calib_io;
 pub mod generate;
-pub mod handeye_run;
 pub mod io;
 pub mod manifest;
-pub mod observe;
-pub mod overlay;
-pub mod plot;
 pub mod poses;
-pub mod servo_report;
-pub mod servo_run;
 pub mod spec;
-pub mod sweep;
 
 pub use io::{encode_png, load_grey, load_grey_u8, write_atomic, write_image_and_truth, write_png_and_json};
 pub use spec::SpecError;

@@ -16,8 +16,8 @@
 
 use serde::Deserialize;
 
-use super::handeye_run::Scenario;
 use crate::camera::CameraModel;
+use crate::robot::Cell;
 use crate::scene::file::{CameraSpec, RenderSpec, TargetSpec};
 use crate::scene::{RenderSettings, SceneError};
 use crate::target::Target;
@@ -163,7 +163,7 @@ pub enum PoseMode {
     /// [`PosesSpec::Course`].
     Course,
     /// [`PosesSpec::Robot`].
-    Robot(Scenario),
+    Robot(Cell),
 }
 
 /// A validated spec: everything the generator needs.
@@ -252,8 +252,8 @@ impl PosesSpec {
                 if !matches!(target, Target::SPath(_)) {
                     return Err(invalid("poses.mode", "\"robot\" looks at the s-path target (kind = \"s-path\")"));
                 }
-                let d = Scenario::default();
-                let s = Scenario {
+                let d = Cell::default();
+                let s = Cell {
                     q0_rad: q0_rad.unwrap_or(d.q0_rad),
                     spread_rad: spread_rad.unwrap_or(d.spread_rad),
                     base_t_m: base_t_m.unwrap_or(d.base_t_m),

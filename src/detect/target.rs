@@ -36,6 +36,18 @@ pub enum TargetSpec {
     },
 }
 
+impl TargetSpec {
+    /// What to look for on `target`: its grid size, or the S-path's point count.
+    pub fn for_target(target: &crate::target::Target) -> Self {
+        use crate::target::Target;
+        match target {
+            Target::Chessboard(b) => TargetSpec::Chessboard { cols: b.inner_corner_count()[0] as usize, rows: b.inner_corner_count()[1] as usize },
+            Target::DotGrid(g) => TargetSpec::DotGrid { n: g.n as usize },
+            Target::SPath(s) => TargetSpec::SPath { points: s.path.points_m.len() },
+        }
+    }
+}
+
 impl FromStr for TargetSpec {
     type Err = String;
 

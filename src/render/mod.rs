@@ -55,7 +55,24 @@ pub enum GreyImage {
 }
 
 impl GreyImage {
-    /// 8-bit pixel values (16-bit images are divided by 257).
+    /// Width and height, pixels.
+    pub fn dimensions(&self) -> (u32, u32) {
+        match self {
+            GreyImage::U8(i) => i.dimensions(),
+            GreyImage::U16(i) => i.dimensions(),
+        }
+    }
+
+    /// The image as the detectors take it (8-bit values as f32).
+    ///
+    /// # Errors
+    /// Never for an image the renderer made; [`crate::detect::DetectError`] for inconsistent buffers.
+    pub fn to_detector_image(&self) -> Result<crate::detect::ImageF32, crate::detect::DetectError> {
+        let (w, h) = self.dimensions();
+        crate::detect::ImageF32::from_u8(w as usize, h as usize, &self.to_u8())
+    }
+
+    /// 8-bit pixel values (16-bit images are divided by 257 and rounded).
     pub fn to_u8(&self) -> Vec<u8> {
         match self {
             GreyImage::U8(i) => i.as_raw().clone(),

@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::context::GpuContext;
 use super::gpu_scene::{gpu_scene, GpuScene, TileCornerRays, TILE_PX};
-use super::RenderError;
+use super::{GreyImage, RenderError};
 use crate::scene::Scene;
 
 const SHADER: &str = include_str!("../../shaders/render.wgsl");
@@ -94,6 +94,22 @@ const STORAGE_SRC: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::
 const READBACK: wgpu::BufferUsages = wgpu::BufferUsages::MAP_READ.union(wgpu::BufferUsages::COPY_DST);
 
 impl Renderer {
+    /// A renderer on the default headless adapter (Vulkan, then GL: [`GpuContext::new_headless`]).
+    ///
+    /// # Errors
+    /// No adapter or device.
+    pub fn headless() -> Result<Self, RenderError> {
+        Ok(Self::new(GpuContext::new_headless()?))
+    }
+
+    /// Render `scene` and label it: the image and its truth ([`crate::scene::truth_labels`]).
+    ///
+    /// # Errors
+    /// As [`Renderer::render`].
+    pub fn render_with_truth(&self, scene: &Scene) -> Result<(GreyImage, crate::scene::TruthLabels), RenderError> {
+        Ok((self.render(scene)?, crate::scene::truth_labels(scene)))
+    }
+
     /// Compile the shader on `ctx`; each pipeline is built on first use.
     pub fn new(ctx: GpuContext) -> Self {
         let device = &ctx.device;

@@ -38,7 +38,7 @@ use crate::math::so3::rotation_from_rvec;
 use crate::target::{Chessboard, DotGrid, DotStyle, SPathDots, Target};
 
 /// `[camera]` table.
-#[derive(Debug, Clone, Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
     /// Image width, pixels.

@@ -6,12 +6,17 @@
 //! box filter of planar targets, [`scanline`] a converged scan-line box filter of any target, and [`truth`] the labels written next
 //! to every image.
 
+pub mod builder;
 pub mod exact;
 pub mod file;
+pub mod poses;
 pub mod reference;
 pub mod scanline;
 pub mod trace;
 pub mod truth;
+
+pub use builder::SceneBuilder;
+pub use truth::{truth_labels, TruthLabels};
 
 use nalgebra::Isometry3;
 

@@ -38,7 +38,7 @@ pub const CENTROID_LINE_SAMPLES: u32 = 33;
 pub const CENTROID_BISECTIONS: u32 = 16;
 
 /// Pose as written to JSON.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct PoseLabel {
     /// Rotation matrix rows of `cam_from_target`.
     #[serde(rename = "R")]
@@ -50,7 +50,7 @@ pub struct PoseLabel {
 }
 
 /// Truth of one feature.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct FeatureLabel {
     /// Index in the target's documented order.
     pub id: usize,
@@ -80,18 +80,18 @@ pub struct FeatureLabel {
 }
 
 /// Truth file contents.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct TruthLabels {
     /// Format version.
     pub version: u32,
     /// Pixel convention in words.
-    pub pixel_convention: &'static str,
+    pub pixel_convention: String,
     /// Camera.
     pub camera: CameraSpec,
     /// `cam_from_target`.
     pub cam_from_target: PoseLabel,
     /// Target kind ("chessboard", "dot-grid", "s-path").
-    pub target_kind: &'static str,
+    pub target_kind: String,
     /// "corner" or "dot".
     pub feature_kind: FeatureKind,
     /// Chessboard inner corners `[cols, rows]` or dot-grid `[n, n]`; S-path `[101, 1]`.
@@ -103,7 +103,7 @@ pub struct TruthLabels {
 }
 
 /// Render settings as written to JSON.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct RenderLabel {
     /// Sub-samples per axis for brute-force pixels.
     pub samples: u32,
@@ -261,14 +261,14 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
     };
     TruthLabels {
         version: 1,
-        pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0), u right, v down",
+        pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0), u right, v down".into(),
         camera: CameraSpec::from_model(&scene.camera),
         cam_from_target: PoseLabel {
             r: [[m[(0, 0)], m[(0, 1)], m[(0, 2)]], [m[(1, 0)], m[(1, 1)], m[(1, 2)]], [m[(2, 0)], m[(2, 1)], m[(2, 2)]]],
             rvec: [rvec.x, rvec.y, rvec.z],
             t_m: [t.x, t.y, t.z],
         },
-        target_kind: scene.target.kind_name(),
+        target_kind: scene.target.kind_name().into(),
         feature_kind: kind,
         grid,
         render: scene.render.into(),

@@ -6,7 +6,7 @@
 //! Reference: F. Chaumette, S. Hutchinson, "Visual servo control, Part I: basic approaches", IEEE
 //! RAM 13(4), 2006 (PBVS, IBVS, interaction matrix); the course's PBVS/IBVS drivers.
 
-use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, Point2, Point3, SMatrix, Vector3, Vector6};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, Matrix6xX, Point2, Point3, SMatrix, Vector3, Vector6};
 
 use crate::camera::CameraModel;
 use crate::robot::{base_from_tool, jacobian, wrap, Joints};
@@ -47,12 +47,20 @@ pub fn pbvs_error(base_from_tool_est: &Isometry3<f64>, base_from_tool_goal: &Iso
     Vector6::new(qv.x, qv.y, qv.z, dp.x, dp.y, dp.z)
 }
 
-/// One PBVS step: q+ = wrap(q - gain J^T (J J^T + D)^-1 e).
+/// One PBVS step on the IRB 1200: q+ = wrap(q + [`pbvs_increment`]).
 pub fn pbvs_step(q: &Joints, error: &Vector6<f64>, params: &PbvsParams) -> Option<Joints> {
-    let j = jacobian(q);
+    let j = Matrix6xX::from_column_slice(jacobian(q).as_slice());
+    let dq = pbvs_increment(&j, error, params)?;
+    Some(Joints::from_iterator((0..6).map(|i| wrap(q[i] + dq[i]))))
+}
+
+/// The PBVS joint increment of any arm: `-gain J^T (J J^T + D)^-1 e`, `J` the 6 x n geometric
+/// Jacobian ([`crate::robot::Robot::jacobian`]), `e` from [`pbvs_error`]. Divided by the control
+/// period it is the joint-velocity command. `None` when `J J^T + D` is singular.
+pub fn pbvs_increment(j: &Matrix6xX<f64>, error: &Vector6<f64>, params: &PbvsParams) -> Option<DVector<f64>> {
     let d = Matrix6::from_diagonal(&Vector6::from_iterator(params.weights.iter().map(|w| params.damping / w)));
     let x = (j * j.transpose() + d).try_inverse()? * error;
-    Some((q - params.gain * j.transpose() * x).map(wrap))
+    Some(-params.gain * (j.transpose() * x))
 }
 
 /// Step gain of IBVS: the course's constant, or ViSP's adaptive gain (`vpAdaptiveGain`),
@@ -135,16 +143,21 @@ impl Default for IbvsParams {
     }
 }
 
-/// The camera's twist per joint rate at `q`, in camera coordinates: column i is (v_c; w_c) of
-/// joint i (translation of the camera centre, then rotation).
+/// The camera's twist per joint rate at `q` on the IRB 1200 ([`cam_twist_jacobian_of`]).
 pub fn cam_twist_jacobian(q: &Joints, tool_from_cam: &Isometry3<f64>) -> Matrix6<f64> {
-    let bt = base_from_tool(q);
-    let base_from_cam = bt * tool_from_cam;
-    let j = jacobian(q);
+    let j = Matrix6xX::from_column_slice(jacobian(q).as_slice());
+    Matrix6::from_column_slice(cam_twist_jacobian_of(&base_from_tool(q), &j, tool_from_cam).as_slice())
+}
+
+/// The camera's twist per joint rate of any arm, in camera coordinates: column i is (v_c; w_c)
+/// of joint i (translation of the camera centre, then rotation), from the arm's tool pose
+/// `base_from_tool` and its geometric Jacobian `j` (6 x n, [angular; linear] about the tool).
+pub fn cam_twist_jacobian_of(base_from_tool: &Isometry3<f64>, j: &Matrix6xX<f64>, tool_from_cam: &Isometry3<f64>) -> Matrix6xX<f64> {
+    let base_from_cam = base_from_tool * tool_from_cam;
     let r_bc = base_from_cam.rotation.to_rotation_matrix().into_inner();
-    let lever = base_from_cam.translation.vector - bt.translation.vector;
-    let mut out = Matrix6::zeros();
-    for i in 0..6 {
+    let lever = base_from_cam.translation.vector - base_from_tool.translation.vector;
+    let mut out = Matrix6xX::zeros(j.ncols());
+    for i in 0..j.ncols() {
         let w = Vector3::new(j[(0, i)], j[(1, i)], j[(2, i)]);
         let v_tool = Vector3::new(j[(3, i)], j[(4, i)], j[(5, i)]);
         let (vc, wc) = (r_bc.transpose() * (v_tool + w.cross(&lever)), r_bc.transpose() * w);
@@ -190,24 +203,46 @@ pub fn image_jacobian(
 }
 
 /// d(pixels)/d(q) = interaction matrix (2N x 6, per camera twist) times the camera twist per
-/// joint rate (6 x 6).
-pub fn joint_image_jacobian(l_cam: &DMatrix<f64>, twist: &Matrix6<f64>) -> DMatrix<f64> {
+/// joint rate (6 x n).
+pub fn joint_image_jacobian<C: nalgebra::Dim, S: nalgebra::storage::Storage<f64, nalgebra::U6, C>>(
+    l_cam: &DMatrix<f64>,
+    twist: &nalgebra::Matrix<f64, nalgebra::U6, C, S>,
+) -> DMatrix<f64> {
     let prod = l_cam * twist;
-    DMatrix::from_column_slice(l_cam.nrows(), 6, prod.as_slice())
+    DMatrix::from_column_slice(l_cam.nrows(), twist.ncols(), prod.as_slice())
 }
 
 /// One IBVS step from measured and desired pixels (same order):
 /// q+ = wrap(q - gain (L^T L + damping I)^-1 L^T (s - s*)), the gain taken at the RMS pixel error
 /// and halved near a robot singularity. Returns the new joints and the gain used.
 pub fn ibvs_step(q: &Joints, l: &DMatrix<f64>, measured: &[Point2<f64>], desired: &[Point2<f64>], params: &IbvsParams) -> Option<(Joints, f64)> {
-    let e = DVector::from_iterator(2 * measured.len(), measured.iter().zip(desired).flat_map(|(m, d)| [m.x - d.x, m.y - d.y]));
-    let rms = (e.norm_squared() / measured.len().max(1) as f64).sqrt();
     let smin = jacobian(q).singular_values().min();
+    let (dq, gain) = ibvs_increment(smin, l, measured, desired, params)?;
+    Some((Joints::from_iterator((0..6).map(|i| wrap(q[i] + dq[i]))), gain))
+}
+
+/// The IBVS joint increment of any arm: `-gain (L^T L + damping I)^-1 L^T (s - s*)`, `L` the
+/// 2N x n image Jacobian d(pixels)/d(q), the gain taken at the RMS pixel error and halved when
+/// `sigma_min_robot` (the smallest singular value of the arm's Jacobian) is below the threshold.
+/// Returns the increment and the gain; `None` for a singular system or mismatched lengths.
+pub fn ibvs_increment(
+    sigma_min_robot: f64,
+    l: &DMatrix<f64>,
+    measured: &[Point2<f64>],
+    desired: &[Point2<f64>],
+    params: &IbvsParams,
+) -> Option<(DVector<f64>, f64)> {
+    if measured.len() != desired.len() || l.nrows() != 2 * measured.len() || measured.is_empty() {
+        return None;
+    }
+    let e = DVector::from_iterator(2 * measured.len(), measured.iter().zip(desired).flat_map(|(m, d)| [m.x - d.x, m.y - d.y]));
+    let rms = (e.norm_squared() / measured.len() as f64).sqrt();
     let g = params.gain.at(rms);
-    let gain = if smin < params.singular_threshold { 0.5 * g } else { g };
-    let a = l.transpose() * l + DMatrix::identity(6, 6) * params.damping;
+    let gain = if sigma_min_robot < params.singular_threshold { 0.5 * g } else { g };
+    let n = l.ncols();
+    let a = l.transpose() * l + DMatrix::identity(n, n) * params.damping;
     let dq = a.try_inverse()? * (l.transpose() * e);
-    Some((Joints::from_iterator((0..6).map(|i| wrap(q[i] - gain * dq[i]))), gain))
+    Some((-gain * dq, gain))
 }
 
 #[cfg(test)]

@@ -62,7 +62,7 @@ pub enum Target {
 }
 
 /// Which kind of feature a target labels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FeatureKind {
     /// Inner chessboard corner (a saddle point).
@@ -72,6 +72,22 @@ pub enum FeatureKind {
 }
 
 impl Target {
+    /// A chessboard of `cols x rows` squares of `square_m` metres (the default look: a margin of
+    /// half a square, dark 20 / light 235 grey levels).
+    ///
+    /// ```
+    /// let board = synthcam::target::Target::chessboard(9, 7, 0.04);
+    /// assert_eq!(board.feature_points_m().len(), 8 * 6);
+    /// ```
+    pub fn chessboard(cols: u32, rows: u32, square_m: f64) -> Self {
+        Target::Chessboard(Chessboard { squares: [cols, rows], square_m, margin_m: 0.5 * square_m, ..Chessboard::default() })
+    }
+
+    /// The course's S-path dot target.
+    pub fn course_s_path() -> Self {
+        Target::SPath(SPathDots::default())
+    }
+
     /// Validate every field.
     ///
     /// # Errors

@@ -1,7 +1,16 @@
-//! Layering rules, enforced by reading the sources: only `render` names wgpu; only `dataset` and
-//! the CLI touch the filesystem; pure modules do not import the layers above them.
+//! Layering rules, enforced by reading the sources: only `render` names wgpu; only `dataset`,
+//! `report` and the CLI touch the filesystem; no module imports a layer above it.
+//!
+//! Layers, lowest first: `math` -> `camera` / `target` / `robot` -> `scene` -> `detect` / `calib` /
+//! `pnp` / `handeye` / `servo` -> `render` -> `sim` -> `dataset` -> `report` -> `cli`.
 
 use std::path::Path;
+
+/// Every layer, lowest first.
+const ORDER: [&str; 15] =
+    ["math", "camera", "target", "robot", "scene", "detect", "calib", "pnp", "handeye", "servo", "render", "sim", "dataset", "report", "cli"];
+/// Layers that may read or write files.
+const FILE_LAYERS: [&str; 4] = ["dataset", "report", "cli", "main"];
 
 fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
     for e in std::fs::read_dir(dir).expect("read_dir").flatten() {
@@ -19,32 +28,64 @@ fn module_of(path: &Path, src: &Path) -> String {
     rel.components().next().map(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs").to_string()).unwrap_or_default()
 }
 
+/// The rules broken by `text`, the source of a file of layer `module` (`is_test_module` for
+/// `tests.rs` files, which may read reference data).
+fn violations(module: &str, text: &str, is_test_module: bool) -> Vec<String> {
+    let code: String = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
+    let body = code.split("#[cfg(test)]").next().unwrap_or("");
+    let mut out = Vec::new();
+    if module != "render" && code.contains("wgpu::") {
+        out.push("names wgpu".to_string());
+    }
+    if !FILE_LAYERS.contains(&module) && !is_test_module {
+        for needle in ["std::fs", "File::create", "File::open"] {
+            if body.contains(needle) {
+                out.push(format!("uses {needle}"));
+            }
+        }
+    }
+    if let Some(rank) = ORDER.iter().position(|p| *p == module) {
+        for higher in &ORDER[rank + 1..] {
+            if code.contains(&format!("crate::{higher}::")) || code.contains(&format!("crate::{higher}}}")) || code.contains(&format!("crate::{higher};")) {
+                out.push(format!("(layer {module}) imports crate::{higher}"));
+            }
+        }
+    }
+    out
+}
+
 #[test]
 fn layering_rules_hold() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
     rust_files(&src, &mut files);
-    let pure = ["math", "camera", "target", "robot", "scene", "detect", "calib", "pnp", "handeye", "servo"];
-    let order = ["math", "camera", "target", "robot", "scene", "detect", "calib", "pnp", "handeye", "servo", "render", "dataset", "cli"];
+    let mut broken = Vec::new();
     for f in files {
         let text = std::fs::read_to_string(&f).expect("read");
-        let m = module_of(&f, &src);
-        let code: String = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
-        if m != "render" {
-            assert!(!code.contains("wgpu::"), "{} names wgpu", f.display());
-        }
-        // Test modules (`tests.rs`) may read reference data.
         let is_test_module = f.file_name().is_some_and(|n| n == "tests.rs");
-        if !["dataset", "cli", "main"].contains(&m.as_str()) && !is_test_module {
-            for needle in ["std::fs", "File::create", "File::open"] {
-                let body = code.split("#[cfg(test)]").next().unwrap_or("");
-                assert!(!body.contains(needle), "{} uses {needle}", f.display());
-            }
-        }
-        if let Some(rank) = pure.iter().position(|p| *p == m) {
-            for higher in &order[rank + 1..] {
-                assert!(!code.contains(&format!("crate::{higher}")), "{} (layer {m}) imports crate::{higher}", f.display());
-            }
+        for v in violations(&module_of(&f, &src), &text, is_test_module) {
+            broken.push(format!("{}: {v}", f.display()));
         }
     }
+    assert!(broken.is_empty(), "layering broken:\n{}", broken.join("\n"));
+}
+
+#[test]
+fn every_top_level_module_has_a_layer() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    for e in std::fs::read_dir(&src).expect("read_dir").flatten() {
+        let name = e.file_name().to_string_lossy().trim_end_matches(".rs").to_string();
+        let known = ORDER.contains(&name.as_str()) || ["lib", "main", "error"].contains(&name.as_str());
+        assert!(known, "src/{name} is in no layer of tests/e2e/architecture.rs");
+    }
+}
+
+#[test]
+fn the_checker_catches_forbidden_imports() {
+    assert_eq!(violations("detect", "use crate::render::Renderer;\n", false), vec!["(layer detect) imports crate::render"]);
+    assert_eq!(violations("sim", "use crate::dataset::write_atomic;\n", false), vec!["(layer sim) imports crate::dataset"]);
+    assert_eq!(violations("camera", "let t = std::fs::read(p);\n", false), vec!["uses std::fs"]);
+    assert_eq!(violations("scene", "let d: wgpu::Device;\n", false), vec!["names wgpu"]);
+    assert!(violations("report", "use crate::sim::servo_run::ServoTrace;\nlet t = std::fs::read(p);\n", false).is_empty());
+    assert!(violations("detect", "// use crate::render::Renderer;\n", false).is_empty());
 }

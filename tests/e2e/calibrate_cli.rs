@@ -2,7 +2,7 @@
 
 use std::process::Command;
 
-use synthcam::dataset::sweep::{run_sweep, SweepMode};
+use synthcam::sim::sweep::{run_sweep, SweepMode};
 
 use crate::common::{bin, renderer};
 
@@ -63,11 +63,11 @@ fn bad_detections_fail_with_an_explanation() {
 
 #[test]
 fn calib_sweep_runs_in_both_modes() {
-    let ideal = run_sweep(SweepMode::Ideal, &[20], &[5], 20, None);
+    let ideal = run_sweep(SweepMode::Ideal, &[20], &[5], 20, None).expect("sweep");
     let mean = ideal.iter().map(|r| r.err_pct[0]).sum::<f64>() / ideal.len() as f64;
     eprintln!("ideal mode, M = 20, N = 5, 20 seeds: mean % error of fx {mean:.2} (seed report: about 3 %)");
     assert!(ideal.len() >= 18 && mean > 0.5 && mean < 20.0, "{} runs, mean {mean}", ideal.len());
-    let rendered = run_sweep(SweepMode::Rendered, &[5], &[5], 1, Some(renderer()));
+    let rendered = run_sweep(SweepMode::Rendered, &[5], &[5], 1, Some(renderer())).expect("sweep");
     assert_eq!(rendered.len(), 1);
     eprintln!("rendered mode, M = 5, N = 5: % errors {:?}", rendered[0].err_pct);
     assert!(rendered[0].err_pct.iter().all(|e| *e < 1.0));

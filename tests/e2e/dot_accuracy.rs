@@ -7,11 +7,11 @@ use nalgebra::{Isometry3, Point2, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use synthcam::camera::Distortion;
-use synthcam::dataset::observe::{pose_from_dots, Dots};
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::truth::truth_labels;
+use synthcam::sim::observe::{pose_from_dots, Dots};
 use synthcam::target::{DotStyle, Target};
 
 use crate::common::renderer;
@@ -25,7 +25,7 @@ struct Stats {
     /// Vs the truth centroid, dots of image radius >= 1.5 px only (those the recall counts).
     eligible_err: Vec<f64>,
     /// Vs the projected centre after the model's centroid-bias correction at the pose PnP finds
-    /// from the detected dots (`dataset::observe::pose_from_dots`, two rounds).
+    /// from the detected dots (`sim::observe::pose_from_dots`, two rounds).
     corrected_err: Vec<f64>,
 }
 

@@ -2,14 +2,15 @@
 //! Issue targets: tool_from_cam and base translation errors <= 1 mm, rotation (AX = XB solver)
 //! <= 0.05 degrees; median and worst over seeds.
 
-use synthcam::dataset::handeye_run::{run_handeye, HandEyeRunError, Observation, Scenario};
+use synthcam::robot::Cell;
+use synthcam::sim::handeye_run::{run_handeye, HandEyeRunError, Observation};
 
 use crate::common::renderer;
 
 fn summary(name: &str, obs: Observation, seeds: u64) -> Vec<[f64; 7]> {
     let mut rows = Vec::new();
     for seed in 0..seeds {
-        let r = run_handeye(Some(renderer()), obs, &Scenario::default(), 5, seed).expect("hand-eye run");
+        let r = run_handeye(Some(renderer()), obs, &Cell::default(), 5, seed).expect("hand-eye run");
         rows.push([r.errors[0].mm, r.errors[1].mm, r.errors[2].mm, r.errors[2].deg, r.errors[4].mm, r.errors[4].deg, r.errors[5].mm]);
     }
     let col = |k: usize| {
@@ -40,7 +41,7 @@ fn hand_eye_on_rendered_and_detected_dots() {
 #[test]
 fn unreachable_scenario_is_a_typed_error() {
     // The robot folded at q = 0 never sees the S from behind its base.
-    let s = Scenario { q0_rad: [3.1, 0.0, 0.0, 0.0, 0.0, 0.0], spread_rad: 0.01, ..Default::default() };
+    let s = Cell { q0_rad: [3.1, 0.0, 0.0, 0.0, 0.0, 0.0], spread_rad: 0.01, ..Default::default() };
     let e = run_handeye(None, Observation::Ideal, &s, 5, 0).expect_err("unreachable");
     assert!(matches!(e, HandEyeRunError::Unreachable(_)), "{e}");
 }
@@ -48,6 +49,6 @@ fn unreachable_scenario_is_a_typed_error() {
 #[test]
 fn course_scenario_file_parses_to_the_default() {
     let text = include_str!("../../assets/scenarios/course.toml");
-    let s: Scenario = toml::from_str(text).expect("scenario");
-    assert_eq!(s, Scenario::default());
+    let s: Cell = toml::from_str(text).expect("scenario");
+    assert_eq!(s, Cell::default());
 }

@@ -18,6 +18,8 @@ mod dot_grid;
 mod fidelity;
 mod golden;
 mod handeye;
+mod open_scenario;
+mod options_proptest;
 mod robustness;
 mod servo;
 mod truth;

@@ -5,8 +5,8 @@
 
 use std::process::Command;
 
-use synthcam::dataset::handeye_run::Observation;
-use synthcam::dataset::servo_run::{run_servo, Law, ServoOptions, ServoScenario, ServoStatus, ServoTrace};
+use synthcam::sim::handeye_run::Observation;
+use synthcam::sim::servo_run::{run_servo, Law, ServoOptions, ServoScenario, ServoStatus, ServoTrace};
 
 use crate::common::{bin, renderer};
 
@@ -25,7 +25,7 @@ fn run(law: Law, observation: Observation) -> ServoTrace {
         s.pose_error_deg,
         s.pixel_rms_px,
         s.pixel_max_px,
-        t.steps.iter().filter(|s| s.source == synthcam::dataset::servo_run::Source::Fallback).count(),
+        t.steps.iter().filter(|s| s.source == synthcam::sim::servo_run::Source::Fallback).count(),
         t.loop_s
     );
     t

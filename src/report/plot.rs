@@ -104,10 +104,10 @@ pub fn canvas(w: u32, h: u32) -> RgbImage {
 ///
 /// # Errors
 /// Encoding failure.
-pub fn png(img: &RgbImage) -> Result<Vec<u8>, super::DatasetError> {
+pub fn png(img: &RgbImage) -> Result<Vec<u8>, super::ReportError> {
     let mut out = Vec::new();
     image::DynamicImage::ImageRgb8(img.clone())
         .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
-        .map_err(|e| super::DatasetError::Encode(e.to_string()))?;
+        .map_err(|e| super::ReportError::Encode(e.to_string()))?;
     Ok(out)
 }

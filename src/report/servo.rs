@@ -6,8 +6,8 @@ use image::{GrayImage, Rgb, RgbImage};
 use imageproc::drawing::{draw_cross_mut, draw_hollow_circle_mut};
 
 use super::plot::{canvas, png, text, Panel, PALETTE};
-use super::servo_run::{ServoTrace, Source, StepRecord};
-use super::DatasetError;
+use super::ReportError;
+use crate::sim::servo_run::{ServoTrace, Source, StepRecord};
 
 /// One CSV row per step (features are in the JSON trace).
 pub fn csv(trace: &ServoTrace) -> String {
@@ -54,7 +54,7 @@ fn step_ticks(n: usize) -> Vec<(f64, String)> {
 type Series<'a> = (&'a str, fn(&StepRecord) -> f64);
 
 /// A panel of log10 series per step, one line per (trace, series).
-fn log_series_png(title: &str, ylabel: &str, traces: &[(&str, &ServoTrace)], series: &[Series<'_>]) -> Result<Vec<u8>, DatasetError> {
+fn log_series_png(title: &str, ylabel: &str, traces: &[(&str, &ServoTrace)], series: &[Series<'_>]) -> Result<Vec<u8>, ReportError> {
     let mut img = canvas(1150, 520);
     let n = traces.iter().map(|(_, t)| t.steps.len()).max().unwrap_or(1).max(2) - 1;
     let all: Vec<f64> = traces
@@ -84,7 +84,7 @@ fn log_series_png(title: &str, ylabel: &str, traces: &[(&str, &ServoTrace)], ser
 ///
 /// # Errors
 /// PNG encoding.
-pub fn error_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, DatasetError> {
+pub fn error_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, ReportError> {
     log_series_png(
         "error per step",
         "log10",
@@ -97,7 +97,7 @@ pub fn error_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, DatasetError
 ///
 /// # Errors
 /// PNG encoding.
-pub fn singular_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, DatasetError> {
+pub fn singular_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, ReportError> {
     log_series_png("smallest singular values", "log10", traces, &[("robot J", |s| s.sigma_min_robot), ("image J", |s| s.sigma_min_image)])
 }
 
@@ -106,7 +106,7 @@ pub fn singular_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, DatasetEr
 ///
 /// # Errors
 /// PNG encoding.
-pub fn tracks_png(trace: &ServoTrace, width: u32, height: u32) -> Result<Vec<u8>, DatasetError> {
+pub fn tracks_png(trace: &ServoTrace, width: u32, height: u32) -> Result<Vec<u8>, ReportError> {
     let scale = 0.6;
     let (w, h) = ((f64::from(width) * scale) as u32, (f64::from(height) * scale) as u32);
     let mut img = canvas(w + 40, h + 70);
@@ -133,7 +133,7 @@ pub fn tracks_png(trace: &ServoTrace, width: u32, height: u32) -> Result<Vec<u8>
 ///
 /// # Errors
 /// PNG encoding.
-pub fn path_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, DatasetError> {
+pub fn path_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, ReportError> {
     let mut img = canvas(1100, 520);
     let pts: Vec<[f64; 3]> = traces.iter().flat_map(|(_, t)| t.steps.iter().map(|s| s.cam_position_m).chain(std::iter::once(t.goal_position_m))).collect();
     let range = |i: usize| {
@@ -204,8 +204,14 @@ pub fn budget_markdown(traces: &[(&str, &ServoTrace)]) -> String {
 }
 
 /// A contact sheet: `frames` (step, thumbnail) in a grid with step labels.
-pub fn contact_sheet(frames: &[(usize, GrayImage)], columns: u32) -> RgbImage {
+///
+/// # Errors
+/// Frames of different sizes, or no column.
+pub fn contact_sheet(frames: &[(usize, GrayImage)], columns: u32) -> Result<RgbImage, ReportError> {
     let (tw, th) = frames.first().map_or((1, 1), |(_, f)| f.dimensions());
+    if columns == 0 || frames.iter().any(|(_, f)| f.dimensions() != (tw, th)) {
+        return Err(ReportError::Input { what: "contact sheet", reason: format!("{columns} columns; every frame must be {tw}x{th}") });
+    }
     let rows = (frames.len() as u32).div_ceil(columns.max(1)).max(1);
     let mut sheet = RgbImage::from_pixel(columns * (tw + 4), rows * (th + 16), Rgb([255, 255, 255]));
     for (k, (step, f)) in frames.iter().enumerate() {
@@ -215,5 +221,5 @@ pub fn contact_sheet(frames: &[(usize, GrayImage)], columns: u32) -> RgbImage {
         }
         text(&mut sheet, cx as i32 + 2, cy as i32 + 3, &format!("step {step}"), Rgb([0, 0, 0]), 1);
     }
-    sheet
+    Ok(sheet)
 }

@@ -42,7 +42,7 @@ pub fn ros_yaml(r: &CalibResult, camera_name: &str) -> String {
 ///
 /// # Errors
 /// PNG encoding.
-pub fn plot_png(r: &CalibResult, points_px: &[Vec<nalgebra::Point2<f64>>]) -> Result<Vec<u8>, super::DatasetError> {
+pub fn plot_png(r: &CalibResult, points_px: &[Vec<nalgebra::Point2<f64>>]) -> Result<Vec<u8>, super::ReportError> {
     use super::plot::{canvas, png, text, Panel, PALETTE};
     use image::Rgb;
     use imageproc::drawing::draw_line_segment_mut;

@@ -5,7 +5,7 @@
 //! [`super::observe`]) gives `cam_from_world` per view, and both hand-eye solvers estimate
 //! `tool_from_cam` and `world_from_base`.
 
-use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -15,7 +15,7 @@ use crate::camera::CameraModel;
 use crate::handeye::refine::{refine_joint, JointRefinement, Observations};
 use crate::handeye::{course_linear, park_martin, HandEyeResult};
 use crate::render::Renderer;
-use crate::robot::{base_from_tool, Joints};
+use crate::robot::{base_from_tool, Cell, Joints};
 use crate::scene::{RenderSettings, Scene};
 use crate::target::{SPathDots, Target};
 
@@ -79,58 +79,11 @@ pub enum HandEyeRunError {
     HandEye(#[from] crate::handeye::HandEyeError),
 }
 
-/// A hand-eye scenario (TOML, `assets/scenarios/course.toml`): where the robot looks from and
-/// the true transforms.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
-    /// Centre of the joint sampling, radians.
-    pub q0_rad: [f64; 6],
-    /// Uniform perturbation per joint, radians.
-    pub spread_rad: f64,
-    /// Translation of `world_from_base` (rotation identity), metres.
-    pub base_t_m: [f64; 3],
-    /// Translation of `tool_from_cam`, metres.
-    pub tool_from_cam_t_m: [f64; 3],
-    /// Rotation of `tool_from_cam`, rows.
-    #[serde(rename = "tool_from_cam_R")]
-    pub tool_from_cam_r: [[f64; 3]; 3],
-}
-
-impl Default for Scenario {
-    /// Course variant A.
-    fn default() -> Self {
-        Self {
-            q0_rad: [0.0, 1.6, 3.0, 3.0, 2.0, 0.0],
-            spread_rad: 0.25,
-            base_t_m: [2.5, 0.0, 0.0],
-            tool_from_cam_t_m: [0.0, 0.0, 0.05],
-            tool_from_cam_r: [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        }
-    }
-}
-
-impl Scenario {
-    /// The true `tool_from_cam` and `world_from_base`.
-    pub fn truth(&self) -> (Isometry3<f64>, Isometry3<f64>) {
-        let r = crate::math::so3::project_to_so3(&Matrix3::from_fn(|i, j| self.tool_from_cam_r[i][j]));
-        (
-            Isometry3::from_parts(Translation3::from(Vector3::from(self.tool_from_cam_t_m)), UnitQuaternion::from_rotation_matrix(&r)),
-            Isometry3::from_parts(Translation3::from(Vector3::from(self.base_t_m)), UnitQuaternion::identity()),
-        )
-    }
-}
-
-/// Course variant A truth: `tool_from_cam` and `world_from_base`.
-pub fn variant_a() -> (Isometry3<f64>, Isometry3<f64>) {
-    Scenario::default().truth()
-}
-
 /// Run the experiment with `views` views.
 ///
 /// # Errors
 /// Unreachable scenario, failed detection or PnP, degenerate motions.
-pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Scenario, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
+pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Cell, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
     let cam = CameraModel::course_default();
     let target = SPathDots::default();
     let pts = target.path.points_m.clone();

@@ -20,11 +20,11 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use super::handeye_run::{run_handeye, HandEyeRunError, Observation, PoseError, Scenario};
+use super::handeye_run::{run_handeye, HandEyeRunError, Observation, PoseError};
 use super::observe::{pose_from_dots, pose_from_dots_cached, render_and_detect, Dots};
 use crate::camera::CameraModel;
 use crate::render::{GreyImage, Renderer};
-use crate::robot::{base_from_tool, check_limits, jacobian, wrap, Joints};
+use crate::robot::{base_from_tool, check_limits, jacobian, wrap, Cell, Joints};
 use crate::scene::{RenderSettings, Scene};
 use crate::servo::{cam_twist_jacobian, ibvs_step, interaction_matrix, joint_image_jacobian, pbvs_error, pbvs_step, IbvsParams, InteractionFrom, PbvsParams};
 use crate::target::{SPathDots, Target};
@@ -52,7 +52,7 @@ pub struct ServoScenario {
     #[serde(rename = "goal_cam_R")]
     pub goal_cam_r: [[f64; 3]; 3],
     /// Hand-eye truth and the hand-eye experiment's sampling.
-    pub handeye: Scenario,
+    pub handeye: Cell,
 }
 
 impl Default for ServoScenario {
@@ -63,7 +63,7 @@ impl Default for ServoScenario {
             q_start_rad: [0.1, 1.6, 3.5, 3.0, 2.0, 0.0],
             goal_cam_t_m: [1.8, 0.0, 0.55],
             goal_cam_r: [[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            handeye: Scenario::default(),
+            handeye: Cell::default(),
         }
     }
 }
@@ -423,8 +423,8 @@ pub fn run_servo(
     frame: &mut dyn FnMut(usize, &GreyImage),
 ) -> Result<ServoTrace, ServoRunError> {
     let goal = scenario.goal()?;
-    if options.max_steps == 0 || !options.ideal_noise_px.is_finite() || options.ideal_noise_px < 0.0 {
-        return Err(ServoRunError::Scenario("max_steps must be positive and the ideal noise finite and >= 0".into()));
+    if options.max_steps == 0 || options.stall_window == 0 || !options.ideal_noise_px.is_finite() || options.ideal_noise_px < 0.0 {
+        return Err(ServoRunError::Scenario("max_steps and stall_window must be positive and the ideal noise finite and >= 0".into()));
     }
     let (tool_from_cam, world_from_base) = scenario.handeye.truth();
     let t_he = Instant::now();

@@ -1,0 +1,89 @@
+//! A non-course scenario end to end (issue 15): a UR5e from its URDF, a 9 x 7-square chessboard,
+//! a 1920 x 1200 camera with f = 1100 px and k1 = -0.2; hand-eye, PBVS and IBVS on rendered and
+//! detected corners, through the step API a user's controller uses.
+
+use synthcam::sim::controller::{pixel_rms, run_loop, EyeInHand, Ibvs, Pbvs};
+use synthcam::sim::handeye_views::estimate_hand_eye;
+use synthcam::sim::sensor::{IdealSensor, RenderedSensor};
+use synthcam::sim::{ScenarioSpec, Sim, SimError, SimScenario};
+
+use crate::common::renderer;
+
+fn scenario() -> (ScenarioSpec, SimScenario) {
+    let spec = ScenarioSpec::parse(synthcam::sim::UR5E_CHESSBOARD).expect("scenario parses");
+    let sc = spec.to_scenario().expect("valid");
+    (spec, sc)
+}
+
+fn sim(spec: &ScenarioSpec, sc: &SimScenario) -> Sim<'static> {
+    let robot = spec.robot.build(&|_| Err("no files".into())).expect("robot");
+    Sim::new(sc.clone(), robot, Box::new(RenderedSensor { renderer: renderer() })).expect("sim")
+}
+
+#[test]
+fn ur5e_chessboard_hand_eye_pbvs_and_ibvs_on_rendered_corners() {
+    let (spec, sc) = scenario();
+    assert_eq!((sc.camera.size.width, sc.camera.size.height), (1920, 1200));
+    let mut sim = sim(&spec, &sc);
+    assert_eq!(sim.robot().name(), "ur5e");
+    let start = sim.observe().expect("observe");
+    assert_eq!(start.features.len(), 48, "{:?}", start.note);
+    // Detected corners against the truth's projections, by id (the ids are resolved, not assumed).
+    let worst = start.features.iter().map(|f| (start.truth.projected_px[f.id].expect("visible") - f.pixel_px).norm()).fold(0.0, f64::max);
+    assert!(worst < 0.1, "corner vs projection {worst} px");
+
+    // Hand-eye from 10 rendered views within 0.25 rad of the start.
+    let truth_cell = EyeInHand { camera: sc.camera, target: sc.target.clone(), tool_from_cam: sc.tool_from_cam };
+    let he = estimate_hand_eye(&mut sim, &truth_cell, 10, 0.25, 20.0, 1).expect("hand-eye");
+    let x = sc.tool_from_cam;
+    let (mm, deg) =
+        (1e3 * (he.tool_from_cam.translation.vector - x.translation.vector).norm(), (he.tool_from_cam.rotation.inverse() * x.rotation).angle().to_degrees());
+    eprintln!("hand-eye: tool_from_cam {mm:.4} mm {deg:.5} deg ({} views, {} drawn)", he.views, he.drawn);
+    assert!(mm < 0.5 && deg < 0.05, "hand-eye {mm} mm {deg} deg (goal 0.5 mm / 0.05 deg)");
+    let tb = sc.world_from_target.inverse() * sc.world_from_base;
+    assert!(1e3 * (he.target_from_base.translation.vector - tb.translation.vector).norm() < 0.5);
+
+    // PBVS with the estimated hand-eye.
+    let goal = sc.goal_cam_from_target;
+    let cell = EyeInHand { tool_from_cam: he.tool_from_cam, ..truth_cell };
+    let mut pbvs = Pbvs { cell: cell.clone(), goal_cam_from_target: goal, params: Default::default(), stop_mm_deg: (0.05, 0.005) };
+    let tr = run_loop(&mut sim, &mut pbvs, &goal, 1.0, 100).expect("PBVS loop");
+    let (mm, deg) = tr.steps.last().expect("steps").goal_error_mm_deg;
+    eprintln!("PBVS: {} steps, true error {mm:.4} mm {deg:.5} deg", tr.steps.len());
+    assert!(tr.stopped && mm < 1.0 && deg < 0.1, "PBVS {mm} mm {deg} deg after {} steps", tr.steps.len());
+    assert!(tr.steps[0].goal_error_mm_deg.0 > 50.0, "the start is far from the goal");
+
+    // IBVS on the corners, desired features taught by showing.
+    sim.set_joints(&sc.q_start_rad).expect("restart");
+    let desired = Ibvs::desired_from(&sim.observe_from(goal).expect("goal view"), 48);
+    let mut ibvs = Ibvs { cell, desired_px: desired.clone(), goal_cam_from_target: goal, params: Default::default(), stop_px: 0.05 };
+    let tr = run_loop(&mut sim, &mut ibvs, &goal, 1.0, 300).expect("IBVS loop");
+    let rms = pixel_rms(&sim.observe().expect("observe").features, &desired).expect("matched");
+    eprintln!("IBVS: {} steps, pixel RMS {rms:.4} px, true error {:?}", tr.steps.len(), tr.steps.last().map(|s| s.goal_error_mm_deg));
+    assert!(rms <= 0.5, "IBVS pixel RMS {rms}");
+}
+
+#[test]
+fn the_step_api_rejects_bad_commands_and_scenarios() {
+    let (spec, sc) = scenario();
+    let robot = spec.robot.build(&|_| Err("no files".into())).expect("robot");
+    let mut sim = Sim::new(sc.clone(), robot, Box::new(IdealSensor::new(0.1, 0).expect("sensor"))).expect("sim");
+    assert!(matches!(sim.command_joint_velocities(&[0.0; 5], 0.1), Err(SimError::Command(_))));
+    assert!(matches!(sim.command_joint_velocities(&[f64::NAN; 6], 0.1), Err(SimError::Command(_))));
+    assert!(matches!(sim.command_joint_velocities(&[0.0; 6], 0.0), Err(SimError::Command(_))));
+    // Too fast: scaled to the velocity limit (pi rad/s), not refused.
+    sim.command_joint_velocities(&[10.0, 0.0, 0.0, 0.0, 0.0, 0.0], 0.1).expect("saturated");
+    assert!((sim.joints()[0] - (sc.q_start_rad[0] + 0.1 * std::f64::consts::PI)).abs() < 1e-12);
+    assert!(IdealSensor::new(-1.0, 0).is_err());
+    let bad = synthcam::sim::UR5E_CHESSBOARD.replace("robot = \"ur5e\"", "robot = \"ur99\"");
+    let spec = ScenarioSpec::parse(&bad).expect("parses");
+    assert!(matches!(spec.robot.build(&|_| Err("no files".into())), Err(SimError::Scenario(_))));
+    let urdf = synthcam::sim::UR5E_CHESSBOARD.replace("robot = \"ur5e\"", "robot = { urdf = \"missing.urdf\", base = \"base_link\", tip = \"tool0\" }");
+    let spec = ScenarioSpec::parse(&urdf).expect("parses");
+    assert!(matches!(spec.robot.build(&|p| Err(format!("{p}: not found"))), Err(SimError::Scenario(_))));
+    assert!(ScenarioSpec::parse("robot = \"ur5e\"\nq_start_rad = [0.0]\n").is_err());
+    let short = synthcam::sim::UR5E_CHESSBOARD.replace("q_start_rad = [0.15, -1.75, 1.75, -1.75, -1.45, 0.2]", "q_start_rad = [0.1]");
+    let spec = ScenarioSpec::parse(&short).expect("parses");
+    let robot = spec.robot.build(&|_| Err("no files".into())).expect("robot");
+    assert!(Sim::new(spec.to_scenario().expect("valid"), robot, Box::new(IdealSensor::new(0.1, 0).expect("sensor"))).is_err());
+}
