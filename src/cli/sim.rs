@@ -10,6 +10,9 @@ use synthcam::sim::sensor::{IdealSensor, RenderedSensor, Sensor};
 use synthcam::sim::servo_run::Law;
 use synthcam::sim::{ScenarioSpec, Sim};
 
+/// Noise of the ideal projections, pixels (the course's).
+const IDEAL_NOISE_PX: f64 = 0.1;
+
 /// Arguments of `sim`.
 #[derive(Debug, clap::Args)]
 pub struct SimArgs {
@@ -47,10 +50,13 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
     let sensor: Box<dyn Sensor> = match &renderer {
         Some(r) => Box::new(RenderedSensor { renderer: r }),
-        None => Box::new(IdealSensor::new(0.1, 0)?),
+        None => Box::new(IdealSensor::new(IDEAL_NOISE_PX, 0)?),
     };
     let mut sim = Sim::new(scenario, robot, sensor)?;
-    let run = run_open(&mut sim, &OpenRunOptions { law, handeye_views: args.views, max_steps: args.steps, ..Default::default() })?;
+    // Ideal features carry N(0, sigma^2) per coordinate: their RMS distance to the desired ones
+    // cannot fall below sigma sqrt(2), so the IBVS stop is raised to 2 sigma there.
+    let stop_px = if args.ideal { 2.0 * IDEAL_NOISE_PX } else { 0.05 };
+    let run = run_open(&mut sim, &OpenRunOptions { law, handeye_views: args.views, max_steps: args.steps, stop_px, ..Default::default() })?;
     let (mm, deg) = run.handeye_error_mm_deg;
     println!("robot {}: hand-eye tool_from_cam error {mm:.4} mm {deg:.5} deg ({} views)", sim.robot().name(), args.views);
     let last = run.trace.steps.last().map(|s| s.goal_error_mm_deg).unwrap_or_default();

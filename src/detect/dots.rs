@@ -20,7 +20,7 @@
 //!    Pixels more than one pixel from any clearly dark one (weight > 0.1) are left out: they
 //!    hold only noise, at a long lever arm.
 //! 4. Where a dot meets a two-level edge (the sphere's outline) the surround is an edge model
-//!    ([`EdgeSurround`]), measured on the lines across the edge that no dot touches and bridged
+//!    (`EdgeSurround`), measured on the lines across the edge that no dot touches and bridged
 //!    by the whole image's outline conic ([`Outline`]); the weights then depend on whether the
 //!    blob is paint on the bright side, a bead behind the edge or one in front of it
 //!    (`edge_weights`).

@@ -14,7 +14,7 @@ pub struct ImageF32 {
     pub data: Vec<f32>,
 }
 
-/// Large sample buffers go back to the per-thread [`pool`](super::pool) for the next image.
+/// Large sample buffers go back to the per-thread `pool` for the next image.
 impl Drop for ImageF32 {
     fn drop(&mut self) {
         super::pool::recycle(std::mem::take(&mut self.data));

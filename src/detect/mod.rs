@@ -2,7 +2,7 @@
 //!
 //! Holds the sub-pixel corner refiners (gradient-orthogonality [`refine_corner`] and the unbiased
 //! saddle-model fit [`refine_saddle`]), the chessboard detector [`find_chessboard`] (saddle
-//! response in [`response`], grid growing in [`grid`], X-junction test in [`xcorner`]), the dot
+//! response in `response`, grid growing in [`grid`], X-junction test in `xcorner`), the dot
 //! detector and orderings (S-path: chain from the start dot in [`s_path_order`], indexing by the
 //! known 3-D path in [`s_path_fit`]), and the target dispatch.
 //!
@@ -11,21 +11,21 @@
 
 pub mod chessboard;
 pub mod dots;
-pub mod edge_surround;
-pub mod filters;
+pub(crate) mod edge_surround;
+pub(crate) mod filters;
 pub mod grid;
 pub mod grid_order;
 pub mod image;
 pub mod outline;
-pub mod par;
-pub mod pool;
-pub mod response;
+pub(crate) mod par;
+pub(crate) mod pool;
+pub(crate) mod response;
 pub mod s_path_fit;
 pub mod s_path_order;
 pub mod saddle_fit;
 pub mod subpixel;
 pub mod target;
-pub mod xcorner;
+pub(crate) mod xcorner;
 
 pub use self::image::{GreyWindow, ImageF32, ImageU8};
 pub use chessboard::{find_chessboard, ChessboardCorners, ChessboardParams};

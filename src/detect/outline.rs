@@ -1,7 +1,7 @@
 //! A two-level outline over the whole image (the S-path sphere's silhouette against the
 //! background) as one conic.
 //!
-//! A dot's local edge model ([`super::edge_surround`]) measures the edge on the lines across it
+//! A dot's local edge model (`edge_surround`) measures the edge on the lines across it
 //! that no dot touches. Where dots line the outline for a long stretch, those lines are few and
 //! on one side, and a local cubic extrapolates by tenths of a pixel. The silhouette of a sphere
 //! through a pinhole lens is a conic, and most of it is free of dots: every clean crossing of the

@@ -3,14 +3,14 @@
 //! [`GpuContext`] opens a headless device (Vulkan, i.e. lavapipe on machines without a GPU; GL
 //! llvmpipe as fallback). [`Renderer`] runs `shaders/render.wgsl`, one compute invocation per pixel,
 //! which inverts the lens distortion per pixel, casts rays at the exact target geometry and
-//! box-filters each pixel (analytic coverage or supersampling). [`post`] applies blur, noise and
+//! box-filters each pixel (analytic coverage or supersampling). `post` applies blur, noise and
 //! quantisation on the CPU, deterministically.
 
 pub mod context;
-pub mod gpu_scene;
-pub mod post;
+pub(crate) mod gpu_scene;
+pub(crate) mod post;
 pub mod renderer;
-pub mod uniforms;
+pub(crate) mod uniforms;
 
 pub use context::{BackendChoice, GpuContext};
 pub use renderer::Renderer;

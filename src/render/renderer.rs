@@ -1,7 +1,7 @@
 //! The compute pipelines and their orchestration.
 //!
 //! llvmpipe runs every branch of a shader under a lane mask, so work is skipped by not dispatching
-//! it: the CPU fills the tiles that hold no edge (see [`super::gpu_scene`]); the *coarse* pass runs
+//! it: the CPU fills the tiles that hold no edge (see `gpu_scene`); the *coarse* pass runs
 //! one 8 x 8 workgroup per remaining tile and flags the pixels that need more than one ray or one
 //! closed-form coverage; the *fine* pass runs one invocation per flagged pixel. Values come back
 //! in work-list order and the CPU scatters them into the image.

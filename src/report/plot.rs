@@ -3,7 +3,8 @@
 
 use font8x8::UnicodeFonts;
 use image::{Rgb, RgbImage};
-use imageproc::drawing::{draw_filled_rect_mut, draw_hollow_rect_mut, draw_line_segment_mut};
+use imageproc::drawing::{draw_antialiased_line_segment_mut, draw_filled_rect_mut, draw_hollow_rect_mut, draw_line_segment_mut};
+use imageproc::pixelops::interpolate;
 use imageproc::rect::Rect;
 
 /// Colours for series.
@@ -75,14 +76,29 @@ impl Panel {
         }
     }
 
-    /// A polyline through data points.
+    /// A polyline through data points (anti-aliased), a filled square at each point.
     pub fn line(&self, img: &mut RgbImage, pts: &[(f64, f64)], colour: Rgb<u8>) {
-        for w in pts.windows(2) {
-            draw_line_segment_mut(img, self.px(w[0].0, w[0].1), self.px(w[1].0, w[1].1), colour);
+        self.styled_line(img, pts, colour, false);
+    }
+
+    /// A polyline, solid with filled markers or dashed with hollow ones (so that a second run
+    /// drawn over the first leaves it visible).
+    pub fn styled_line(&self, img: &mut RgbImage, pts: &[(f64, f64)], colour: Rgb<u8>, dashed: bool) {
+        for (k, w) in pts.windows(2).enumerate() {
+            if dashed && k % 2 == 1 {
+                continue;
+            }
+            let (a, b) = (self.px(w[0].0, w[0].1), self.px(w[1].0, w[1].1));
+            draw_antialiased_line_segment_mut(img, (a.0 as i32, a.1 as i32), (b.0 as i32, b.1 as i32), colour, interpolate);
         }
         for p in pts {
             let (u, v) = self.px(p.0, p.1);
-            draw_filled_rect_mut(img, Rect::at(u as i32 - 2, v as i32 - 2).of_size(5, 5), colour);
+            let r = Rect::at(u as i32 - 2, v as i32 - 2).of_size(5, 5);
+            if dashed {
+                draw_hollow_rect_mut(img, r, colour);
+            } else {
+                draw_filled_rect_mut(img, r, colour);
+            }
         }
     }
 

@@ -53,9 +53,11 @@ fn step_ticks(n: usize) -> Vec<(f64, String)> {
 /// A named quantity of a step.
 type Series<'a> = (&'a str, fn(&StepRecord) -> f64);
 
-/// A panel of log10 series per step, one line per (trace, series).
+/// One panel of log10 series per step for each trace, side by side on the same axes (so no run's
+/// curves can hide another's), one colour per series with its legend inside the panel.
 fn log_series_png(title: &str, ylabel: &str, traces: &[(&str, &ServoTrace)], series: &[Series<'_>]) -> Result<Vec<u8>, ReportError> {
-    let mut img = canvas(1150, 520);
+    let panels = traces.len().max(1) as u32;
+    let mut img = canvas(90 + 540 * panels, 540);
     let n = traces.iter().map(|(_, t)| t.steps.len()).max().unwrap_or(1).max(2) - 1;
     let all: Vec<f64> = traces
         .iter()
@@ -65,16 +67,16 @@ fn log_series_png(title: &str, ylabel: &str, traces: &[(&str, &ServoTrace)], ser
         .collect();
     let lo = all.iter().copied().fold(f64::INFINITY, f64::min).min(0.0).floor().max(-6.0);
     let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max).max(lo + 1.0).ceil();
-    let panel = Panel { rect: (100, 60, 700, 400), x: (0.0, n as f64), y: (lo, hi) };
-    panel.axes(&mut img, title, "step", ylabel, &step_ticks(n), &log_ticks(lo, hi));
-    let mut k = 0;
-    for (tname, t) in traces {
-        for (sname, f) in series {
+    text(&mut img, 20, 8, title, image::Rgb([0, 0, 0]), 2);
+    for (ti, (tname, t)) in traces.iter().enumerate() {
+        let left = 90 + 540 * ti as i32;
+        let panel = Panel { rect: (left, 80, 460, 400), x: (0.0, n as f64), y: (lo, hi) };
+        panel.axes(&mut img, tname, "step", ylabel, &step_ticks(n), &log_ticks(lo, hi));
+        for (si, (sname, f)) in series.iter().enumerate() {
             let pts: Vec<(f64, f64)> = t.steps.iter().map(|s| (s.step as f64, f(s).max(10f64.powf(lo)).log10())).collect();
-            let colour = PALETTE[k % PALETTE.len()];
+            let colour = PALETTE[si % PALETTE.len()];
             panel.line(&mut img, &pts, colour);
-            text(&mut img, 815, 70 + 16 * k as i32, &format!("{sname} ({tname})"), colour, 1);
-            k += 1;
+            text(&mut img, left + 300, 90 + 14 * si as i32, sname, colour, 1);
         }
     }
     png(&img)

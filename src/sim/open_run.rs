@@ -23,11 +23,14 @@ pub struct OpenRunOptions {
     pub dt_s: f64,
     /// Seed of the hand-eye views.
     pub seed: u64,
+    /// IBVS stops below this RMS pixel error (on ideal projections keep it above the noise floor,
+    /// sigma sqrt(2)).
+    pub stop_px: f64,
 }
 
 impl Default for OpenRunOptions {
     fn default() -> Self {
-        Self { law: Law::Pbvs, handeye_views: 10, spread_rad: 0.25, max_steps: 300, dt_s: 1.0, seed: 1 }
+        Self { law: Law::Pbvs, handeye_views: 10, spread_rad: 0.25, max_steps: 300, dt_s: 1.0, seed: 1, stop_px: 0.05 }
     }
 }
 
@@ -70,7 +73,10 @@ pub fn run_open(sim: &mut Sim<'_>, options: &OpenRunOptions) -> Result<OpenRun, 
         Law::Pbvs => (Box::new(Pbvs { cell, goal_cam_from_target: goal, params: PbvsParams::default(), stop_mm_deg: (0.05, 0.005) }), None),
         Law::Ibvs => {
             let desired = Ibvs::desired_from(&sim.observe_from(goal)?, sc.target.feature_points_m().len());
-            (Box::new(Ibvs { cell, desired_px: desired.clone(), goal_cam_from_target: goal, params: IbvsParams::default(), stop_px: 0.05 }), Some(desired))
+            (
+                Box::new(Ibvs { cell, desired_px: desired.clone(), goal_cam_from_target: goal, params: IbvsParams::default(), stop_px: options.stop_px }),
+                Some(desired),
+            )
         }
     };
     let trace = run_loop(sim, controller.as_mut(), &goal, options.dt_s, options.max_steps)?;

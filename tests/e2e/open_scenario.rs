@@ -87,3 +87,20 @@ fn the_step_api_rejects_bad_commands_and_scenarios() {
     let robot = spec.robot.build(&|_| Err("no files".into())).expect("robot");
     assert!(Sim::new(spec.to_scenario().expect("valid"), robot, Box::new(IdealSensor::new(0.1, 0).expect("sensor"))).is_err());
 }
+
+#[test]
+fn sim_cli_runs_an_open_scenario_and_rejects_bad_input() {
+    let bin = crate::common::bin();
+    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenarios/ur5e_chessboard.toml");
+    let json = std::env::temp_dir().join("synthcam_sim_cli.json");
+    let out = std::process::Command::new(bin).args(["sim", scenario, "--law", "pbvs", "--ideal", "--json"]).arg(&json).output().expect("run");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let run: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("parses");
+    assert_eq!(run["trace"]["stopped"], true);
+    let last = run["trace"]["steps"].as_array().and_then(|s| s.last()).expect("steps")["goal_error_mm_deg"][0].as_f64().expect("mm");
+    assert!(last < 1.0, "ideal PBVS ends {last} mm from the goal");
+    let bad = std::process::Command::new(bin).args(["sim", scenario, "--law", "xyz"]).output().expect("run");
+    assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("--law"));
+    let missing = std::process::Command::new(bin).args(["sim", "no/such/scenario.toml"]).output().expect("run");
+    assert!(!missing.status.success() && String::from_utf8_lossy(&missing.stderr).contains("reading"));
+}
