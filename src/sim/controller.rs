@@ -8,6 +8,7 @@
 
 use nalgebra::{DVector, Isometry3, Point2, Point3};
 
+use super::handeye_run::PoseError;
 use super::sensor::Feature;
 use super::world::{Observation, Sim};
 use super::SimError;
@@ -82,10 +83,7 @@ impl Controller for Pbvs {
         let x = self.cell.tool_from_cam;
         let goal = base_from_tool * x * cam_from_target * self.goal_cam_from_target.inverse() * x.inverse();
         let e = pbvs_error(&base_from_tool, &goal);
-        let (mm, deg) = (
-            1e3 * (goal.translation.vector - base_from_tool.translation.vector).norm(),
-            (goal.rotation.inverse() * base_from_tool.rotation).angle().to_degrees(),
-        );
+        let PoseError { mm, deg } = PoseError::between(&base_from_tool, &goal);
         if mm < self.stop_mm_deg.0 && deg < self.stop_mm_deg.1 {
             return Ok(Command::Stop);
         }

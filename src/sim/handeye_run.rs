@@ -37,8 +37,11 @@ pub struct PoseError {
     pub deg: f64,
 }
 
-fn err(est: &Isometry3<f64>, truth: &Isometry3<f64>) -> PoseError {
-    PoseError { mm: 1e3 * (est.translation.vector - truth.translation.vector).norm(), deg: (est.rotation * truth.rotation.inverse()).angle().to_degrees() }
+impl PoseError {
+    /// The error of `est` against `truth`: translation distance and rotation angle between them.
+    pub fn between(est: &Isometry3<f64>, truth: &Isometry3<f64>) -> Self {
+        PoseError { mm: 1e3 * (est.translation.vector - truth.translation.vector).norm(), deg: (est.rotation * truth.rotation.inverse()).angle().to_degrees() }
+    }
 }
 
 /// Result of one hand-eye run.
@@ -147,12 +150,12 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Cel
     let pm = park_martin(&bt, &wc)?;
     let refined = refine_joint(&cam, &bt, &observations, &pm);
     let errors = [
-        err(&linear.tool_from_cam, &x_true),
-        err(&linear.world_from_base, &wb_true),
-        err(&pm.tool_from_cam, &x_true),
-        err(&pm.world_from_base, &wb_true),
-        err(&refined.tool_from_cam, &x_true),
-        err(&refined.world_from_base, &wb_true),
+        PoseError::between(&linear.tool_from_cam, &x_true),
+        PoseError::between(&linear.world_from_base, &wb_true),
+        PoseError::between(&pm.tool_from_cam, &x_true),
+        PoseError::between(&pm.world_from_base, &wb_true),
+        PoseError::between(&refined.tool_from_cam, &x_true),
+        PoseError::between(&refined.world_from_base, &wb_true),
     ];
     Ok(HandEyeRun { linear, park_martin: pm, refined, errors, pnp_mm, drawn })
 }

@@ -61,6 +61,9 @@ pub enum SimError {
     /// The controller could not compute a command.
     #[error("controller: {0}")]
     Control(String),
+    /// The renderer failed, or the detector rejected the image buffer.
+    #[error(transparent)]
+    Observe(#[from] observe::ObserveError),
     /// The renderer failed.
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),

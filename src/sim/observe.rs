@@ -11,8 +11,8 @@ use std::time::Instant;
 
 use nalgebra::{Isometry3, Point2, Vector2};
 
-use crate::detect::target::{detect, TargetSpec};
-use crate::detect::{DetectError, ImageF32};
+use crate::detect::target::{detect, Detection, TargetSpec};
+use crate::detect::DetectError;
 use crate::pnp::{pnp_general, PnpError, PnpResult};
 use crate::render::{GreyImage, RenderError, Renderer};
 use crate::scene::truth::truth_labels;
@@ -63,20 +63,41 @@ pub struct Observed {
 /// # Errors
 /// Not an S-path scene, the renderer failed, or the image buffer was inconsistent.
 pub fn render_and_detect(renderer: &Renderer, scene: &Scene) -> Result<Observed, ObserveError> {
-    let Target::SPath(s) = &scene.target else { return Err(ObserveError::NotSPath(scene.target.kind_name())) };
-    let t0 = Instant::now();
-    let image = renderer.render(scene)?;
-    let render_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let t1 = Instant::now();
-    let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
-    let grey = ImageF32::from_u8(w, h, &image.to_u8())?;
-    let det = detect(&grey, &TargetSpec::SPath { points: s.path.points_m.len() })?;
-    let detect_ms = t1.elapsed().as_secs_f64() * 1e3;
+    if !matches!(scene.target, Target::SPath(_)) {
+        return Err(ObserveError::NotSPath(scene.target.kind_name()));
+    }
+    let Timed { image, det, render_ms, detect_ms } = render_and_detect_target(renderer, scene)?;
     let dots = match det.indices {
         Some(ids) if det.found => Some(Dots { ids, pixels_px: det.points_px }),
         _ => None,
     };
     Ok(Observed { image, dots, note: det.note, render_ms, detect_ms })
+}
+
+/// A rendered image, its detection and the time each took.
+#[derive(Debug, Clone)]
+pub struct Timed {
+    /// The rendered image.
+    pub image: GreyImage,
+    /// What the detector found.
+    pub det: Detection,
+    /// Render + readback, milliseconds.
+    pub render_ms: f64,
+    /// Conversion and detection, milliseconds.
+    pub detect_ms: f64,
+}
+
+/// Render `scene` and run the detector for its target ([`TargetSpec::for_target`]).
+///
+/// # Errors
+/// The renderer failed, or the image buffer was inconsistent.
+pub fn render_and_detect_target(renderer: &Renderer, scene: &Scene) -> Result<Timed, ObserveError> {
+    let t0 = Instant::now();
+    let image = renderer.render(scene)?;
+    let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let det = detect(&image.to_detector_image()?, &TargetSpec::for_target(&scene.target))?;
+    Ok(Timed { image, det, render_ms, detect_ms: t1.elapsed().as_secs_f64() * 1e3 })
 }
 
 /// The model's blob-centroid bias per path index at `scene`'s pose: blob centroid minus the

@@ -2,6 +2,7 @@
 //! estimate, on a [`Sim`] (what `synthcam sim` does).
 
 use super::controller::{pixel_rms, run_loop, Controller, EyeInHand, Ibvs, LoopTrace, Pbvs};
+use super::handeye_run::PoseError;
 use super::handeye_views::{estimate_hand_eye, HandEyeEstimate};
 use super::servo_run::Law;
 use super::world::Sim;
@@ -59,13 +60,8 @@ pub fn run_open(sim: &mut Sim<'_>, options: &OpenRunOptions) -> Result<OpenRun, 
         (sc.tool_from_cam, (0.0, 0.0))
     } else {
         let HandEyeEstimate { tool_from_cam: x, .. } = estimate_hand_eye(sim, &truth_cell, options.handeye_views, options.spread_rad, 20.0, options.seed)?;
-        (
-            x,
-            (
-                1e3 * (x.translation.vector - sc.tool_from_cam.translation.vector).norm(),
-                (x.rotation.inverse() * sc.tool_from_cam.rotation).angle().to_degrees(),
-            ),
-        )
+        let e = PoseError::between(&x, &sc.tool_from_cam);
+        (x, (e.mm, e.deg))
     };
     let cell = EyeInHand { tool_from_cam, ..truth_cell };
     let goal = sc.goal_cam_from_target;

@@ -7,8 +7,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
+use super::observe::{render_and_detect_target, Timed};
 use super::SimError;
-use crate::detect::target::{detect, TargetSpec};
 use crate::render::{GreyImage, Renderer};
 use crate::scene::Scene;
 
@@ -55,13 +55,7 @@ pub struct RenderedSensor<'a> {
 
 impl Sensor for RenderedSensor<'_> {
     fn capture(&mut self, scene: &Scene) -> Result<Capture, SimError> {
-        let t0 = std::time::Instant::now();
-        let image = self.renderer.render(scene)?;
-        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let t1 = std::time::Instant::now();
-        let grey = image.to_detector_image()?;
-        let det = detect(&grey, &TargetSpec::for_target(&scene.target))?;
-        let detect_ms = t1.elapsed().as_secs_f64() * 1e3;
+        let Timed { image, det, render_ms, detect_ms } = render_and_detect_target(self.renderer, scene)?;
         let features = if det.found {
             let ids = det.indices.unwrap_or_else(|| (0..det.points_px.len()).collect());
             ids.into_iter().zip(det.points_px).map(|(id, pixel_px)| Feature { id, pixel_px }).collect()

@@ -330,10 +330,6 @@ pub enum ServoRunError {
     Observe(#[from] super::observe::ObserveError),
 }
 
-fn pose_err(a: &Isometry3<f64>, b: &Isometry3<f64>) -> PoseError {
-    PoseError { mm: 1e3 * (a.translation.vector - b.translation.vector).norm(), deg: (a.rotation * b.rotation.inverse()).angle().to_degrees() }
-}
-
 /// Observations of one step, before the law.
 struct Measured {
     dots: Option<Dots>,
@@ -458,7 +454,7 @@ pub fn run_servo(
         observation: if options.observation == Observation::Rendered { "rendered" } else { "ideal" },
         status: ServoStatus::MaxSteps,
         updates: 0,
-        handeye_error: [pose_err(&tool_from_cam_est, &tool_from_cam), pose_err(&world_from_base_est, &world_from_base)],
+        handeye_error: [PoseError::between(&tool_from_cam_est, &tool_from_cam), PoseError::between(&world_from_base_est, &world_from_base)],
         desired_px: vec![None; setup.pts.len()],
         goal_position_m: goal.translation.vector.into(),
         q_start_rad: scenario.q_start_rad,
@@ -543,8 +539,8 @@ pub fn run_servo(
         let l = setup.image_jacobian(&q, &ids);
         let sigma_min_image = l.clone().singular_values().min();
         let sigma_min_robot = jacobian(&q).singular_values().min();
-        let est = pose_err(&world_from_cam_est, &goal);
-        let truth = pose_err(&world_from_cam, &goal);
+        let est = PoseError::between(&world_from_cam_est, &goal);
+        let truth = PoseError::between(&world_from_cam, &goal);
         let mut rec = StepRecord {
             step,
             q_rad: [q[0], q[1], q[2], q[3], q[4], q[5]],
