@@ -11,6 +11,7 @@ use nalgebra::Point2;
 use synthcam::dataset::{write_atomic, write_image_and_truth};
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
+use synthcam::render::Renderer;
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::truth::truth_labels;
 use synthcam::sim::handeye_run::Observation;
@@ -22,6 +23,19 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let renderer = super::open_renderer("auto")?;
     let mut report = String::from("# synthcam demo\n\n## Render and detect\n\n| scene | target | render ms | found | points | error vs truth RMS px | max px |\n|---|---|---|---|---|---|---|\n");
+    report += &scenes(&renderer, out)?;
+    report += &calibration(&renderer)?;
+    report += &hand_eye(&renderer)?;
+    report += &servo(&renderer, out)?;
+    let report_path = out.join("report.md");
+    write_atomic(&report_path, report.as_bytes())?;
+    println!("demo images, truth JSON and {} written to {}", report_path.display(), out.display());
+    Ok(())
+}
+
+/// The default scenes rendered, written with their truth and detected: the report's rows.
+fn scenes(renderer: &Renderer, out: &Path) -> anyhow::Result<String> {
+    let mut report = String::new();
     for (name, text) in super::DEFAULT_SCENES {
         let mut scene = parse_scene(text).with_context(|| format!("embedded scene {name}"))?;
         scene.render.noise_sigma = 1.0;
@@ -60,11 +74,17 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
             truth_px.len()
         );
     }
+    Ok(report)
+}
+
+/// Calibration from rendered and detected views: the report's section.
+fn calibration(renderer: &Renderer) -> anyhow::Result<String> {
+    let mut report = String::new();
     // Calibration: 10 rendered views of a 8 x 6 board under the chessboard scene's strong
     // distortion, detected, calibrated.
     let t0 = std::time::Instant::now();
     let base = parse_scene(super::DEFAULT_SCENES[1].1).context("embedded chessboard scene")?;
-    let (views, cal) = calibration_views(&renderer, &base)?;
+    let (views, cal) = calibration_views(renderer, &base)?;
     let k = cal.camera.intrinsics;
     let kt = base.camera.intrinsics;
     println!(
@@ -86,9 +106,15 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
         "\n## Calibration from {views} rendered and detected views\n\n| | fx | fy | cx | cy | k1 | k2 |\n|---|---|---|---|---|---|---|\n| truth | {} | {} | {} | {} | {} | {} |\n| estimate | {:.3} | {:.3} | {:.3} | {:.3} | {:.5} | {:.5} |\n\nRMS reprojection error {:.4} px.\n",
         kt.fx, kt.fy, kt.cx, kt.cy, base.camera.distortion.k1, base.camera.distortion.k2, k.fx, k.fy, k.cx, k.cy, cal.camera.distortion.k1, cal.camera.distortion.k2, cal.rms_px
     );
+    Ok(report)
+}
+
+/// The course's hand-eye experiment on rendered views: the report's section.
+fn hand_eye(renderer: &Renderer) -> anyhow::Result<String> {
+    let mut report = String::new();
     // Hand-eye: the course's variant A, 5 views, rendered and detected S-path dots.
     let t0 = std::time::Instant::now();
-    let he = synthcam::sim::handeye_run::run_handeye(Some(&renderer), synthcam::sim::handeye_run::Observation::Rendered, &Default::default(), 5, 0)
+    let he = synthcam::sim::handeye_run::run_handeye(Some(renderer), synthcam::sim::handeye_run::Observation::Rendered, &Default::default(), 5, 0)
         .context("hand-eye experiment")?;
     let names = [
         "tool_from_cam (course linear)",
@@ -109,6 +135,12 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
         he.errors[5].mm,
         t0.elapsed().as_secs_f64()
     );
+    Ok(report)
+}
+
+/// PBVS and IBVS from the course's start, rendered and ideal: traces, plots, the report's sections.
+fn servo(renderer: &Renderer, out: &Path) -> anyhow::Result<String> {
+    let mut report = String::new();
     // Visual servoing: PBVS and IBVS from the course's start, rendered + detected at every step,
     // next to ideal projections + 0.1 px.
     for (law, name) in [(Law::Pbvs, "pbvs"), (Law::Ibvs, "ibvs")] {
@@ -119,12 +151,12 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
         let mut traces = Vec::new();
         for (obs, label) in [(Observation::Rendered, "rendered + detected"), (Observation::Ideal, "ideal + 0.1 px")] {
             let options = ServoOptions { observation: obs, ..ServoOptions::new(law) };
-            let r = (obs == Observation::Rendered).then_some(&renderer);
+            let r = (obs == Observation::Rendered).then_some(renderer);
             let t = run_servo(r, &ServoScenario::default(), &options, &mut |_, _| {}).with_context(|| format!("{name} run"))?;
             super::servo::write_trace(&dir, if obs == Observation::Rendered { "trace" } else { "trace_ideal" }, &t)?;
             traces.push((label, t));
         }
-        let budget = super::servo::write_report(&dir, name, &traces)?;
+        let budget = super::servo::write_report(&dir, name, &traces, (1280, 1024))?;
         if let Some(s) = traces[0].1.last() {
             println!(
                 "{}: {} after {} updates, camera {:.3} mm / {:.4} deg from the desired pose, pixel error RMS {:.3} px, {:.1} s",
@@ -139,10 +171,7 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
         }
         report += &format!("\n## {} from the course's start (course-scenario 3.{})\n\nDesired camera pose T_0C* = [(-e_y, e_z, -e_x), (1.8, 0, 0.55)]; truth = where the camera really is (forward kinematics with the true hand-eye).\n\n{budget}\n![error]({name}/error.png) ![tracks]({name}/feature_tracks.png)\n![path]({name}/camera_path.png) ![singular values]({name}/singular_values.png)\n", name.to_uppercase(), if law == Law::Pbvs { 7 } else { 8 });
     }
-    let report_path = out.join("report.md");
-    write_atomic(&report_path, report.as_bytes())?;
-    println!("demo images, truth JSON and {} written to {}", report_path.display(), out.display());
-    Ok(())
+    Ok(report)
 }
 
 /// Render 10 views of an 8 x 6 inner-corner board with `base`'s camera, detect and calibrate.

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use serde::Serialize;
 use synthcam::dataset::{load_grey_u8, write_atomic};
-use synthcam::detect::target::{detect_u8, TargetSpec};
+use synthcam::detect::target::{detect_u8, Detection, TargetSpec};
 use synthcam::report::overlay::draw_points;
 
 use super::skipped::Skipped;
@@ -93,6 +93,54 @@ fn file_name(p: &Path) -> String {
     p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
 }
 
+impl ImageResult {
+    /// A file that could not be read.
+    fn unreadable(file: String, e: &dyn std::fmt::Display) -> Self {
+        Self {
+            file,
+            width: None,
+            height: None,
+            found: false,
+            points_px: Vec::new(),
+            indices: None,
+            path_residuals_px: None,
+            path_deviation_mm: None,
+            path_residual_rms_px: None,
+            time_ms: None,
+            note: None,
+            error: Some(e.to_string()),
+        }
+    }
+
+    /// A detection (found or not) on an image of `size`.
+    fn detected(file: String, size: (usize, usize), det: Detection, time_ms: f64) -> Self {
+        let residuals = det.path_residuals.as_ref();
+        Self {
+            file,
+            width: Some(size.0),
+            height: Some(size.1),
+            found: det.found,
+            points_px: det.points_px.iter().map(|p| [p.x, p.y]).collect(),
+            path_residuals_px: residuals.map(|r| r.iter().map(|p| [p.residual_px.x, p.residual_px.y]).collect()),
+            path_deviation_mm: residuals.map(|r| r.iter().map(|p| 1e3 * p.deviation_m).collect()),
+            path_residual_rms_px: residuals.map(|r| (r.iter().map(|p| p.residual_px.norm_squared()).sum::<f64>() / r.len().max(1) as f64).sqrt()),
+            indices: det.indices,
+            time_ms: Some(time_ms),
+            note: det.note,
+            error: None,
+        }
+    }
+}
+
+/// The detected points drawn on the image, as `dir/<stem>.png`.
+fn write_overlay(dir: &Path, file: &Path, img: &synthcam::detect::ImageU8, points: &[nalgebra::Point2<f64>]) -> anyhow::Result<()> {
+    let overlay = draw_points(&img.to_f32(), points);
+    let mut png = Vec::new();
+    image::DynamicImage::ImageRgb8(overlay).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).context("encoding overlay")?;
+    let stem = file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "image".into());
+    Ok(write_atomic(&dir.join(format!("{stem}.png")), &png)?)
+}
+
 /// Run `detect`.
 pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
     let files = expand_images(&args.images)?;
@@ -113,20 +161,7 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
             Err(e) => {
                 eprintln!("error: {e}");
                 errors += 1;
-                results.push(ImageResult {
-                    file: name,
-                    width: None,
-                    height: None,
-                    found: false,
-                    points_px: Vec::new(),
-                    indices: None,
-                    path_residuals_px: None,
-                    path_deviation_mm: None,
-                    path_residual_rms_px: None,
-                    time_ms: None,
-                    note: None,
-                    error: Some(e.to_string()),
-                });
+                results.push(ImageResult::unreadable(name, &e));
                 continue;
             }
         };
@@ -150,29 +185,9 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
             );
         }
         if let Some(dir) = &args.draw {
-            let overlay = draw_points(&img.to_f32(), &det.points_px);
-            let mut png = Vec::new();
-            image::DynamicImage::ImageRgb8(overlay).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).context("encoding overlay")?;
-            let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "image".into());
-            write_atomic(&dir.join(format!("{stem}.png")), &png)?;
+            write_overlay(dir, f, &img, &det.points_px)?;
         }
-        results.push(ImageResult {
-            file: name,
-            width: Some(img.width),
-            height: Some(img.height),
-            found: det.found,
-            points_px: det.points_px.iter().map(|p| [p.x, p.y]).collect(),
-            indices: det.indices,
-            path_residuals_px: det.path_residuals.as_ref().map(|r| r.iter().map(|p| [p.residual_px.x, p.residual_px.y]).collect()),
-            path_deviation_mm: det.path_residuals.as_ref().map(|r| r.iter().map(|p| 1e3 * p.deviation_m).collect()),
-            path_residual_rms_px: det
-                .path_residuals
-                .as_ref()
-                .map(|r| (r.iter().map(|p| p.residual_px.norm_squared()).sum::<f64>() / r.len().max(1) as f64).sqrt()),
-            time_ms: Some(time_ms),
-            note: det.note,
-            error: None,
-        });
+        results.push(ImageResult::detected(name, (img.width, img.height), det, time_ms));
     }
     let found = results.iter().filter(|r| r.found).count();
     if let Some(path) = &args.json {

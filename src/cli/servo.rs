@@ -9,7 +9,8 @@ use synthcam::dataset::{encode_png, write_atomic};
 use synthcam::report::servo::{budget_markdown, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
 use synthcam::servo::{IbvsParams, InteractionFrom};
 use synthcam::sim::handeye_run::Observation;
-use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
+use synthcam::sim::servo_run::{run_servo_on, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
+use synthcam::sim::{RobotSpec, ScenarioSpec, SimScenario};
 
 /// The law on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -141,29 +142,48 @@ fn print_run(name: &str, t: &ServoTrace) {
 ///
 /// # Errors
 /// Encoding or writing failed.
-pub fn write_report(out: &Path, law_name: &str, traces: &[(&str, ServoTrace)]) -> anyhow::Result<String> {
+pub fn write_report(out: &Path, law_name: &str, traces: &[(&str, ServoTrace)], image_size: (u32, u32)) -> anyhow::Result<String> {
     let refs: Vec<(&str, &ServoTrace)> = traces.iter().map(|(n, t)| (*n, t)).collect();
     anyhow::ensure!(!refs.is_empty(), "no servo run to report");
     write_atomic(&out.join("error.png"), &error_png(&refs)?)?;
     write_atomic(&out.join("singular_values.png"), &singular_png(&refs)?)?;
     write_atomic(&out.join("camera_path.png"), &path_png(&refs)?)?;
-    write_atomic(&out.join("feature_tracks.png"), &tracks_png(refs[0].1, 1280, 1024)?)?;
+    write_atomic(&out.join("feature_tracks.png"), &tracks_png(refs[0].1, image_size.0, image_size.1)?)?;
     let budget = budget_markdown(&refs);
-    let summary = format!("# {} from the course's start\n\n{budget}\nTraces: trace.csv / trace.json per step; plots: error.png, singular_values.png, feature_tracks.png, camera_path.png.\n", law_name.to_uppercase());
+    let summary = format!("# {} from the scenario's start\n\n{budget}\nTraces: trace.csv / trace.json per step; plots: error.png, singular_values.png, feature_tracks.png, camera_path.png.\n", law_name.to_uppercase());
     write_atomic(&out.join("summary.md"), summary.as_bytes())?;
     Ok(budget)
 }
 
+/// A scenario, its robot, and where the hand-eye views are drawn (default: the start).
+type Loaded = (SimScenario, RobotSpec, Option<Vec<f64>>);
+
+/// The scenario of `--scenario`: an open scenario file (any camera, target, robot) or the course's
+/// servo format (`assets/scenarios/servo_course.toml`, the default), with its robot.
+fn load_scenario(args: &ServoArgs) -> anyhow::Result<Loaded> {
+    let course = |s: &ServoScenario| -> anyhow::Result<Loaded> {
+        Ok((s.to_sim_scenario(args.seed).context("scenario")?, RobotSpec::Named("irb1200".into()), Some(s.handeye.q0_rad.to_vec())))
+    };
+    let Some(p) = &args.scenario else { return course(&ServoScenario::default()) };
+    let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+    match ScenarioSpec::parse(&text) {
+        Ok(spec) => Ok((spec.to_scenario().with_context(|| format!("in scenario {}", p.display()))?, spec.robot, None)),
+        Err(open) => {
+            let s = toml::from_str::<ServoScenario>(&text)
+                .with_context(|| format!("in scenario {} (read as the course's servo format; as an open scenario: {open})", p.display()))?;
+            course(&s)
+        }
+    }
+}
+
 /// Run `servo`.
 pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
-    let scenario = match &args.scenario {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            toml::from_str::<ServoScenario>(&text).with_context(|| format!("in scenario {}", p.display()))?
-        }
-        None => ServoScenario::default(),
+    let (scenario, spec, handeye_around) = load_scenario(args)?;
+    let size = scenario.camera.size;
+    let run = |renderer: Option<&synthcam::render::Renderer>, observation, sink: &mut dyn FnMut(usize, &synthcam::render::GreyImage)| {
+        let robot = spec.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;
+        anyhow::Ok(run_servo_on(renderer, scenario.clone(), robot, handeye_around.as_deref(), &options(args, observation), sink)?)
     };
-    scenario.goal().context("scenario")?;
     let law_name = if args.law == LawArg::Pbvs { "pbvs" } else { "ibvs" };
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from(format!("out/servo-{law_name}")));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
@@ -191,7 +211,7 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
             }
         };
         eprintln!("{law_name}: rendered + detected (hand-eye from {}) ...", if args.true_handeye { "the truth" } else { "5 rendered views" });
-        let t = run_servo(Some(&renderer), &scenario, &options(args, Observation::Rendered), &mut sink).context("servo run")?;
+        let t = run(Some(&renderer), Observation::Rendered, &mut sink).context("servo run")?;
         if let Some(e) = write_err {
             return Err(e.context("writing frames"));
         }
@@ -204,12 +224,12 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         traces.push(("rendered + detected", t));
     }
     if args.ideal || !args.no_compare {
-        let t = run_servo(None, &scenario, &options(args, Observation::Ideal), &mut |_, _| {}).context("servo run (ideal)")?;
+        let t = run(None, Observation::Ideal, &mut |_, _| {}).context("servo run (ideal)")?;
         print_run("ideal + 0.1 px", &t);
         write_trace(&out, if args.ideal { "trace" } else { "trace_ideal" }, &t)?;
         traces.push(("ideal + 0.1 px", t));
     }
-    write_report(&out, law_name, &traces)?;
+    write_report(&out, law_name, &traces, (size.width, size.height))?;
     println!("traces, plots and summary.md written to {}", out.display());
     let primary = &traces[0].1;
     let stop_requested = !(args.course || args.no_stop);

@@ -230,8 +230,31 @@ pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams
     let kept = entries.len() as u64;
     let total = views.len() as u64;
     let times = Mutex::new(StageTimes { prepare_s: wall.elapsed().as_secs_f64(), ..Default::default() });
-    let done = std::sync::atomic::AtomicU64::new(kept);
     progress(kept, total);
+    let new_entries = render_all(renderer, plan, dir, &todo, params.jobs, &times, &|n| progress(n, total), kept)?;
+    let rendered = todo.len() as u64;
+    entries.extend(new_entries);
+    let manifest = dir.join(shard_manifest_name(params.shard.index, params.shard.count));
+    write_atomic(&manifest, manifest_text(&entries)?.as_bytes())?;
+    let times = times.into_inner().unwrap_or_default();
+    Ok(GenerateReport { images: total, kept, rendered, removed_tmp, wall_s: wall.elapsed().as_secs_f64(), times, manifest })
+}
+
+/// Render `todo` on this thread and encode and write the images on `jobs` threads (a bounded
+/// channel between them); `progress` gets the count done, counting from `done_before`. The first
+/// failure stops the run and is returned.
+#[allow(clippy::too_many_arguments)] // the run's pieces, each used once; a struct would only rename them
+fn render_all(
+    renderer: &Renderer,
+    plan: &DatasetPlan,
+    dir: &Path,
+    todo: &[&SampledView],
+    jobs: usize,
+    times: &Mutex<StageTimes>,
+    progress: &(dyn Fn(u64) + Sync),
+    done_before: u64,
+) -> Result<Vec<ManifestEntry>, DatasetError> {
+    let done = std::sync::atomic::AtomicU64::new(done_before);
     let results: Mutex<Vec<ManifestEntry>> = Mutex::new(Vec::with_capacity(todo.len()));
     let failure: Mutex<Option<DatasetError>> = Mutex::new(None);
     let failed = || failure.lock().map(|f| f.is_some()).unwrap_or(true);
@@ -240,7 +263,7 @@ pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams
             f.get_or_insert(e);
         }
     };
-    let jobs = params.jobs.max(1);
+    let jobs = jobs.max(1);
     let (tx, rx) = std::sync::mpsc::sync_channel::<(&SampledView, Scene, GreyImage)>(2 * jobs);
     let rx = Mutex::new(rx);
     std::thread::scope(|s| {
@@ -254,18 +277,18 @@ pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams
                 if failed() {
                     continue;
                 }
-                match finish_image(dir, view, &scene, &img, &times) {
+                match finish_image(dir, view, &scene, &img, times) {
                     Ok(e) => {
                         if let Ok(mut r) = results.lock() {
                             r.push(e);
                         }
-                        progress(done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1, total);
+                        progress(done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1);
                     }
                     Err(e) => fail(e),
                 }
             });
         }
-        for view in &todo {
+        for view in todo {
             if failed() {
                 break;
             }
@@ -290,12 +313,7 @@ pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams
     if let Some(e) = failure.into_inner().ok().flatten() {
         return Err(e);
     }
-    let rendered = todo.len() as u64;
-    entries.extend(results.into_inner().unwrap_or_default());
-    let manifest = dir.join(shard_manifest_name(params.shard.index, params.shard.count));
-    write_atomic(&manifest, manifest_text(&entries)?.as_bytes())?;
-    let times = times.into_inner().unwrap_or_default();
-    Ok(GenerateReport { images: total, kept, rendered, removed_tmp, wall_s: wall.elapsed().as_secs_f64(), times, manifest })
+    Ok(results.into_inner().unwrap_or_default())
 }
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-//! Calibration results as text: OpenCV `FileStorage` YAML and ROS `camera_info` YAML.
+//! Calibration results as text (OpenCV `FileStorage` YAML, ROS `camera_info` YAML) and as a plot.
 
 use crate::calib::CalibResult;
 
@@ -38,46 +38,48 @@ pub fn ros_yaml(r: &CalibResult, camera_name: &str) -> String {
 }
 
 /// The calibration as a PNG: per-view RMS and max reprojection error (bars) and every residual
-/// vector drawn at its corner in the image frame, magnified so the largest is 40 px.
+/// vector drawn at its corner in the image frame, magnified so the largest is 5 % of the image width.
 ///
 /// # Errors
-/// PNG encoding.
+/// Drawing or PNG encoding.
 pub fn plot_png(r: &CalibResult, points_px: &[Vec<nalgebra::Point2<f64>>]) -> Result<Vec<u8>, super::ReportError> {
-    use super::plot::{canvas, png, text, Panel, PALETTE};
-    use image::Rgb;
-    use imageproc::drawing::draw_line_segment_mut;
-    let mut img = canvas(1200, 560);
+    use super::plot::{clamp, colour, figure, int_label, legend, FONT};
+    use plotters::prelude::*;
     let n = r.views.len().max(1);
-    let ymax = r.views.iter().map(|v| v.max_px).fold(1e-6, f64::max) * 1.1;
-    let bars = Panel { rect: (80, 60, 440, 420), x: (-0.5, n as f64 - 0.5), y: (0.0, ymax) };
-    let xt: Vec<(f64, String)> = (0..n).step_by(n.div_ceil(10)).map(|i| (i as f64, i.to_string())).collect();
-    let yt: Vec<(f64, String)> = (0..=4).map(|k| (ymax * f64::from(k) / 4.0, format!("{:.3}", ymax * f64::from(k) / 4.0))).collect();
-    bars.axes(&mut img, "reprojection error per view", "view", "px", &xt, &yt);
-    let w = (400 / n).clamp(2, 30) as u32;
-    for (i, v) in r.views.iter().enumerate() {
-        bars.bar(&mut img, i as f64, v.max_px, w, Rgb([200, 200, 200]));
-        bars.bar(&mut img, i as f64, v.rms_px, w.div_ceil(2), PALETTE[0]);
-    }
-    text(&mut img, 300, 70, "RMS (blue), max (grey)", Rgb([0, 0, 0]), 1);
-    let (iw, ih) = (f64::from(r.camera.size.width), f64::from(r.camera.size.height));
-    let scale = 560.0 / iw.max(ih * 560.0 / 420.0);
-    let frame = Panel { rect: (600, 60, (iw * scale) as i32, (ih * scale) as i32), x: (0.0, iw), y: (ih, 0.0) };
-    let big = r.views.iter().flat_map(|v| v.residuals_px.iter().map(|e| e.norm())).fold(1e-9, f64::max);
-    let mag = 40.0 / big;
-    frame.axes(
-        &mut img,
-        &format!("residuals x{mag:.0}"),
-        "u px",
-        "v px",
-        &[(0.0, "0".into()), (iw, format!("{iw}"))],
-        &[(0.0, "0".into()), (ih, format!("{ih}"))],
-    );
-    for (k, (v, pts)) in r.views.iter().zip(points_px).enumerate() {
-        for (e, p) in v.residuals_px.iter().zip(pts) {
-            let a = frame.px(p.x, p.y);
-            let b = (a.0 + (e.x * mag * scale) as f32, a.1 + (e.y * mag * scale) as f32);
-            draw_line_segment_mut(&mut img, a, b, PALETTE[k % PALETTE.len()]);
+    let ymax = r.views.iter().map(|v| v.max_px).filter(|v| v.is_finite()).fold(1e-6, f64::max) * 1.15;
+    let (iw, ih) = (f64::from(r.camera.size.width).max(1.0), f64::from(r.camera.size.height).max(1.0));
+    let big = r.views.iter().flat_map(|v| v.residuals_px.iter().map(|e| e.norm())).filter(|v| v.is_finite()).fold(1e-9, f64::max);
+    // Residual vectors magnified so that the largest is 5 % of the image width.
+    let mag = 0.05 * iw / big;
+    figure(1200, 560, |root| {
+        let (left, right) = root.split_horizontally(540);
+        let mut bars = ChartBuilder::on(&left)
+            .caption("reprojection error per view", (FONT, 20))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(65)
+            .build_cartesian_2d(-0.5..n as f64 - 0.5, 0.0..ymax)?;
+        bars.configure_mesh().disable_x_mesh().x_desc("view").y_desc("px").x_label_formatter(&int_label).label_style((FONT, 14)).draw()?;
+        let bar = |i: usize, v: f64, half: f64| Some([(i as f64 - half, 0.0), (i as f64 + half, clamp(v, (0.0, ymax))?)]);
+        let grey = RGBColor(190, 190, 190);
+        bars.draw_series(r.views.iter().enumerate().filter_map(|(i, v)| bar(i, v.max_px, 0.4)).map(|c| Rectangle::new(c, grey.filled())))?
+            .label("max")
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], grey.filled()));
+        bars.draw_series(r.views.iter().enumerate().filter_map(|(i, v)| bar(i, v.rms_px, 0.2)).map(|c| Rectangle::new(c, colour(0).filled())))?
+            .label("RMS")
+            .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour(0).filled()));
+        legend(&mut bars)?;
+        let title = format!("residuals in the image, x{mag:.0}");
+        let mut frame =
+            ChartBuilder::on(&right).caption(title, (FONT, 20)).margin(12).x_label_area_size(40).y_label_area_size(60).build_cartesian_2d(0.0..iw, ih..0.0)?;
+        frame.configure_mesh().disable_mesh().x_desc("u px").y_desc("v px").label_style((FONT, 14)).draw()?;
+        for (k, (v, pts)) in r.views.iter().zip(points_px).enumerate() {
+            let arrows = v.residuals_px.iter().zip(pts).filter_map(|(e, p)| {
+                let (u0, v0) = (clamp(p.x, (0.0, iw))?, clamp(p.y, (0.0, ih))?);
+                Some(PathElement::new(vec![(u0, v0), (clamp(p.x + mag * e.x, (0.0, iw))?, clamp(p.y + mag * e.y, (0.0, ih))?)], colour(k)))
+            });
+            frame.draw_series(arrows)?;
         }
-    }
-    png(&img)
+        Ok(())
+    })
 }

@@ -3,15 +3,17 @@
 //! frames.
 
 use image::{GrayImage, Rgb, RgbImage};
-use imageproc::drawing::{draw_cross_mut, draw_hollow_circle_mut};
+use plotters::prelude::*;
 
-use super::plot::{canvas, png, text, Panel, PALETTE};
+use super::plot::{clamp, colour, draw_on, figure, int_label, legend, lin_range, log_label, log_range, swatch, FONT};
 use super::ReportError;
 use crate::sim::servo_run::{ServoTrace, Source, StepRecord};
 
 /// One CSV row per step (features are in the JSON trace).
 pub fn csv(trace: &ServoTrace) -> String {
-    let mut out = String::from("step,q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,cam_x_m,cam_y_m,cam_z_m,pose_error_mm,pose_error_deg,est_error_mm,est_error_deg,pixel_rms_px,pixel_max_px,sigma_min_robot,sigma_min_image,dots,within_limits,source,gain,render_ms,detect_ms,law_ms\n");
+    let dof = trace.steps.first().map_or(trace.q_start_rad.len(), |s| s.q_rad.len());
+    let joints: String = (1..=dof).map(|k| format!("q{k}_rad,")).collect();
+    let mut out = format!("step,{joints}cam_x_m,cam_y_m,cam_z_m,pose_error_mm,pose_error_deg,est_error_mm,est_error_deg,pixel_rms_px,pixel_max_px,sigma_min_robot,sigma_min_image,dots,within_limits,source,gain,render_ms,detect_ms,law_ms\n");
     for s in &trace.steps {
         let q: Vec<String> = s.q_rad.iter().map(|v| format!("{v:.9}")).collect();
         let c: Vec<String> = s.cam_position_m.iter().map(|v| format!("{v:.6}")).collect();
@@ -40,56 +42,43 @@ pub fn csv(trace: &ServoTrace) -> String {
     out
 }
 
-/// Ticks at powers of ten over `[lo, hi]` (log10 units).
-fn log_ticks(lo: f64, hi: f64) -> Vec<(f64, String)> {
-    (lo.floor() as i32..=hi.ceil() as i32).map(|e| (f64::from(e), if e >= 0 { format!("{}", 10f64.powi(e)) } else { format!("1e{e}") })).collect()
-}
-
-fn step_ticks(n: usize) -> Vec<(f64, String)> {
-    let every = (n / 5).max(1);
-    (0..=n).step_by(every).map(|s| (s as f64, s.to_string())).collect()
-}
-
 /// A named quantity of a step.
 type Series<'a> = (&'a str, fn(&StepRecord) -> f64);
 
-/// One panel of log10 series per step for each trace, side by side on the same axes (so no run's
-/// curves can hide another's), one colour per series with its legend inside the panel.
+/// One panel of log series per step for each trace, side by side on the same axes (so no run's
+/// curves can hide another's), one colour per series with a legend in each panel.
 fn log_series_png(title: &str, ylabel: &str, traces: &[(&str, &ServoTrace)], series: &[Series<'_>]) -> Result<Vec<u8>, ReportError> {
-    let panels = traces.len().max(1) as u32;
-    let mut img = canvas(90 + 540 * panels, 540);
+    let panels = traces.len().max(1);
     let n = traces.iter().map(|(_, t)| t.steps.len()).max().unwrap_or(1).max(2) - 1;
-    let all: Vec<f64> = traces
-        .iter()
-        .flat_map(|(_, t)| t.steps.iter().flat_map(|s| series.iter().map(move |(_, f)| f(s))))
-        .filter(|v| *v > 0.0 && v.is_finite())
-        .map(f64::log10)
-        .collect();
-    let lo = all.iter().copied().fold(f64::INFINITY, f64::min).min(0.0).floor().max(-6.0);
-    let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max).max(lo + 1.0).ceil();
-    text(&mut img, 20, 8, title, image::Rgb([0, 0, 0]), 2);
-    for (ti, (tname, t)) in traces.iter().enumerate() {
-        let left = 90 + 540 * ti as i32;
-        let panel = Panel { rect: (left, 80, 460, 400), x: (0.0, n as f64), y: (lo, hi) };
-        panel.axes(&mut img, tname, "step", ylabel, &step_ticks(n), &log_ticks(lo, hi));
-        for (si, (sname, f)) in series.iter().enumerate() {
-            let pts: Vec<(f64, f64)> = t.steps.iter().map(|s| (s.step as f64, f(s).max(10f64.powf(lo)).log10())).collect();
-            let colour = PALETTE[si % PALETTE.len()];
-            panel.line(&mut img, &pts, colour);
-            text(&mut img, left + 300, 90 + 14 * si as i32, sname, colour, 1);
+    let y = log_range(traces.iter().flat_map(|(_, t)| t.steps.iter().flat_map(|s| series.iter().map(move |(_, f)| f(s)))), 7);
+    figure(40 + 560 * panels as u32, 540, |root| {
+        let root = root.titled(title, (FONT, 24))?;
+        for ((tname, t), area) in traces.iter().zip(root.split_evenly((1, panels))) {
+            let mut chart = ChartBuilder::on(&area)
+                .caption(*tname, (FONT, 18))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d(0.0..n as f64, (y.0..y.1).log_scale())?;
+            chart.configure_mesh().x_desc("step").y_desc(ylabel).x_label_formatter(&int_label).y_label_formatter(&log_label).label_style((FONT, 14)).draw()?;
+            for (si, (sname, f)) in series.iter().enumerate() {
+                let pts = t.steps.iter().filter_map(|s| clamp(f(s), y).map(|v| (s.step as f64, v)));
+                chart.draw_series(LineSeries::new(pts, colour(si).stroke_width(2)))?.label(*sname).legend(swatch(colour(si)));
+            }
+            legend(&mut chart)?;
         }
-    }
-    png(&img)
+        Ok(())
+    })
 }
 
 /// Error per step: the true pose error (mm, degrees) and the pixel error, for each trace.
 ///
 /// # Errors
-/// PNG encoding.
+/// Drawing or PNG encoding.
 pub fn error_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, ReportError> {
     log_series_png(
         "error per step",
-        "log10",
+        "error (log)",
         traces,
         &[("pose mm", |s| s.pose_error_mm), ("pose deg", |s| s.pose_error_deg), ("pixel RMS px", |s| s.pixel_rms_px)],
     )
@@ -98,67 +87,92 @@ pub fn error_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, ReportError>
 /// Smallest singular values of the robot and image Jacobians per step.
 ///
 /// # Errors
-/// PNG encoding.
+/// Drawing or PNG encoding.
 pub fn singular_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, ReportError> {
-    log_series_png("smallest singular values", "log10", traces, &[("robot J", |s| s.sigma_min_robot), ("image J", |s| s.sigma_min_image)])
+    log_series_png("smallest singular values", "sigma min (log)", traces, &[("robot J", |s| s.sigma_min_robot), ("image J", |s| s.sigma_min_image)])
 }
 
-/// Feature tracks in the image: every dot's measured path over the steps (blue to red), the
-/// desired features as green circles.
+/// Feature tracks in the image (pixel axes, v down): every dot's measured path over the steps
+/// (blue early, red late), the desired features as green circles.
 ///
 /// # Errors
-/// PNG encoding.
+/// An image size of zero, drawing or PNG encoding.
 pub fn tracks_png(trace: &ServoTrace, width: u32, height: u32) -> Result<Vec<u8>, ReportError> {
-    let scale = 0.6;
-    let (w, h) = ((f64::from(width) * scale) as u32, (f64::from(height) * scale) as u32);
-    let mut img = canvas(w + 40, h + 70);
-    let panel = Panel { rect: (20, 50, w as i32, h as i32), x: (-0.5, f64::from(width) - 0.5), y: (-(f64::from(height) - 0.5), 0.5) };
-    panel.axes(&mut img, "feature tracks (green: desired)", "", "", &[], &[]);
+    if width == 0 || height == 0 || width > 16384 || height > 16384 {
+        return Err(ReportError::Input { what: "feature tracks", reason: format!("image size {width}x{height}") });
+    }
+    let (x, y) = ((-0.5, f64::from(width) - 0.5), (-(f64::from(height) - 0.5), 0.5));
     let n = trace.steps.len().max(2) - 1;
-    let ids = trace.desired_px.len();
-    for id in 0..ids {
-        let pts: Vec<(f64, f64)> = trace.steps.iter().filter_map(|s| s.features_px.iter().find(|f| f[0] as usize == id).map(|f| (f[1], -f[2]))).collect();
-        for (k, w2) in pts.windows(2).enumerate() {
-            let t = k as f64 / n as f64;
-            let colour = Rgb([(255.0 * t) as u8, 40, (255.0 * (1.0 - t)) as u8]);
-            panel.line(&mut img, w2, colour);
+    let (w, h) = ((f64::from(width) * 0.6) as u32 + 90, (f64::from(height) * 0.6) as u32 + 100);
+    figure(w.max(200), h.max(150), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption("feature tracks (blue early, red late; green: desired)", (FONT, 18))
+            .margin(12)
+            .x_label_area_size(35)
+            .y_label_area_size(55)
+            .build_cartesian_2d(x.0..x.1, y.0..y.1)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("u px")
+            .y_desc("v px")
+            .x_label_formatter(&int_label)
+            .y_label_formatter(&|v| format!("{:.0}", (-v).max(0.0)))
+            .label_style((FONT, 13))
+            .draw()?;
+        for id in 0..trace.desired_px.len() {
+            let pts: Vec<(f64, f64)> = trace
+                .steps
+                .iter()
+                .filter_map(|s| s.features_px.iter().find(|f| f[0] as usize == id))
+                .filter_map(|f| Some((clamp(f[1], x)?, clamp(-f[2], y)?)))
+                .collect();
+            for (k, seg) in pts.windows(2).enumerate() {
+                let t = k as f64 / n as f64;
+                let c = RGBColor((255.0 * t) as u8, 40, (255.0 * (1.0 - t)) as u8);
+                chart.draw_series(LineSeries::new(seg.iter().copied(), c.stroke_width(2)))?;
+            }
         }
-    }
-    for d in trace.desired_px.iter().flatten() {
-        let (u, v) = panel.px(d[0], -d[1]);
-        draw_hollow_circle_mut(&mut img, (u as i32, v as i32), 4, Rgb([0, 160, 0]));
-    }
-    png(&img)
+        let desired = trace.desired_px.iter().flatten().filter_map(|d| Some((clamp(d[0], x)?, clamp(-d[1], y)?)));
+        chart.draw_series(desired.map(|p| Circle::new(p, 4, RGBColor(0, 160, 0).stroke_width(1))))?;
+        Ok(())
+    })
 }
 
 /// The camera path seen from above (x, y) and from the side (x, z), with the goal.
 ///
 /// # Errors
-/// PNG encoding.
+/// Drawing or PNG encoding.
 pub fn path_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, ReportError> {
-    let mut img = canvas(1100, 520);
     let pts: Vec<[f64; 3]> = traces.iter().flat_map(|(_, t)| t.steps.iter().map(|s| s.cam_position_m).chain(std::iter::once(t.goal_position_m))).collect();
-    let range = |i: usize| {
-        let lo = pts.iter().map(|p| p[i]).fold(f64::INFINITY, f64::min);
-        let hi = pts.iter().map(|p| p[i]).fold(f64::NEG_INFINITY, f64::max);
-        let pad = 0.1 * (hi - lo).max(0.05);
-        (lo - pad, hi + pad)
-    };
-    let ticks = |(lo, hi): (f64, f64)| -> Vec<(f64, String)> { (0..=4).map(|k| lo + (hi - lo) * f64::from(k) / 4.0).map(|v| (v, format!("{v:.2}"))).collect() };
-    for (k, (a, b, name)) in [(0usize, 1usize, "camera path, top view (x, y) m"), (0, 2, "camera path, side view (x, z) m")].into_iter().enumerate() {
-        let (xr, yr) = (range(a), range(b));
-        let panel = Panel { rect: (90 + 540 * k as i32, 60, 420, 400), x: xr, y: yr };
-        panel.axes(&mut img, name, ["x", "x"][k], ["y", "z"][k], &ticks(xr), &ticks(yr));
-        for (j, (tname, t)) in traces.iter().enumerate() {
-            let line: Vec<(f64, f64)> = t.steps.iter().map(|s| (s.cam_position_m[a], s.cam_position_m[b])).collect();
-            panel.line(&mut img, &line, PALETTE[j % PALETTE.len()]);
-            text(&mut img, 100 + 540 * k as i32, 70 + 14 * j as i32, tname, PALETTE[j % PALETTE.len()], 1);
-            let (u, v) = panel.px(t.goal_position_m[a], t.goal_position_m[b]);
-            draw_cross_mut(&mut img, Rgb([0, 160, 0]), u as i32, v as i32);
-            draw_hollow_circle_mut(&mut img, (u as i32, v as i32), 6, Rgb([0, 160, 0]));
+    let range = |i: usize| lin_range(pts.iter().map(|p| p[i]), 0.05);
+    // Room above the data for the legend.
+    let with_legend_room = |(lo, hi): (f64, f64)| (lo, hi + 0.25 * (hi - lo));
+    figure(1100, 540, |root| {
+        for ((a, b, name), area) in
+            [(0usize, 1usize, "camera path, top view (x, y)"), (0, 2, "camera path, side view (x, z)")].into_iter().zip(root.split_evenly((1, 2)))
+        {
+            let (xr, yr) = (range(a), with_legend_room(range(b)));
+            let mut chart = ChartBuilder::on(&area)
+                .caption(name, (FONT, 18))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(65)
+                .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)?;
+            chart.configure_mesh().x_desc("x m").y_desc(if b == 1 { "y m" } else { "z m" }).label_style((FONT, 13)).draw()?;
+            for (j, (tname, t)) in traces.iter().enumerate() {
+                let line = t.steps.iter().filter_map(|s| Some((clamp(s.cam_position_m[a], xr)?, clamp(s.cam_position_m[b], yr)?)));
+                // Later runs drawn thinner on top, so that a run on the same path leaves the first visible.
+                let width = if j == 0 { 4 } else { 1 };
+                chart.draw_series(LineSeries::new(line, colour(j).stroke_width(width)))?.label(*tname).legend(swatch(colour(j)));
+                if let (Some(u), Some(v)) = (clamp(t.goal_position_m[a], xr), clamp(t.goal_position_m[b], yr)) {
+                    chart.draw_series([Cross::new((u, v), 6, RGBColor(0, 160, 0).stroke_width(2))])?;
+                }
+            }
+            legend(&mut chart)?;
         }
-    }
-    png(&img)
+        Ok(())
+    })
 }
 
 /// Markdown: the error budget of each trace side by side (final true pose error, final pixel
@@ -208,20 +222,33 @@ pub fn budget_markdown(traces: &[(&str, &ServoTrace)]) -> String {
 /// A contact sheet: `frames` (step, thumbnail) in a grid with step labels.
 ///
 /// # Errors
-/// Frames of different sizes, or no column.
+/// Frames of different sizes, no column, a sheet over 16384 px, or drawing.
 pub fn contact_sheet(frames: &[(usize, GrayImage)], columns: u32) -> Result<RgbImage, ReportError> {
     let (tw, th) = frames.first().map_or((1, 1), |(_, f)| f.dimensions());
-    if columns == 0 || frames.iter().any(|(_, f)| f.dimensions() != (tw, th)) {
-        return Err(ReportError::Input { what: "contact sheet", reason: format!("{columns} columns; every frame must be {tw}x{th}") });
-    }
     let rows = (frames.len() as u32).div_ceil(columns.max(1)).max(1);
-    let mut sheet = RgbImage::from_pixel(columns * (tw + 4), rows * (th + 16), Rgb([255, 255, 255]));
-    for (k, (step, f)) in frames.iter().enumerate() {
-        let (cx, cy) = ((k as u32 % columns) * (tw + 4), (k as u32 / columns) * (th + 16));
-        for (x, y, p) in f.enumerate_pixels() {
-            sheet.put_pixel(cx + x, cy + 14 + y, Rgb([p[0], p[0], p[0]]));
-        }
-        text(&mut sheet, cx as i32 + 2, cy as i32 + 3, &format!("step {step}"), Rgb([0, 0, 0]), 1);
+    let (w, h) = (u64::from(columns) * u64::from(tw + 4), u64::from(rows) * u64::from(th + 18));
+    if columns == 0 || w > 16384 || h > 16384 || frames.iter().any(|(_, f)| f.dimensions() != (tw, th)) {
+        return Err(ReportError::Input {
+            what: "contact sheet",
+            reason: format!("{columns} columns of {tw}x{th} frames (all frames one size, sheet at most 16384 px)"),
+        });
     }
-    Ok(sheet)
+    let (w, h) = (w as u32, h as u32);
+    let mut sheet = RgbImage::from_pixel(w, h, Rgb([255, 255, 255]));
+    let origin = |k: usize| ((k as u32 % columns) * (tw + 4), (k as u32 / columns) * (th + 18));
+    for (k, (_, f)) in frames.iter().enumerate() {
+        let (cx, cy) = origin(k);
+        for (x, y, p) in f.enumerate_pixels() {
+            sheet.put_pixel(cx + x, cy + 16 + y, Rgb([p[0], p[0], p[0]]));
+        }
+    }
+    let mut raw = sheet.into_raw();
+    draw_on(&mut raw, w, h, |root| {
+        for (k, (step, _)) in frames.iter().enumerate() {
+            let (cx, cy) = origin(k);
+            root.draw(&Text::new(format!("step {step}"), (cx as i32 + 2, cy as i32 + 2), (FONT, 12)))?;
+        }
+        Ok(())
+    })?;
+    RgbImage::from_raw(w, h, raw).ok_or_else(|| ReportError::Encode("contact sheet buffer".into()))
 }

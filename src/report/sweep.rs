@@ -63,31 +63,50 @@ pub fn csv(runs: &[SweepRun]) -> String {
 /// The sweep as a PNG: mean % error of fx against M (log-log), one line per N, one panel per mode.
 ///
 /// # Errors
-/// PNG encoding.
+/// No positive M value, drawing or PNG encoding.
 pub fn plot_png(runs: &[SweepRun], ms: &[usize], ns: &[usize]) -> Result<Vec<u8>, ReportError> {
-    use super::plot::{canvas, png, text, Panel, PALETTE};
-    let (Some(first), Some(last)) = (ms.first(), ms.last()) else {
-        return Err(ReportError::Input { what: "sweep plot", reason: "no M values".into() });
+    use super::plot::{clamp, colour, figure, int_label, legend, log_label, swatch, FONT};
+    use plotters::prelude::*;
+    let (Some(lo), Some(hi)) = (ms.iter().copied().filter(|m| *m > 0).min(), ms.iter().copied().max()) else {
+        return Err(ReportError::Input { what: "sweep plot", reason: format!("no positive M value in {ms:?}") });
     };
-    let mut img = canvas(1100, 520);
-    let (ylo, yhi) = (-3.0f64, 2.0f64);
-    let xt: Vec<(f64, String)> = ms.iter().map(|m| ((*m as f64).log10(), m.to_string())).collect();
-    let yt: Vec<(f64, String)> = (-3..=2).map(|e| (f64::from(e), format!("{}", 10f64.powi(e)))).collect();
-    let xr = ((*first as f64).max(1.0).log10() - 0.1, (*last as f64).max(1.0).log10() + 0.1);
-    for (k, (mode, name)) in [(SweepMode::Ideal, "ideal + 0.5 px noise"), (SweepMode::Rendered, "rendered + detected")].into_iter().enumerate() {
-        let panel = Panel { rect: (90 + 520 * k as i32, 50, 420, 380), x: xr, y: (ylo, yhi) };
-        panel.axes(&mut img, name, "views M", "% err fx", &xt, &yt);
-        for (j, &n) in ns.iter().enumerate() {
-            let pts: Vec<(f64, f64)> = ms
-                .iter()
-                .filter_map(|&m| {
-                    let v: Vec<f64> = runs.iter().filter(|r| r.mode == mode && r.m == m && r.n == n).map(|r| r.err_pct[0]).collect();
-                    (!v.is_empty()).then(|| ((m as f64).log10(), (v.iter().sum::<f64>() / v.len() as f64).max(1e-3).log10().clamp(ylo, yhi)))
-                })
-                .collect();
-            panel.line(&mut img, &pts, PALETTE[j % PALETTE.len()]);
-            text(&mut img, 90 + 520 * k as i32 + 330, 60 + 14 * j as i32, &format!("N = {n}"), PALETTE[j % PALETTE.len()], 1);
+    let x = (lo as f64 / 1.2, hi as f64 * 1.2);
+    let y = (1e-3, 1e2);
+    figure(1100, 540, |root| {
+        for ((mode, name), area) in
+            [(SweepMode::Ideal, "ideal + 0.5 px noise"), (SweepMode::Rendered, "rendered + detected")].into_iter().zip(root.split_evenly((1, 2)))
+        {
+            let mut chart = ChartBuilder::on(&area)
+                .caption(name, (FONT, 20))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d((x.0..x.1).log_scale(), (y.0..y.1).log_scale())?;
+            chart
+                .configure_mesh()
+                .x_desc("views M")
+                .y_desc("mean % error of fx")
+                .x_label_formatter(&int_label)
+                .y_label_formatter(&log_label)
+                .label_style((FONT, 14))
+                .draw()?;
+            for (j, &n) in ns.iter().enumerate() {
+                let pts: Vec<(f64, f64)> = ms
+                    .iter()
+                    .filter(|m| **m > 0)
+                    .filter_map(|&m| {
+                        let v: Vec<f64> = runs.iter().filter(|r| r.mode == mode && r.m == m && r.n == n).map(|r| r.err_pct[0]).collect();
+                        if v.is_empty() {
+                            return None;
+                        }
+                        Some((m as f64, clamp(v.iter().sum::<f64>() / v.len() as f64, y)?))
+                    })
+                    .collect();
+                chart.draw_series(LineSeries::new(pts.iter().copied(), colour(j).stroke_width(2)))?.label(format!("N = {n}")).legend(swatch(colour(j)));
+                chart.draw_series(pts.iter().map(|p| Circle::new(*p, 3, colour(j).filled())))?;
+            }
+            legend(&mut chart)?;
         }
-    }
-    png(&img)
+        Ok(())
+    })
 }

@@ -9,12 +9,14 @@
 use nalgebra::{DVector, Isometry3, Point2, Point3};
 
 use super::handeye_run::PoseError;
+use super::observe::{pose_from_dots, pose_from_dots_cached, CentroidBias, Dots};
 use super::sensor::Feature;
 use super::world::{Observation, Sim};
 use super::SimError;
 use crate::camera::CameraModel;
 use crate::pnp::{pnp_general, pnp_planar, PnpResult};
 use crate::robot::Robot;
+use crate::scene::{RenderSettings, Scene};
 use crate::servo::{
     cam_twist_jacobian_of, ibvs_increment, interaction_matrix, joint_image_jacobian, pbvs_error, pbvs_increment, IbvsParams, InteractionFrom, PbvsParams,
 };
@@ -56,10 +58,66 @@ impl EyeInHand {
     /// # Errors
     /// Too few or degenerate features.
     pub fn pose(&self, features: &[Feature]) -> Result<PnpResult, SimError> {
+        self.solve(features, 1).map(|r| r.0)
+    }
+
+    /// `cam_from_target` from an observation: as [`EyeInHand::pose`] for a rendered one; an ideal
+    /// one (no image: projected centres plus noise) needs no centroid correction.
+    ///
+    /// # Errors
+    /// Too few or degenerate features.
+    pub fn pose_from(&self, obs: &Observation) -> Result<PnpResult, SimError> {
+        self.solve(&obs.features, usize::from(obs.image.is_some())).map(|r| r.0)
+    }
+
+    /// [`EyeInHand::pose_from`], refined further, and per feature the pixel it used: the
+    /// detected one, or for the S-path's beads in a rendered image the detected one corrected for
+    /// the blob-centroid bias (perspective and occlusion move a bead's blob off its projected
+    /// centre; two rounds of the correction of [`super::observe::pose_from_dots`], for views
+    /// where accuracy matters more than time, such as hand-eye views).
+    ///
+    /// # Errors
+    /// Too few or degenerate features.
+    pub fn pose_and_pixels(&self, obs: &Observation) -> Result<(PnpResult, Vec<Point2<f64>>), SimError> {
+        self.solve(&obs.features, 2 * usize::from(obs.image.is_some()))
+    }
+
+    /// [`EyeInHand::pose_from`] with the S-path's centroid correction cached across calls and
+    /// recomputed only when the pose moved more than 5 mm or 1 degree
+    /// ([`super::observe::pose_from_dots_cached`]): for loops, where most steps barely move.
+    ///
+    /// # Errors
+    /// Too few or degenerate features.
+    pub fn pose_from_cached(&self, obs: &Observation, cache: &mut Option<CentroidBias>) -> Result<PnpResult, SimError> {
+        match (&self.target, obs.image.is_some()) {
+            (Target::SPath(_), true) => {
+                let (dots, scene) = self.dots_and_scene(&obs.features);
+                pose_from_dots_cached(&scene, &dots, cache).map_err(|e| SimError::Control(format!("PnP on {} dots: {e}", dots.ids.len())))
+            }
+            _ => self.pose_from(obs),
+        }
+    }
+
+    /// The S-path features as detected dots, and a scene of this cell (pose unused).
+    fn dots_and_scene(&self, features: &[Feature]) -> (Dots, Scene) {
+        let n = self.target.feature_points_m().len();
+        let used = features.iter().filter(|f| f.id < n);
+        let dots = Dots { ids: used.clone().map(|f| f.id).collect(), pixels_px: used.map(|f| f.pixel_px).collect() };
+        (dots, Scene { camera: self.camera, target: self.target.clone(), cam_from_target: Isometry3::identity(), render: RenderSettings::default() })
+    }
+
+    /// PnP with `rounds` rounds of the S-path's centroid correction (0: plain PnP).
+    fn solve(&self, features: &[Feature], rounds: usize) -> Result<(PnpResult, Vec<Point2<f64>>), SimError> {
         let model = self.target.feature_points_m();
-        let (pts, px): (Vec<Point3<f64>>, Vec<Point2<f64>>) = features.iter().filter(|f| f.id < model.len()).map(|f| (model[f.id], f.pixel_px)).unzip();
+        let used: Vec<&Feature> = features.iter().filter(|f| f.id < model.len()).collect();
+        let fail = |e: crate::pnp::PnpError| SimError::Control(format!("PnP on {} features: {e}", used.len()));
+        if let (Target::SPath(_), 1..) = (&self.target, rounds) {
+            let (dots, scene) = self.dots_and_scene(features);
+            return pose_from_dots(&scene, &dots, rounds).map_err(fail);
+        }
+        let (pts, px): (Vec<Point3<f64>>, Vec<Point2<f64>>) = used.iter().map(|f| (model[f.id], f.pixel_px)).unzip();
         let r = if self.target.is_planar() { pnp_planar(&self.camera, &pts, &px) } else { pnp_general(&self.camera, &pts, &px) };
-        r.map_err(|e| SimError::Control(format!("PnP on {} features: {e}", pts.len())))
+        r.map(|r| (r, px)).map_err(fail)
     }
 }
 
@@ -74,17 +132,32 @@ pub struct Pbvs {
     pub params: PbvsParams,
     /// Stop when the estimated error is below (millimetres, degrees).
     pub stop_mm_deg: (f64, f64),
+    /// The last `base_from_target` from PnP (kept by the controller for the steps where the
+    /// target is lost; start with `None`).
+    pub base_from_target: Option<Isometry3<f64>>,
 }
 
 impl Controller for Pbvs {
     fn command(&mut self, robot: &dyn Robot, obs: &Observation, dt_s: f64) -> Result<Command, SimError> {
-        let cam_from_target = self.cell.pose(&obs.features)?.cam_from_target;
         let base_from_tool = robot.base_from_tool(&obs.q_rad)?;
         let x = self.cell.tool_from_cam;
-        let goal = base_from_tool * x * cam_from_target * self.goal_cam_from_target.inverse() * x.inverse();
+        // Where the target is in the base frame: from PnP, or, while the target is lost, the
+        // last such estimate moved by the encoders (kinematics and the hand-eye estimate, the
+        // course's fallback).
+        let seen = self.cell.pose_from(obs).map(|p| base_from_tool * x * p.cam_from_target);
+        let lost = seen.is_err();
+        let base_from_target = match (seen, self.base_from_target) {
+            (Ok(b), _) => {
+                self.base_from_target = Some(b);
+                b
+            }
+            (Err(_), Some(b)) => b,
+            (Err(e), None) => return Err(e),
+        };
+        let goal = base_from_target * self.goal_cam_from_target.inverse() * x.inverse();
         let e = pbvs_error(&base_from_tool, &goal);
         let PoseError { mm, deg } = PoseError::between(&base_from_tool, &goal);
-        if mm < self.stop_mm_deg.0 && deg < self.stop_mm_deg.1 {
+        if !lost && mm < self.stop_mm_deg.0 && deg < self.stop_mm_deg.1 {
             return Ok(Command::Stop);
         }
         let dq = pbvs_increment(&robot.jacobian(&obs.q_rad)?, &e, &self.params).ok_or_else(|| SimError::Control("PBVS: J J^T + D is singular".into()))?;
@@ -143,7 +216,7 @@ impl Controller for Ibvs {
             let pc: Vec<Point3<f64>> = ids.iter().map(|i| cam_from_target * model[*i]).collect();
             interaction_matrix(&self.cell.camera, &pc)
         };
-        let current = || self.cell.pose(&obs.features).map(|r| r.cam_from_target);
+        let current = || self.cell.pose_from(obs).map(|r| r.cam_from_target);
         let l_cam = match self.params.interaction {
             InteractionFrom::Current => at(&current()?),
             InteractionFrom::Desired => at(&self.goal_cam_from_target),

@@ -1,23 +1,22 @@
-//! The course's hand-eye experiment (course-scenario 1.7 / 3.6, variant A) on rendered and
-//! detected pixels: robot configurations around q = (0, 1.6, 3, 3, 2, 0) (+-0.25 rad per joint)
-//! are drawn until the whole S-path is in view; the S-path is rendered from the true camera pose,
-//! its dots are detected and ordered, PnP (with the bead-centroid correction of
-//! [`super::observe`]) gives `cam_from_world` per view, and both hand-eye solvers estimate
-//! `tool_from_cam` and `world_from_base`.
+//! The hand-eye experiment on rendered and detected pixels, in any [`Sim`] ([`run_handeye_in`]);
+//! the course's (course-scenario 1.7 / 3.6, variant A) is [`run_handeye`]: robot configurations
+//! around q = (0, 1.6, 3, 3, 2, 0) (+-0.25 rad per joint) are drawn until the whole S-path is in
+//! view; the S-path is rendered from the true camera pose, its dots are detected and ordered, PnP
+//! (with the bead-centroid correction of [`super::observe`]) gives `cam_from_world` per view, and
+//! the hand-eye solvers estimate `tool_from_cam` and `world_from_base`.
 
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::Isometry3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 
-use super::observe::{pose_from_dots, render_and_detect, Dots};
-use crate::camera::CameraModel;
+use super::controller::EyeInHand;
+use super::scenario::course_world;
+use super::sensor::sensor_for;
+use super::{Sim, SimError};
 use crate::handeye::refine::{refine_joint, JointRefinement, Observations};
 use crate::handeye::{course_linear, park_martin, HandEyeResult};
 use crate::render::Renderer;
-use crate::robot::{base_from_tool, Cell, Joints};
-use crate::scene::{RenderSettings, Scene};
-use crate::target::{SPathDots, Target};
+use crate::robot::{Cell, Irb1200};
 
 /// How the dots are observed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -80,75 +79,78 @@ pub enum HandEyeRunError {
     /// The solvers failed.
     #[error(transparent)]
     HandEye(#[from] crate::handeye::HandEyeError),
+    /// The simulator refused the scenario or joints, or a sensor failed.
+    #[error(transparent)]
+    Sim(#[from] SimError),
 }
 
-/// Run the experiment with `views` views.
+/// Run the course's experiment with `views` views: the course's world (course camera, S-path,
+/// IRB 1200, the hand-eye truth of `scenario`), configurations around `scenario.q0_rad`.
 ///
 /// # Errors
 /// Unreachable scenario, failed detection or PnP, degenerate motions.
 pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Cell, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
-    let cam = CameraModel::course_default();
-    let target = SPathDots::default();
-    let pts = target.path.points_m.clone();
-    let (x_true, wb_true) = scenario.truth();
+    let sc = course_world(scenario, &scenario.q0_rad, Isometry3::identity(), seed);
+    let sensor = sensor_for(obs, renderer, 0.1, seed)?;
+    let mut sim = Sim::new(sc, Box::new(Irb1200), sensor)?;
+    run_handeye_in(&mut sim, views, scenario.spread_rad, seed)
+}
+
+/// Fewest detected features a hand-eye view may have.
+const MIN_VIEW_FEATURES: usize = 10;
+
+/// The hand-eye experiment in any [`Sim`]: configurations drawn uniformly within `spread_rad` of
+/// the current joints until `views` show the whole target; each is observed, PnP (for the
+/// S-path's rendered beads with two rounds of the centroid correction) gives `cam_from_target`,
+/// and the course's linear solver, Park-Martin and the joint refinement estimate
+/// `tool_from_cam` and `target_from_base` (the course's `world_from_base`: its target frame is
+/// the world). The arm is returned to its joints afterwards.
+///
+/// # Errors
+/// No configuration shows the target in 400 draws per view, a view with fewer than 10 detected
+/// features, failed PnP, degenerate motions.
+pub fn run_handeye_in(sim: &mut Sim<'_>, views: usize, spread_rad: f64, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
+    let sc = sim.scenario().clone();
+    let (x_true, wb_true) = (sc.tool_from_cam, sc.world_from_target.inverse() * sc.world_from_base);
+    let cell = EyeInHand { camera: sc.camera, target: sc.target.clone(), tool_from_cam: x_true };
+    let pts = sc.target.feature_points_m();
+    let q0 = sim.joints().to_vec();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let q0 = scenario.q0_rad;
-    let spread = scenario.spread_rad.abs().max(1e-12);
-    let (mut bt, mut wc, mut pnp_mm) = (Vec::new(), Vec::new(), Vec::new());
-    let mut observations: Vec<Observations> = Vec::new();
+    let spread = spread_rad.abs().max(1e-12);
+    let (mut bt, mut wc, mut pnp_mm, mut observations) = (Vec::new(), Vec::new(), Vec::new(), Vec::<Observations>::new());
     let mut drawn = 0;
-    let max_draws = 400 * views.max(1);
     while bt.len() < views {
-        if drawn >= max_draws {
+        if drawn >= 400 * views.max(1) {
+            sim.set_joints(&q0)?;
             return Err(HandEyeRunError::Unreachable(drawn));
         }
         drawn += 1;
-        let q = Joints::from_iterator(q0.iter().map(|v| v + rng.random_range(-spread..spread)));
-        let base_from_tool_q = base_from_tool(&q);
-        let world_from_cam = wb_true * base_from_tool_q * x_true;
-        let cam_from_world = world_from_cam.inverse();
-        if !cam.sees_all(&cam_from_world, &pts, 0.0) {
+        let q: Vec<f64> = q0.iter().map(|v| v + rng.random_range(-spread..spread)).collect();
+        if sim.admits(&q).is_err() || !sc.camera.sees_all(&sim.cam_from_target_at(&q)?, &pts, 0.0) {
             continue;
         }
         let view = bt.len();
-        let scene = Scene {
-            camera: cam,
-            target: Target::SPath(target.clone()),
-            cam_from_target: cam_from_world,
-            render: RenderSettings { noise_sigma: 1.0, samples: 8, seed: rng.random(), ..Default::default() },
-        };
-        // Path index and pixel of every observed dot.
-        let dots = match obs {
-            Observation::Ideal => {
-                let n = Normal::new(0.0, 0.1).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                Dots {
-                    ids: (0..pts.len()).collect(),
-                    pixels_px: pts
-                        .iter()
-                        .map(|p| cam.project_unchecked(&(cam_from_world * p)) + Vector3::new(n.sample(&mut rng), n.sample(&mut rng), 0.0).xy())
-                        .collect(),
-                }
-            }
-            Observation::Rendered => {
-                let r = renderer.ok_or_else(|| HandEyeRunError::View { view, reason: "no renderer".into() })?;
-                let seen = render_and_detect(r, &scene).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-                seen.dots.ok_or_else(|| HandEyeRunError::View { view, reason: seen.note.unwrap_or_else(|| "S-path not found".into()) })?
-            }
-        };
-        let points: Vec<_> = dots.ids.iter().map(|i| pts[*i]).collect();
-        // Rendered beads: two rounds of the centroid-bias correction.
-        let rounds = if obs == Observation::Rendered { 2 } else { 0 };
-        let (est, used_pixels) = pose_from_dots(&scene, &dots, rounds).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-        observations.push(points.iter().copied().zip(used_pixels).collect());
+        sim.set_joints(&q)?;
+        let obs = sim.observe()?;
+        // A partial detection (dots hidden at the sphere's rim) still gives a pose; too few
+        // features for PnP is a failed view.
+        if obs.features.len() < MIN_VIEW_FEATURES {
+            sim.set_joints(&q0)?;
+            let why = obs.note.clone().unwrap_or_else(|| format!("{} of {} features detected", obs.features.len(), pts.len()));
+            return Err(HandEyeRunError::View { view, reason: why });
+        }
+        let (est, used_pixels) = cell.pose_and_pixels(&obs).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
+        observations.push(obs.features.iter().map(|f| pts[f.id]).zip(used_pixels).collect());
         let wc_est = est.cam_from_target.inverse();
-        pnp_mm.push(1e3 * (wc_est.translation.vector - world_from_cam.translation.vector).norm());
-        bt.push(base_from_tool_q);
+        pnp_mm.push(1e3 * (wc_est.translation.vector - obs.truth.cam_from_target.inverse().translation.vector).norm());
+        bt.push(sim.robot().base_from_tool(&q).map_err(SimError::from)?);
         wc.push(wc_est);
     }
+    sim.set_joints(&q0)?;
     let r_tc = x_true.rotation.to_rotation_matrix().into_inner();
     let linear = course_linear(&bt, &wc, &r_tc)?;
     let pm = park_martin(&bt, &wc)?;
-    let refined = refine_joint(&cam, &bt, &observations, &pm);
+    let refined = refine_joint(&sc.camera, &bt, &observations, &pm);
     let errors = [
         PoseError::between(&linear.tool_from_cam, &x_true),
         PoseError::between(&linear.world_from_base, &wb_true),

@@ -48,7 +48,7 @@ pub fn estimate_hand_eye(sim: &mut Sim<'_>, cell: &EyeInHand, views: usize, spre
         }
         drawn += 1;
         let q: Vec<f64> = q0.iter().map(|v| v + rng.random_range(-spread..spread)).collect();
-        if sim.robot().check_limits(&q).is_err() || !sim.scenario().camera.sees_all(&sim.cam_from_target_at(&q)?, &pts, margin_px) {
+        if sim.admits(&q).is_err() || !sim.scenario().camera.sees_all(&sim.cam_from_target_at(&q)?, &pts, margin_px) {
             continue;
         }
         sim.set_joints(&q)?;
@@ -56,8 +56,8 @@ pub fn estimate_hand_eye(sim: &mut Sim<'_>, cell: &EyeInHand, views: usize, spre
         if obs.features.len() < pts.len() {
             continue;
         }
-        let pose = cell.pose(&obs.features)?;
-        obs_all.push(obs.features.iter().map(|f| (pts[f.id], f.pixel_px)).collect());
+        let (pose, pixels) = cell.pose_and_pixels(&obs)?;
+        obs_all.push(obs.features.iter().zip(pixels).map(|(f, px)| (pts[f.id], px)).collect());
         bt.push(sim.robot().base_from_tool(&q)?);
         wc.push(pose.cam_from_target.inverse());
     }

@@ -18,7 +18,7 @@
 //! let goal = scenario.goal_cam_from_target;
 //! let cell = EyeInHand { camera: scenario.camera, target: scenario.target.clone(), tool_from_cam: scenario.tool_from_cam };
 //! let mut sim = Sim::new(scenario, robot, Box::new(RenderedSensor { renderer: &renderer }))?;
-//! let mut pbvs = Pbvs { cell, goal_cam_from_target: goal, params: Default::default(), stop_mm_deg: (0.05, 0.005) };
+//! let mut pbvs = Pbvs { cell, goal_cam_from_target: goal, params: Default::default(), stop_mm_deg: (0.05, 0.005), base_from_target: None };
 //! let trace = run_loop(&mut sim, &mut pbvs, &goal, 1.0, 100)?;
 //! println!("{:?}", trace.steps.last().map(|s| s.goal_error_mm_deg));
 //! # Ok(()) }
@@ -35,12 +35,16 @@ pub mod servo_run;
 pub mod sweep;
 pub mod world;
 
-pub use scenario::{RobotSpec, ScenarioSpec, SimScenario};
+pub use scenario::{JointLimits, RobotSpec, ScenarioSpec, SimScenario};
 pub use world::{Observation, Sim};
 
 /// The worked non-course scenario: a UR5e, a 9 x 7-square chessboard, a 1920 x 1200 camera with
 /// f = 1100 px and k1 = -0.2 (`assets/scenarios/ur5e_chessboard.toml`).
 pub const UR5E_CHESSBOARD: &str = include_str!("../../assets/scenarios/ur5e_chessboard.toml");
+
+/// The course's servoing cell in the open format: IRB 1200, hand-eye variant A, the S-path of
+/// beads, the course camera, the course's start and goal (`assets/scenarios/course_sim.toml`).
+pub const COURSE: &str = include_str!("../../assets/scenarios/course_sim.toml");
 
 /// Errors of the simulator and its controllers.
 #[derive(Debug, thiserror::Error)]

@@ -66,7 +66,9 @@ pub fn run_open(sim: &mut Sim<'_>, options: &OpenRunOptions) -> Result<OpenRun, 
     let cell = EyeInHand { tool_from_cam, ..truth_cell };
     let goal = sc.goal_cam_from_target;
     let (mut controller, desired): (Box<dyn Controller>, _) = match options.law {
-        Law::Pbvs => (Box::new(Pbvs { cell, goal_cam_from_target: goal, params: PbvsParams::default(), stop_mm_deg: (0.05, 0.005) }), None),
+        Law::Pbvs => {
+            (Box::new(Pbvs { cell, goal_cam_from_target: goal, params: PbvsParams::default(), stop_mm_deg: (0.05, 0.005), base_from_target: None }), None)
+        }
         Law::Ibvs => {
             let desired = Ibvs::desired_from(&sim.observe_from(goal)?, sc.target.feature_points_m().len());
             (

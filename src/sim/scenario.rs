@@ -38,6 +38,9 @@
 //! rvec = [0.0, 0.0, 0.0]
 //! t_m = [-0.16, -0.12, 0.45]
 //! ```
+//!
+//! An optional top-level `joint_limits = "ignore"` lets the arm pass its joint limits (the
+//! course's convention; `assets/scenarios/course_sim.toml`); the default is `"enforce"`.
 
 use nalgebra::Isometry3;
 use serde::Deserialize;
@@ -90,6 +93,17 @@ impl RobotSpec {
     }
 }
 
+/// Whether the simulated arm stops at its joint limits.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JointLimits {
+    /// A command or configuration past a limit is an error (a real arm's controller).
+    #[default]
+    Enforce,
+    /// Limits are not checked (the course's convention: it wraps angles and only reports them).
+    Ignore,
+}
+
 /// The scenario file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -113,6 +127,9 @@ pub struct ScenarioSpec {
     pub world_from_target: PoseSpec,
     /// The desired camera pose, seen from the target.
     pub goal_cam_from_target: PoseSpec,
+    /// `"enforce"` (default) or `"ignore"`.
+    #[serde(default)]
+    pub joint_limits: JointLimits,
 }
 
 /// A validated scenario, everything a [`super::Sim`] needs but the robot model.
@@ -134,6 +151,8 @@ pub struct SimScenario {
     pub goal_cam_from_target: Isometry3<f64>,
     /// Start joints.
     pub q_start_rad: Vec<f64>,
+    /// Joint limits enforced or not.
+    pub joint_limits: JointLimits,
 }
 
 impl ScenarioSpec {
@@ -166,6 +185,26 @@ impl ScenarioSpec {
             world_from_target: self.world_from_target.to_isometry()?,
             goal_cam_from_target: self.goal_cam_from_target.to_isometry()?,
             q_start_rad: self.q_start_rad.clone(),
+            joint_limits: self.joint_limits,
         })
+    }
+}
+
+/// The course's world as a [`SimScenario`]: the course camera, the S-path of beads (defined in
+/// the world frame, so `world_from_target` is the identity), render noise 1 grey level with
+/// 8 x 8 samples (render seeds from `seed`), the hand-eye truth of `cell`, and the course's
+/// convention of unchecked joint limits.
+pub fn course_world(cell: &crate::robot::Cell, q_start_rad: &[f64], goal_cam_from_target: Isometry3<f64>, seed: u64) -> SimScenario {
+    let (tool_from_cam, world_from_base) = cell.truth();
+    SimScenario {
+        camera: CameraModel::course_default(),
+        target: Target::SPath(crate::target::SPathDots::default()),
+        render: RenderSettings { noise_sigma: 1.0, samples: 8, seed, ..Default::default() },
+        world_from_base,
+        tool_from_cam,
+        world_from_target: Isometry3::identity(),
+        goal_cam_from_target,
+        q_start_rad: q_start_rad.to_vec(),
+        joint_limits: JointLimits::Ignore,
     }
 }

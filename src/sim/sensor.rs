@@ -100,3 +100,22 @@ impl Sensor for IdealSensor {
         Ok(Capture { image: None, features, note: None, render_ms: 0.0, detect_ms: 0.0 })
     }
 }
+
+/// The sensor for `observation`: the renderer and detector, or ideal projections plus
+/// `noise_px` (seeded).
+///
+/// # Errors
+/// A rendered observation without a renderer, or a bad noise level.
+pub fn sensor_for(
+    observation: super::handeye_run::Observation,
+    renderer: Option<&crate::render::Renderer>,
+    noise_px: f64,
+    seed: u64,
+) -> Result<Box<dyn Sensor + '_>, SimError> {
+    use super::handeye_run::Observation;
+    match (observation, renderer) {
+        (Observation::Rendered, Some(r)) => Ok(Box::new(RenderedSensor { renderer: r })),
+        (Observation::Rendered, None) => Err(SimError::Scenario("a rendered observation needs a renderer".into())),
+        (Observation::Ideal, _) => Ok(Box::new(IdealSensor::new(noise_px, seed)?)),
+    }
+}

@@ -11,6 +11,7 @@
 
 use nalgebra::{Isometry3, Point2};
 
+use super::scenario::JointLimits;
 use super::sensor::{Capture, Feature, Sensor};
 use super::{SimError, SimScenario};
 use crate::render::GreyImage;
@@ -74,9 +75,27 @@ impl<'s> Sim<'s> {
     /// # Errors
     /// Start joints of the wrong length or outside the robot's limits.
     pub fn new(scenario: SimScenario, robot: Box<dyn Robot>, sensor: Box<dyn Sensor + 's>) -> Result<Self, SimError> {
-        robot.check_limits(&scenario.q_start_rad)?;
         let q = scenario.q_start_rad.clone();
-        Ok(Self { scenario, robot, sensor, q, time_s: 0.0, frame: 0 })
+        let sim = Self { scenario, robot, sensor, q, time_s: 0.0, frame: 0 };
+        sim.admits(&sim.q)?;
+        Ok(sim)
+    }
+
+    /// Whether the arm can take joints `q`: the right length, finite, and within the limits
+    /// unless the scenario ignores them.
+    ///
+    /// # Errors
+    /// The first rule `q` breaks.
+    pub fn admits(&self, q: &[f64]) -> Result<(), SimError> {
+        match self.scenario.joint_limits {
+            JointLimits::Enforce => self.robot.check_limits(q)?,
+            JointLimits::Ignore => {
+                if q.len() != self.robot.dof() || q.iter().any(|v| !v.is_finite()) {
+                    return Err(SimError::Command(format!("need {} finite joints, got {q:?}", self.robot.dof())));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The robot.
@@ -104,7 +123,7 @@ impl<'s> Sim<'s> {
     /// # Errors
     /// Wrong length, non-finite or out of limits.
     pub fn set_joints(&mut self, q: &[f64]) -> Result<(), SimError> {
-        self.robot.check_limits(q)?;
+        self.admits(q)?;
         self.q = q.to_vec();
         Ok(())
     }
@@ -141,7 +160,7 @@ impl<'s> Sim<'s> {
         }
         let scale = qdot.iter().zip(self.robot.velocity_limits()).map(|(v, l)| if v.abs() > l { l / v.abs() } else { 1.0 }).fold(1.0, f64::min);
         let next: Vec<f64> = self.q.iter().zip(qdot).map(|(q, v)| q + scale * v * dt_s).collect();
-        self.robot.check_limits(&next)?;
+        self.admits(&next)?;
         self.q = next;
         self.time_s += dt_s;
         Ok(())

@@ -89,3 +89,72 @@ fn the_checker_catches_forbidden_imports() {
     assert!(violations("report", "use crate::sim::servo_run::ServoTrace;\nlet t = std::fs::read(p);\n", false).is_empty());
     assert!(violations("detect", "// use crate::render::Renderer;\n", false).is_empty());
 }
+
+/// Lines of every function in `text` longer than `max` lines: (name, lines). A function starts
+/// at a line `fn name` and ends at the first line with its indentation and a closing brace
+/// (the layout rustfmt gives).
+fn long_functions(text: &str, max: usize) -> Vec<(String, usize)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut out = Vec::new();
+    for (i, l) in lines.iter().enumerate() {
+        let t = l.trim_start();
+        let indent = &l[..l.len() - t.len()];
+        let head = ["pub fn ", "pub(crate) fn ", "pub(super) fn ", "fn ", "const fn ", "pub const fn "].iter().find(|p| t.starts_with(**p));
+        if head.is_none() || t.ends_with(';') || t.ends_with('}') {
+            continue;
+        }
+        let name: String = t.split("fn ").nth(1).unwrap_or("").chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        let end = lines[i..].iter().position(|m| *m == format!("{indent}}}")).map_or(0, |k| k + 1);
+        if end > max {
+            out.push((name, end));
+        }
+    }
+    out
+}
+
+/// Functions known to be over 80 lines, with their length when listed (2026-12-02). The test
+/// fails when one grows, when another function passes 80 lines, or when a listed one is split
+/// (so that the list stays true); shrink the list as they are split.
+const LONG_FUNCTIONS: [(&str, &str, usize); 4] = [
+    ("detect/dots.rs", "find_dots", 192),
+    ("detect/saddle_fit.rs", "refine_saddle", 129),
+    ("render/gpu_scene.rs", "gpu_scene", 93),
+    ("render/renderer.rs", "run_pass", 82),
+];
+
+#[test]
+fn files_and_functions_stay_small() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let (mut broken, mut seen) = (Vec::new(), Vec::new());
+    for f in files {
+        let text = std::fs::read_to_string(&f).expect("read");
+        let rel = f.strip_prefix(&src).expect("under src").to_string_lossy().replace('\\', "/");
+        let n = text.lines().count();
+        if n > 400 {
+            broken.push(format!("{rel}: {n} lines (at most 400)"));
+        }
+        for (name, len) in long_functions(&text, 80) {
+            match LONG_FUNCTIONS.iter().find(|(file, func, _)| *file == rel && *func == name) {
+                Some((_, _, listed)) if len <= *listed => seen.push((rel.clone(), name)),
+                Some((_, _, listed)) => broken.push(format!("{rel}: fn {name} grew to {len} lines (listed at {listed})")),
+                None => broken.push(format!("{rel}: fn {name} has {len} lines (at most 80)")),
+            }
+        }
+    }
+    for (file, func, _) in LONG_FUNCTIONS {
+        if !seen.iter().any(|(f, n)| f == file && n == func) {
+            broken.push(format!("{file}: fn {func} is no longer over 80 lines: take it off LONG_FUNCTIONS"));
+        }
+    }
+    assert!(broken.is_empty(), "size rules broken:\n{}", broken.join("\n"));
+}
+
+#[test]
+fn the_size_checker_measures_functions() {
+    let body = (0..90).map(|k| format!("    let x{k} = {k};\n")).collect::<String>();
+    let text = format!("fn short() {{\n    1;\n}}\n\npub fn long() {{\n{body}}}\n");
+    assert_eq!(long_functions(&text, 80), vec![("long".to_string(), 92)]);
+    assert!(long_functions("fn f();\nfn g() {}\n", 0).is_empty());
+}

@@ -38,11 +38,21 @@ fn course_dot_grids_are_found_in_grid_order() {
                 continue;
             }
             found += 1;
-            // Grid order is image-based (see grid_order.rs): compare order-agnostically here.
-            for f in &truth.features {
-                let c = Point2::from(f.centroid_px.expect("centroid"));
-                errs.push(det.points_px.iter().map(|p| (p - c).norm()).fold(f64::INFINITY, f64::min));
-            }
+            // A plain grid has no marker: the detector's order is the truth order up to one of the
+            // grid's 8 symmetries (4 rotations, mirrored or not), the same for every dot.
+            let centroids: Vec<Point2<f64>> = truth.features.iter().map(|f| Point2::from(f.centroid_px.expect("centroid"))).collect();
+            let best = symmetries(n as usize)
+                .into_iter()
+                .map(|perm| perm.iter().zip(&det.points_px).map(|(t, p)| (p - centroids[*t]).norm()).collect::<Vec<f64>>())
+                .min_by(|a, b| a.iter().cloned().fold(0.0, f64::max).total_cmp(&b.iter().cloned().fold(0.0, f64::max)))
+                .expect("8 symmetries");
+            assert_eq!(best.len(), centroids.len(), "{n}x{n} view {v}: {} dots for {}", det.points_px.len(), centroids.len());
+            let worst = best.iter().cloned().fold(0.0, f64::max);
+            assert!(worst < 0.2, "{n}x{n} view {v}: no grid symmetry maps the detected order onto the truth (closest max {worst} px)");
+            // The documented image rule: dot 0 is the corner nearest the image's top-left (min u + v).
+            let corners = [0, n as usize - 1, (n * n - n) as usize, (n * n - 1) as usize].map(|k| det.points_px[k]);
+            assert!(corners.iter().all(|c| det.points_px[0].x + det.points_px[0].y <= c.x + c.y), "{n}x{n} view {v}: dot 0 is not the top-left corner");
+            errs.extend(best);
         }
         let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len().max(1) as f64).sqrt();
         let max = errs.iter().cloned().fold(0.0, f64::max);
@@ -50,4 +60,21 @@ fn course_dot_grids_are_found_in_grid_order() {
         assert_eq!(found, views, "{n}x{n}");
         assert!(rms <= 0.03, "{n}x{n}: RMS {rms}");
     }
+}
+
+/// The 8 relabellings of an n x n grid (index = ix * n + iy): rotations and mirrors of (ix, iy).
+fn symmetries(n: usize) -> Vec<Vec<usize>> {
+    let m = n - 1;
+    type Map = fn(usize, usize, usize) -> (usize, usize);
+    let maps: [Map; 8] = [
+        |_, i, j| (i, j),
+        |m, i, j| (m - j, i),
+        |m, i, j| (m - i, m - j),
+        |m, i, j| (j, m - i),
+        |_, i, j| (j, i),
+        |m, i, j| (m - i, j),
+        |m, i, j| (m - j, m - i),
+        |m, i, j| (i, m - j),
+    ];
+    maps.iter().map(|f| (0..n * n).map(|k| f(m, k / n, k % n)).map(|(i, j)| i * n + j).collect()).collect()
 }

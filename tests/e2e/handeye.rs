@@ -30,9 +30,26 @@ fn summary(name: &str, obs: Observation, seeds: u64) -> Vec<[f64; 7]> {
 
 #[test]
 fn hand_eye_on_rendered_and_detected_dots() {
-    summary("ideal + 0.1 px", Observation::Ideal, 20);
+    let ideal = summary("ideal + 0.1 px", Observation::Ideal, 20);
     let rows = summary("rendered + detected", Observation::Rendered, 20);
     let worst = |k: usize| rows.iter().map(|r| r[k]).fold(0.0, f64::max);
+    let median = |rows: &[[f64; 7]], k: usize| {
+        let mut v: Vec<f64> = rows.iter().map(|r| r[k]).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // Ideal projections with 0.1 px noise (measured 2026-12-02: refined worst 1.26 mm / 0.030 deg,
+    // base 1.04 mm over 20 seeds): bounds at twice that, and the rendered run must beat the ideal
+    // one's median (its detected dots are far better than 0.1 px).
+    let ideal_worst = |k: usize| ideal.iter().map(|r| r[k]).fold(0.0, f64::max);
+    assert!(
+        ideal_worst(4) <= 2.5 && ideal_worst(5) <= 0.06 && ideal_worst(6) <= 2.5,
+        "ideal refined {} mm, {} deg, base {} mm",
+        ideal_worst(4),
+        ideal_worst(5),
+        ideal_worst(6)
+    );
+    assert!(median(&rows, 4) < median(&ideal, 4), "rendered {} mm vs ideal {} mm", median(&rows, 4), median(&ideal, 4));
     assert!(worst(0) <= 1.0 && worst(1) <= 1.0, "linear {} / {} mm", worst(0), worst(1));
     assert!(worst(2) <= 1.0 && worst(3) <= 0.05, "Park-Martin {} mm, {} deg", worst(2), worst(3));
     assert!(worst(4) <= 1.0 && worst(5) <= 0.05 && worst(6) <= 1.0, "refined {} mm, {} deg, base {} mm", worst(4), worst(5), worst(6));

@@ -46,7 +46,7 @@ fn ur5e_chessboard_hand_eye_pbvs_and_ibvs_on_rendered_corners() {
     // PBVS with the estimated hand-eye.
     let goal = sc.goal_cam_from_target;
     let cell = EyeInHand { tool_from_cam: he.tool_from_cam, ..truth_cell };
-    let mut pbvs = Pbvs { cell: cell.clone(), goal_cam_from_target: goal, params: Default::default(), stop_mm_deg: (0.05, 0.005) };
+    let mut pbvs = Pbvs { cell: cell.clone(), goal_cam_from_target: goal, params: Default::default(), stop_mm_deg: (0.05, 0.005), base_from_target: None };
     let tr = run_loop(&mut sim, &mut pbvs, &goal, 1.0, 100).expect("PBVS loop");
     let (mm, deg) = tr.steps.last().expect("steps").goal_error_mm_deg;
     eprintln!("PBVS: {} steps, true error {mm:.4} mm {deg:.5} deg", tr.steps.len());
@@ -103,4 +103,39 @@ fn sim_cli_runs_an_open_scenario_and_rejects_bad_input() {
     assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("--law"));
     let missing = std::process::Command::new(bin).args(["sim", "no/such/scenario.toml"]).output().expect("run");
     assert!(!missing.status.success() && String::from_utf8_lossy(&missing.stderr).contains("reading"));
+}
+
+/// The course's cell written as an open scenario (IRB 1200, S-path of beads, course camera) runs
+/// through the same sim, hand-eye and controllers as any user's scenario, and reaches the course
+/// runner's figures (measured 2026-12-02: hand-eye 0.003 mm / 0.0001 deg, PBVS 0.038 mm /
+/// 0.0049 deg in 63 steps, IBVS 0.047 px RMS in 113 steps; the course runner: PBVS 0.044 mm,
+/// IBVS 0.049 px). Bounds about twice the measured figures.
+#[test]
+fn the_course_runs_as_an_open_scenario_with_the_course_figures() {
+    use synthcam::sim::open_run::{run_open, OpenRunOptions};
+    use synthcam::sim::servo_run::Law;
+    let spec = ScenarioSpec::parse(synthcam::sim::COURSE).expect("course scenario parses");
+    let sc = spec.to_scenario().expect("valid");
+    for law in [Law::Pbvs, Law::Ibvs] {
+        let mut sim = sim(&spec, &sc);
+        let run = run_open(&mut sim, &OpenRunOptions { law, ..Default::default() }).expect("open run");
+        let (he_mm, he_deg) = run.handeye_error_mm_deg;
+        let (mm, deg) = run.trace.steps.last().expect("steps").goal_error_mm_deg;
+        eprintln!(
+            "course as open scenario, {law:?}: hand-eye {he_mm:.4} mm {he_deg:.5} deg; {} steps, {mm:.4} mm {deg:.5} deg, pixel RMS {:?}",
+            run.trace.steps.len(),
+            run.final_pixel_rms_px
+        );
+        assert!(he_mm < 0.05 && he_deg < 0.002, "hand-eye {he_mm} mm {he_deg} deg");
+        assert!(run.trace.stopped, "{law:?} did not converge in {} steps", run.trace.steps.len());
+        match law {
+            Law::Pbvs => assert!(mm < 0.1 && deg < 0.01, "PBVS {mm} mm {deg} deg"),
+            _ => assert!(run.final_pixel_rms_px.is_some_and(|p| p < 0.1) && mm < 0.5, "IBVS {:?} px, {mm} mm", run.final_pixel_rms_px),
+        }
+    }
+    // Enforcing the IRB 1200's limits refuses the course's start (joint 3 at 3.5 rad > 70 deg).
+    let strict = ScenarioSpec::parse(&synthcam::sim::COURSE.replace("joint_limits = \"ignore\"", "")).expect("parses");
+    let robot = strict.robot.build(&|_| Err("no files".into())).expect("robot");
+    let err = Sim::new(strict.to_scenario().expect("valid"), robot, Box::new(IdealSensor::new(0.1, 0).expect("sensor"))).expect_err("start out of limits");
+    assert!(err.to_string().contains("joint 2"), "{err}");
 }

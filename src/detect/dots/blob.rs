@@ -1,0 +1,265 @@
+//! Per-blob helpers of the dot finder: the closing that gives a dot's surround, core splitting
+//! and fragment merging, the rim test, the dark level and the grown region of a blob.
+
+use imageproc::region_labelling::{connected_components, Connectivity};
+
+use super::super::edge_surround::EdgeSurround;
+use super::super::filters::{extreme_filter, median_by};
+use super::super::ImageF32;
+use super::DotParams;
+
+/// The morphological closing (window `r`) of `img` over `bbox` grown by `margin` (clipped to the
+/// image), and that rectangle.
+pub(super) fn closed_window(img: &ImageF32, bbox: [usize; 4], margin: usize, r: usize) -> (ImageF32, [usize; 4]) {
+    let (w, h) = (img.width, img.height);
+    let (x0, y0) = (bbox[0].saturating_sub(margin), bbox[1].saturating_sub(margin));
+    let (x1, y1) = ((bbox[2] + margin).min(w - 1), (bbox[3] + margin).min(h - 1));
+    let crop = ImageF32 { width: x1 - x0 + 1, height: y1 - y0 + 1, data: (y0..=y1).flat_map(|y| img.data[y * w + x0..=y * w + x1].iter().copied()).collect() };
+    (extreme_filter(&extreme_filter(&crop, r, true), r, false), [x0, y0, x1, y1])
+}
+
+/// Weights of a blob at a two-level edge (the sphere's outline), from the edge model `e`, given
+/// the plain darkness weights. Three cases, told apart by how much the blob darkens each pixel
+/// against its modelled level `S` (beyond noise and the edge model's error, 12 grey levels):
+/// - *paint* (a cap painted on the sphere) covers only the bright side: at most the pixel's
+///   bright share times `(hi - dot level)`; coverage `(S - I) / (hi - dark)`, at most `top`;
+/// - *behind* (a bead on the sphere just past its limb, which the sphere hides where they
+///   overlap) covers only the dark side: at most the dark share times `(lo - dot level)`;
+///   coverage `(S - I) / (lo - dark)`;
+/// - otherwise an *occluder* (a bead in front of the outline) covers both: where its rim
+///   crosses the edge the coverage comes from [`EdgeSurround::occluder_coverage`] with the rim
+///   taken square to the direction of the blob's centre.
+pub(super) fn edge_weights(img: &ImageF32, e: &EdgeSurround, region: &[(usize, usize)], weights: &mut [f64], dark: f64, top: f64) {
+    let w = img.width;
+    let level: Vec<f64> = region.iter().map(|&(x, y)| e.level_at(x, y)).collect();
+    let frac: Vec<f64> = level.iter().map(|l| e.bright_fraction(*l)).collect();
+    let value = |k: usize| f64::from(img.data[region[k].1 * w + region[k].0]);
+    // The dot level can be darker than `dark` (a thin blob has no wholly dark pixel): the bounds
+    // take the darkest pixel of the region if it is darker.
+    let (lo, hi) = e.levels();
+    let darkest = (0..region.len()).map(value).fold(dark, f64::min);
+    let within = |share: &dyn Fn(usize) -> f64, range: f64| (0..region.len()).all(|k| level[k] - value(k) <= share(k) * range + 12.0);
+    let coverage_over = |range: f64, weights: &mut [f64]| {
+        for (k, wt) in weights.iter_mut().enumerate() {
+            *wt = ((level[k] - value(k)) / range.max(1e-6)).clamp(-0.5, top);
+        }
+    };
+    if within(&|k| frac[k], hi - darkest) {
+        coverage_over(hi - dark, weights);
+    } else if within(&|k| 1.0 - frac[k], lo - darkest) {
+        coverage_over(lo - dark, weights);
+    } else {
+        let sw: f64 = weights.iter().map(|v| v.max(0.0)).sum();
+        if sw <= 0.0 {
+            return;
+        }
+        let cu = region.iter().zip(weights.iter()).map(|(p, v)| v.max(0.0) * p.0 as f64).sum::<f64>() / sw;
+        let cv = region.iter().zip(weights.iter()).map(|(p, v)| v.max(0.0) * p.1 as f64).sum::<f64>() / sw;
+        for (k, wt) in weights.iter_mut().enumerate() {
+            let (x, y) = region[k];
+            let (dx, dy) = (cu - x as f64, cv - y as f64);
+            let len = dx.hypot(dy);
+            if (0.02..=0.98).contains(&frac[k]) && (0.02..=0.98).contains(wt) && len > 1e-9 {
+                *wt = e.occluder_coverage(x, y, value(k), dark, [dx / len, dy / len]);
+            }
+        }
+    }
+    // On the edge itself a pixel brighter than the model is the model's error (a few tenths of a
+    // pixel of edge position near a row of dots), not noise to be averaged out: not negative.
+    for (a, wt) in frac.iter().zip(weights.iter_mut()) {
+        if (0.02..=0.98).contains(a) {
+            *wt = wt.max(0.0);
+        }
+    }
+}
+
+/// Bounding box `[x0, y0, x1, y1]` (inclusive) of a non-empty pixel list.
+pub(super) fn bbox(pixels: &[(usize, usize)]) -> [usize; 4] {
+    pixels.iter().fold([usize::MAX, usize::MAX, 0, 0], |b, &(x, y)| [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)])
+}
+
+/// The cores inside a too-large component: its pixels darker than halfway between its darkest
+/// level and its median (the background it swallowed), 8-connected.
+pub(super) fn split_large(img: &ImageF32, comp: &[(usize, usize)], params: &DotParams) -> Vec<Vec<(usize, usize)>> {
+    let w = img.width;
+    let mut vals: Vec<f32> = comp.iter().map(|&(x, y)| img.data[y * w + x]).collect();
+    let lo = vals.iter().copied().fold(f32::INFINITY, f32::min);
+    let Some(m) = median_by(&mut vals, f32::total_cmp) else { return Vec::new() };
+    if !(m - lo > 0.5 * params.min_contrast) {
+        return Vec::new();
+    }
+    let t = lo + 0.5 * (m - lo);
+    let [x0, y0, x1, y1] = bbox(comp);
+    let mut dark = image::GrayImage::new((x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32);
+    for &(x, y) in comp {
+        dark.put_pixel((x - x0) as u32, (y - y0) as u32, image::Luma([u8::from(img.data[y * w + x] < t)]));
+    }
+    components(&dark, (x0, y0))
+}
+
+/// Whether `core`'s darker half lies below most of the pixels bordering it (8-connected) by at
+/// least a quarter of `min_contrast`: a dot's core does, a patch of flat background does not.
+pub(super) fn darker_than_rim(img: &ImageF32, core: &[(usize, usize)], params: &DotParams) -> bool {
+    let (w, h) = (img.width, img.height);
+    let [x0, y0, x1, y1] = bbox(core);
+    let (ox, oy) = (x0.saturating_sub(1), y0.saturating_sub(1));
+    let bw = (x1 + 1).min(w - 1) - ox + 1;
+    let bh = (y1 + 1).min(h - 1) - oy + 1;
+    let mut in_core = vec![false; bw * bh];
+    for &(x, y) in core {
+        in_core[(y - oy) * bw + (x - ox)] = true;
+    }
+    let mut rim: Vec<f32> = Vec::new();
+    for by in 0..bh {
+        for bx in 0..bw {
+            if in_core[by * bw + bx] {
+                continue;
+            }
+            let touches = (by.saturating_sub(1)..=(by + 1).min(bh - 1)).any(|yy| (bx.saturating_sub(1)..=(bx + 1).min(bw - 1)).any(|xx| in_core[yy * bw + xx]));
+            if touches {
+                rim.push(img.data[(oy + by) * w + ox + bx]);
+            }
+        }
+    }
+    rim.sort_by(f32::total_cmp);
+    let (Some(d), Some(r)) = (dark_level(img, core), rim.get(rim.len() / 5).copied()) else {
+        return true;
+    };
+    r - d > 0.25 * params.min_contrast
+}
+
+/// A core's dark level: the median of its darker half.
+pub(super) fn dark_level(img: &ImageF32, core: &[(usize, usize)]) -> Option<f32> {
+    let mut vals: Vec<f32> = core.iter().map(|&(x, y)| img.data[y * img.width + x]).collect();
+    vals.sort_by(f32::total_cmp);
+    let half = vals.len().div_ceil(2);
+    median_by(&mut vals[..half], f32::total_cmp)
+}
+
+/// The 8-connected components of the set pixels of `mask` (whose top-left pixel is `origin` in
+/// the image), as pixel lists in raster order, in label order.
+pub(super) fn components(mask: &image::GrayImage, origin: (usize, usize)) -> Vec<Vec<(usize, usize)>> {
+    let labels = connected_components(mask, Connectivity::Eight, image::Luma([0u8]));
+    let mut out: Vec<Vec<(usize, usize)>> = Vec::new();
+    for (x, y, l) in labels.enumerate_pixels() {
+        let l = l[0] as usize;
+        if l > 0 {
+            if out.len() < l {
+                out.resize(l, Vec::new());
+            }
+            out[l - 1].push((x as usize + origin.0, y as usize + origin.1));
+        }
+    }
+    out
+}
+
+/// Cores of at most this many pixels are fragment candidates for [`merge_fragments`].
+pub(super) const FRAGMENT_PX: usize = 6;
+
+/// Join each small core (at most [`FRAGMENT_PX`] pixels) to a core one pixel away when a pixel
+/// between them is darker than [`JOIN_DARKNESS`] against the local levels: the threshold breaks a
+/// one-pixel-thin sliver (a dot seen edge-on) into pieces along its staircase.
+pub(super) fn merge_fragments(cores: &mut [Vec<(usize, usize)>], w: usize, h: usize, params: &DotParams, darkness: &dyn Fn(usize, usize) -> f32) {
+    let in_range = |c: &Vec<(usize, usize)>| (1..=params.max_core_px).contains(&c.len());
+    // Core of each core pixel (a map: the cores hold a small share of the image).
+    let mut id: std::collections::HashMap<usize, u32> = std::collections::HashMap::new();
+    for (k, c) in cores.iter().enumerate().filter(|(_, c)| in_range(c)) {
+        for &(x, y) in c {
+            id.insert(y * w + x, k as u32);
+        }
+    }
+    for k in 0..cores.len() {
+        if cores[k].is_empty() || cores[k].len() > FRAGMENT_PX {
+            continue;
+        }
+        let mut target = None;
+        'search: for &(x, y) in &cores[k] {
+            for dy in -2i64..=2 {
+                for dx in -2i64..=2 {
+                    let (qx, qy) = (x as i64 + dx, y as i64 + dy);
+                    if dx.abs().max(dy.abs()) != 2 || qx < 0 || qy < 0 || qx as usize >= w || qy as usize >= h {
+                        continue;
+                    }
+                    let Some(&o) = id.get(&(qy as usize * w + qx as usize)) else { continue };
+                    if o as usize == k {
+                        continue;
+                    }
+                    // A pixel next to both.
+                    let (mx, my) = ((x as i64 + qx).div_euclid(2) as usize, (y as i64 + qy).div_euclid(2) as usize);
+                    if f64::from(darkness(mx, my)) > JOIN_DARKNESS {
+                        target = Some(o as usize);
+                        break 'search;
+                    }
+                }
+            }
+        }
+        if let Some(o) = target {
+            let moved = std::mem::take(&mut cores[k]);
+            for &(x, y) in &moved {
+                id.insert(y * w + x, o as u32);
+            }
+            cores[o].extend(moved);
+        }
+    }
+}
+
+/// Darkness above which a pixel next to a blob's region joins it.
+pub(super) const JOIN_DARKNESS: f64 = 0.4;
+
+/// The pixels a blob's centre is computed over: its grown core (`owner == id` in `bbox`); with a
+/// `reach` (a thin blob), also the free pixels darker than [`JOIN_DARKNESS`] flooded from it (the
+/// rest of a sliver whose core the threshold broke up or cut short) at most `reach` pixels beyond
+/// `bbox` and inside `limits`, and a one-pixel ring of free pixels round the whole (the sliver's
+/// anti-aliased rim, whose ends can lie beyond the grown core).
+pub(super) fn blob_region(
+    owner: &[u32],
+    w: usize,
+    id: u32,
+    bbox: [usize; 4],
+    limits: [usize; 4],
+    reach: usize,
+    darkness: &dyn Fn(usize, usize) -> f64,
+) -> Vec<(usize, usize)> {
+    let [bx0, by0, bx1, by1] = bbox;
+    let mut region: Vec<(usize, usize)> = (by0..=by1).flat_map(|y| (bx0..=bx1).map(move |x| (x, y))).filter(|&(x, y)| owner[y * w + x] == id).collect();
+    if reach == 0 {
+        return region;
+    }
+    let x0 = bx0.saturating_sub(reach).max(limits[0]);
+    let y0 = by0.saturating_sub(reach).max(limits[1]);
+    let x1 = (bx1 + reach).min(limits[2]);
+    let y1 = (by1 + reach).min(limits[3]);
+    let bw = x1 - x0 + 1;
+    let mut inside = vec![false; bw * (y1 - y0 + 1)];
+    for &(x, y) in &region {
+        inside[(y - y0) * bw + (x - x0)] = true;
+    }
+    let neighbours = |x: usize, y: usize| {
+        (-1i64..=1)
+            .flat_map(move |dy| (-1i64..=1).map(move |dx| (x as i64 + dx, y as i64 + dy)))
+            .filter_map(move |(xx, yy)| (xx >= x0 as i64 && yy >= y0 as i64 && xx <= x1 as i64 && yy <= y1 as i64).then_some((xx as usize, yy as usize)))
+    };
+    let mut k = 0;
+    while k < region.len() {
+        let (x, y) = region[k];
+        k += 1;
+        for (xx, yy) in neighbours(x, y) {
+            let i = (yy - y0) * bw + (xx - x0);
+            if !inside[i] && owner[yy * w + xx] == 0 && darkness(xx, yy) > JOIN_DARKNESS {
+                inside[i] = true;
+                region.push((xx, yy));
+            }
+        }
+    }
+    for k in 0..region.len() {
+        let (x, y) = region[k];
+        for (xx, yy) in neighbours(x, y) {
+            let i = (yy - y0) * bw + (xx - x0);
+            if !inside[i] && owner[yy * w + xx] == 0 {
+                inside[i] = true;
+                region.push((xx, yy));
+            }
+        }
+    }
+    region
+}

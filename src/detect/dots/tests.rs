@@ -1,0 +1,68 @@
+//! Tests of `dots`.
+
+use super::super::image::area_sampled;
+use super::*;
+
+/// Area-sampled dark disc at (cx, cy), radius r, on a light surround.
+fn disc(w: usize, h: usize, cx: f64, cy: f64, r: f64) -> ImageF32 {
+    area_sampled(w, h, 16, |u, v| if (u - cx).hypot(v - cy) < r { 20.0 } else { 225.0 })
+}
+
+#[test]
+fn finds_disc_centre() {
+    for (cx, cy, r) in [(20.0, 20.0, 5.0), (20.3, 19.7, 2.0), (19.55, 20.45, 1.5)] {
+        let img = disc(40, 40, cx, cy, r);
+        let dots = find_dots(&img, &DotParams::default()).unwrap();
+        assert_eq!(dots.len(), 1, "r {r}");
+        let c = dots[0].centre_px;
+        // The coverage-weighted centroid of a sampled disc is within ~0.01 px of its centre.
+        assert!((c.x - cx).abs() < 0.01 && (c.y - cy).abs() < 0.01, "{c} vs ({cx}, {cy})");
+    }
+}
+
+/// A bead (level 20, radius 4.5) at `bead` next to the outline of a 450-px sphere (225) on
+/// the background (90), in front of the sphere or behind it (hidden where they overlap),
+/// area-sampled; with the exact centroid of the bead's visible part.
+fn bead_at_outline(bead: [f64; 2], in_front: bool) -> (ImageF32, [f64; 2]) {
+    let sphere = [50.3 + 450.0, 47.8];
+    let on_bead = |u: f64, v: f64| (u - bead[0]).hypot(v - bead[1]) < 4.5 && (in_front || (u - sphere[0]).hypot(v - sphere[1]) >= 450.0);
+    let img = area_sampled(96, 96, 16, |u, v| {
+        if on_bead(u, v) {
+            20.0
+        } else if (u - sphere[0]).hypot(v - sphere[1]) < 450.0 {
+            225.0
+        } else {
+            90.0
+        }
+    });
+    // The exact centroid of the visible part: the bead's coverage of each pixel, weighted.
+    let cov = area_sampled(96, 96, 16, |u, v| f64::from(u8::from(on_bead(u, v))));
+    let (mut a, mut su, mut sv) = (0.0, 0.0, 0.0);
+    for (k, c) in cov.data.iter().enumerate() {
+        let c = f64::from(*c);
+        a += c;
+        su += c * (k % 96) as f64;
+        sv += c * (k / 96) as f64;
+    }
+    (img, [su / a, sv / a])
+}
+
+#[test]
+fn beads_in_front_of_and_behind_the_outline() {
+    // The outline runs near x = 50.3; beads straddle it.
+    for (bead, in_front) in [([49.6, 47.2], true), ([51.7, 45.4], false), ([52.4, 47.9], false), ([48.1, 46.6], true)] {
+        let (img, truth) = bead_at_outline(bead, in_front);
+        let dots = find_dots(&img, &DotParams::default()).unwrap();
+        assert_eq!(dots.len(), 1, "{bead:?} in front {in_front}");
+        let err = (dots[0].centre_px - Point2::from(truth)).norm();
+        // The plain darkness against the closing is off by tenths of a pixel here.
+        assert!(err < 0.02, "{bead:?} in front {in_front}: {} vs {truth:?}: {err}", dots[0].centre_px);
+    }
+}
+
+#[test]
+fn blank_and_tiny_images_have_no_dots() {
+    assert!(find_dots(&ImageF32::new(50, 50, vec![128.0; 2500]).unwrap(), &DotParams::default()).unwrap().is_empty());
+    assert!(find_dots(&ImageF32::new(1, 1, vec![0.0]).unwrap(), &DotParams::default()).unwrap().is_empty());
+    assert!(find_dots(&ImageF32 { width: 5, height: 5, data: vec![] }, &DotParams::default()).is_err());
+}
