@@ -1,19 +1,26 @@
-//! `synthcam handeye [--views M] [--seed S] [--ideal] [--json OUT]`: the course's hand-eye
-//! experiment (variant A) on rendered and detected pixels, or on ideal projections + noise.
+//! `synthcam handeye [--scenario F] [--views M] [--seed S] [--ideal] [--json OUT]`: the hand-eye
+//! experiment (default: the course's variant A; or any open scenario) on rendered and detected
+//! pixels, or on ideal projections + noise.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use synthcam::dataset::write_atomic;
 use synthcam::robot::Cell;
-use synthcam::sim::handeye_run::{run_handeye, Observation};
+use synthcam::sim::handeye_run::{run_handeye, run_handeye_on, Observation};
+use synthcam::sim::ScenarioSpec;
 
 /// Arguments of `handeye`.
 #[derive(Debug, clap::Args)]
 pub struct HandEyeArgs {
-    /// Scenario file (TOML; default: the course's variant A, assets/scenarios/course.toml).
+    /// Scenario file (TOML): the course's cell format (default: variant A,
+    /// assets/scenarios/course.toml) or an open scenario (any camera, target, robot; views around
+    /// its start joints).
     #[arg(long)]
     pub scenario: Option<PathBuf>,
+    /// Open scenarios: joints drawn within this of the start, radians.
+    #[arg(long, default_value_t = 0.25)]
+    pub spread: f64,
     /// Views.
     #[arg(long, default_value_t = 5)]
     pub views: usize,
@@ -28,20 +35,40 @@ pub struct HandEyeArgs {
     pub json: Option<PathBuf>,
 }
 
+/// A scenario file of either format.
+enum Loaded {
+    Cell(Cell),
+    Open(Box<ScenarioSpec>),
+}
+
+fn load(args: &HandEyeArgs) -> anyhow::Result<Loaded> {
+    let Some(p) = &args.scenario else { return Ok(Loaded::Cell(Cell::default())) };
+    let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+    match ScenarioSpec::parse(&text) {
+        Ok(spec) => Ok(Loaded::Open(Box::new(spec))),
+        Err(open) => Ok(Loaded::Cell(
+            toml::from_str::<Cell>(&text).with_context(|| format!("in scenario {} (read as a course cell; as an open scenario: {open})", p.display()))?,
+        )),
+    }
+}
+
 /// Run `handeye`.
 pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.views >= 3, "--views must be at least 3 (the AX = XB solver needs 3 views), got {}", args.views);
     let obs = if args.ideal { Observation::Ideal } else { Observation::Rendered };
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
-    let scenario = match &args.scenario {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            toml::from_str::<Cell>(&text).with_context(|| format!("in scenario {}", p.display()))?
+    let (r, x, wb) = match load(args)? {
+        Loaded::Cell(cell) => {
+            let (x, wb) = cell.truth();
+            (run_handeye(renderer.as_ref(), obs, &cell, args.views, args.seed).context("hand-eye experiment")?, x, wb)
         }
-        None => Cell::default(),
+        Loaded::Open(spec) => {
+            let sc = spec.to_scenario().context("scenario")?;
+            let (x, wb) = (sc.tool_from_cam, sc.world_from_target.inverse() * sc.world_from_base);
+            let robot = spec.robot.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;
+            (run_handeye_on(renderer.as_ref(), obs, sc, robot, args.views, args.spread, args.seed).context("hand-eye experiment")?, x, wb)
+        }
     };
-    let r = run_handeye(renderer.as_ref(), obs, &scenario, args.views, args.seed).context("hand-eye experiment")?;
-    let (x, wb) = scenario.truth();
     let show = |name: &str, est: &nalgebra::Isometry3<f64>, truth: &nalgebra::Isometry3<f64>| {
         let t = est.translation.vector;
         let e = 1e3 * (t - truth.translation.vector).norm();

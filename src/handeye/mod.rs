@@ -80,6 +80,21 @@ fn lstsq(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, HandEyeErro
 /// # Errors
 /// Fewer than 2 views, or views whose tool rotations do not separate the two translations.
 pub fn course_linear(base_from_tool: &[Isometry3<f64>], world_from_cam: &[Isometry3<f64>], r_tool_cam: &Matrix3<f64>) -> Result<HandEyeResult, HandEyeError> {
+    linear_known_rotations(base_from_tool, world_from_cam, r_tool_cam, &Matrix3::identity())
+}
+
+/// The course's linear solver for any known base rotation `r_world_base`: with
+/// `world_from_cam_i = W B_i X`, `R_WB^T p_WC,i - p_B,i = R_B,i t_X + R_WB^T t_W` is linear in the
+/// two translations (stacked over the views, solved by least squares).
+///
+/// # Errors
+/// Fewer than 2 views, or views whose tool rotations do not separate the two translations.
+pub fn linear_known_rotations(
+    base_from_tool: &[Isometry3<f64>],
+    world_from_cam: &[Isometry3<f64>],
+    r_tool_cam: &Matrix3<f64>,
+    r_world_base: &Matrix3<f64>,
+) -> Result<HandEyeResult, HandEyeError> {
     let m = base_from_tool.len().min(world_from_cam.len());
     if m < 2 {
         return Err(HandEyeError::TooFewViews { required: 2, actual: m });
@@ -90,11 +105,12 @@ pub fn course_linear(base_from_tool: &[Isometry3<f64>], world_from_cam: &[Isomet
         let r = bt.rotation.to_rotation_matrix().into_inner();
         a.view_mut((3 * i, 0), (3, 3)).copy_from(&r);
         a.view_mut((3 * i, 3), (3, 3)).copy_from(&Matrix3::identity());
-        b.rows_mut(3 * i, 3).copy_from(&(wc.translation.vector - bt.translation.vector));
+        b.rows_mut(3 * i, 3).copy_from(&(r_world_base.transpose() * wc.translation.vector - bt.translation.vector));
     }
     let x = lstsq(&a, &b)?;
+    let t_world_base = r_world_base * Vector3::new(x[3], x[4], x[5]);
     let tool_from_cam = Isometry3::from_parts(Translation3::new(x[0], x[1], x[2]), UnitQuaternion::from_matrix(r_tool_cam));
-    let world_from_base = Isometry3::from_parts(Translation3::new(x[3], x[4], x[5]), UnitQuaternion::identity());
+    let world_from_base = Isometry3::from_parts(Translation3::from(t_world_base), UnitQuaternion::from_matrix(r_world_base));
     let (residual_m, residual_rad) = residuals(base_from_tool, world_from_cam, &tool_from_cam, &world_from_base);
     Ok(HandEyeResult { tool_from_cam, world_from_base, residual_m, residual_rad })
 }
@@ -191,6 +207,23 @@ mod tests {
             assert!((r.world_from_base.translation.vector - wb.translation.vector).norm() < 1e-9);
             assert!(r.residual_m.iter().all(|e| *e < 1e-9));
         }
+    }
+
+    #[test]
+    fn the_linear_solver_takes_a_rotated_base() {
+        // Variant A's views seen from a world rotated 90 degrees about z and shifted: the known
+        // rotations give both translations exactly; assuming R_0B = I (the course's solver) does not.
+        let (bt, wc, x, wb) = variant_a(5, 3);
+        let w = Isometry3::from_parts(Translation3::new(0.3, -0.2, 0.1), UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2));
+        let wc: Vec<Isometry3<f64>> = wc.iter().map(|c| w * c).collect();
+        let wb = w * wb;
+        let r_tc = x.rotation.to_rotation_matrix().into_inner();
+        let r = linear_known_rotations(&bt, &wc, &r_tc, &wb.rotation.to_rotation_matrix().into_inner()).unwrap();
+        assert!((r.tool_from_cam.translation.vector - x.translation.vector).norm() < 1e-9);
+        assert!((r.world_from_base.translation.vector - wb.translation.vector).norm() < 1e-9);
+        assert!(r.residual_m.iter().all(|e| *e < 1e-9));
+        let course = course_linear(&bt, &wc, &r_tc).unwrap();
+        assert!((course.world_from_base.translation.vector - wb.translation.vector).norm() > 0.1);
     }
 
     #[test]

@@ -10,7 +10,7 @@ use super::uniforms::Params;
 use super::RenderError;
 use crate::scene::trace::dot_bbox_px;
 use crate::scene::Scene;
-use crate::target::{DotStyle, Target};
+use crate::target::{DotStyle, SPathDots, Target};
 
 /// Tile edge, pixels. Fixed at 8: the shader's coarse pass runs one 8 x 8 workgroup per tile.
 pub const TILE_PX: u32 = 8;
@@ -55,72 +55,13 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         dist1: [d.k3 as f32, 0.0, 0.0, 0.0],
         ..Default::default()
     };
-    let mut dots = Vec::new();
-    let mut tile_start = vec![0u32; (tiles_x * tiles_y + 1) as usize];
-    let mut tile_items = Vec::new();
-    match &scene.target {
+    let (mut dots, tile_start, mut tile_items) = match &scene.target {
         Target::Chessboard(_) | Target::DotGrid(_) => {
-            let r = scene.cam_from_target.rotation.to_rotation_matrix();
-            let t = scene.cam_from_target.translation.vector;
-            let m = r.matrix();
-            let n_from_t = Matrix3::from_columns(&[m.column(0).into_owned(), m.column(1).into_owned(), t]);
-            let t_from_n = n_from_t.try_inverse().ok_or_else(|| RenderError::Degenerate("the target plane passes through the camera centre".into()))?;
-            let scale = t_from_n.abs().max();
-            if !(scale > 0.0) || !scale.is_finite() {
-                return Err(RenderError::Degenerate("singular plane homography".into()));
-            }
-            // Keep the sign (W > 0 in front); scale only to stay well inside f32 range.
-            let hm = t_from_n / scale;
-            p.h0 = v3(&hm, 0);
-            p.h1 = v3(&hm, 1);
-            p.h2 = v3(&hm, 2);
-            match &scene.target {
-                Target::Chessboard(b) => {
-                    p.size[2] = 0;
-                    p.board = [b.squares[0] as f32, b.squares[1] as f32, b.square_m as f32, b.margin_m as f32];
-                    p.grey = [b.dark as f32, b.light as f32, b.margin as f32, b.background as f32];
-                }
-                Target::DotGrid(g) => {
-                    p.size[2] = 1;
-                    p.board = [g.n as f32, g.edge_m as f32, g.dot_radius_m as f32, g.margin_m as f32];
-                    p.grey = [g.dark as f32, g.light as f32, g.light as f32, g.background as f32];
-                }
-                Target::SPath(_) => {}
-            }
+            planar_params(&mut p, scene)?;
+            (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], Vec::new())
         }
-        Target::SPath(s) => {
-            p.size[2] = 2;
-            p.tiles[2] = match s.style {
-                DotStyle::Bead => 0,
-                DotStyle::Disc => 1,
-            };
-            let c = scene.cam_from_target * s.path.sphere_center_m;
-            p.sphere = [c.x as f32, c.y as f32, c.z as f32, s.path.sphere_radius_m as f32];
-            p.grey = [s.dark as f32, s.light as f32, s.light as f32, s.background as f32];
-            let mut lists: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
-            for (i, pt) in s.path.points_m.iter().enumerate() {
-                let pc = scene.cam_from_target * pt;
-                dots.push([pc.x as f32, pc.y as f32, pc.z as f32, s.dot_radius(i) as f32]);
-                let Some(bb) = dot_bbox_px(scene, pt, s.dot_radius(i), 2.0) else { continue };
-                if bb[2] < -0.5 || bb[3] < -0.5 || bb[0] > f64::from(w) || bb[1] > f64::from(h) {
-                    continue;
-                }
-                let tx0 = (bb[0].max(0.0) / f64::from(TILE_PX)) as u32;
-                let ty0 = (bb[1].max(0.0) / f64::from(TILE_PX)) as u32;
-                let tx1 = ((bb[2].max(0.0) / f64::from(TILE_PX)) as u32).min(tiles_x - 1);
-                let ty1 = ((bb[3].max(0.0) / f64::from(TILE_PX)) as u32).min(tiles_y - 1);
-                for ty in ty0..=ty1 {
-                    for tx in tx0..=tx1 {
-                        lists[(ty * tiles_x + tx) as usize].push(i as u32);
-                    }
-                }
-            }
-            for (t, l) in lists.iter().enumerate() {
-                tile_start[t + 1] = tile_start[t] + l.len() as u32;
-                tile_items.extend_from_slice(l);
-            }
-        }
-    }
+        Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
+    };
     let tile_flat = classify_tiles(scene, grid, tiles_x, tiles_y, &tile_start);
     // Storage buffers may not be empty.
     if dots.is_empty() {
@@ -130,6 +71,78 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         tile_items.push(0);
     }
     Ok(GpuScene { params: p, dots, tile_start, tile_items, tile_flat })
+}
+
+/// The plane homography and the board's or grid's parameters (chessboard, dot grid).
+fn planar_params(p: &mut Params, scene: &Scene) -> Result<(), RenderError> {
+    let r = scene.cam_from_target.rotation.to_rotation_matrix();
+    let t = scene.cam_from_target.translation.vector;
+    let m = r.matrix();
+    let n_from_t = Matrix3::from_columns(&[m.column(0).into_owned(), m.column(1).into_owned(), t]);
+    let t_from_n = n_from_t.try_inverse().ok_or_else(|| RenderError::Degenerate("the target plane passes through the camera centre".into()))?;
+    let scale = t_from_n.abs().max();
+    if !(scale > 0.0) || !scale.is_finite() {
+        return Err(RenderError::Degenerate("singular plane homography".into()));
+    }
+    // Keep the sign (W > 0 in front); scale only to stay well inside f32 range.
+    let hm = t_from_n / scale;
+    p.h0 = v3(&hm, 0);
+    p.h1 = v3(&hm, 1);
+    p.h2 = v3(&hm, 2);
+    match &scene.target {
+        Target::Chessboard(b) => {
+            p.size[2] = 0;
+            p.board = [b.squares[0] as f32, b.squares[1] as f32, b.square_m as f32, b.margin_m as f32];
+            p.grey = [b.dark as f32, b.light as f32, b.margin as f32, b.background as f32];
+        }
+        Target::DotGrid(g) => {
+            p.size[2] = 1;
+            p.board = [g.n as f32, g.edge_m as f32, g.dot_radius_m as f32, g.margin_m as f32];
+            p.grey = [g.dark as f32, g.light as f32, g.light as f32, g.background as f32];
+        }
+        Target::SPath(_) => {}
+    }
+    Ok(())
+}
+
+/// The S-path's parameters, its dots in the camera frame, and per tile the dots whose footprint
+/// reaches it (`tile_start` offsets into `tile_items`).
+fn s_path_params(p: &mut Params, scene: &Scene, s: &SPathDots, (tiles_x, tiles_y): (u32, u32)) -> (Vec<[f32; 4]>, Vec<u32>, Vec<u32>) {
+    let (w, h) = (scene.camera.size.width, scene.camera.size.height);
+    p.size[2] = 2;
+    p.tiles[2] = match s.style {
+        DotStyle::Bead => 0,
+        DotStyle::Disc => 1,
+    };
+    let c = scene.cam_from_target * s.path.sphere_center_m;
+    p.sphere = [c.x as f32, c.y as f32, c.z as f32, s.path.sphere_radius_m as f32];
+    p.grey = [s.dark as f32, s.light as f32, s.light as f32, s.background as f32];
+    let mut dots = Vec::new();
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
+    for (i, pt) in s.path.points_m.iter().enumerate() {
+        let pc = scene.cam_from_target * pt;
+        dots.push([pc.x as f32, pc.y as f32, pc.z as f32, s.dot_radius(i) as f32]);
+        let Some(bb) = dot_bbox_px(scene, pt, s.dot_radius(i), 2.0) else { continue };
+        if bb[2] < -0.5 || bb[3] < -0.5 || bb[0] > f64::from(w) || bb[1] > f64::from(h) {
+            continue;
+        }
+        let tx0 = (bb[0].max(0.0) / f64::from(TILE_PX)) as u32;
+        let ty0 = (bb[1].max(0.0) / f64::from(TILE_PX)) as u32;
+        let tx1 = ((bb[2].max(0.0) / f64::from(TILE_PX)) as u32).min(tiles_x - 1);
+        let ty1 = ((bb[3].max(0.0) / f64::from(TILE_PX)) as u32).min(tiles_y - 1);
+        for ty in ty0..=ty1 {
+            for tx in tx0..=tx1 {
+                lists[(ty * tiles_x + tx) as usize].push(i as u32);
+            }
+        }
+    }
+    let mut tile_start = vec![0u32; (tiles_x * tiles_y + 1) as usize];
+    let mut tile_items = Vec::new();
+    for (t, l) in lists.iter().enumerate() {
+        tile_start[t + 1] = tile_start[t] + l.len() as u32;
+        tile_items.extend_from_slice(l);
+    }
+    (dots, tile_start, tile_items)
 }
 
 /// Rays (camera frame, z = 1) through the corners of the tile grid, `(tiles_x + 1) x (tiles_y + 1)`,

@@ -241,32 +241,7 @@ impl Renderer {
         }
         queue.submit([enc.finish()]);
         let n = if fine { work.len() } else { outputs as usize };
-        let mut slices = vec![staging_vals.slice(..out_bytes)];
-        if !fine {
-            slices.push(staging_hard.slice(..out_bytes));
-        }
-        let (tx, rx) = std::sync::mpsc::channel();
-        for s in &slices {
-            let tx = tx.clone();
-            s.map_async(wgpu::MapMode::Read, move |r| {
-                let _ = tx.send(r);
-            });
-        }
-        device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Device(e.to_string()))?;
-        for _ in &slices {
-            rx.recv().map_err(|e| RenderError::Device(e.to_string()))?.map_err(|e| RenderError::Device(e.to_string()))?;
-        }
-        let read = |s: &wgpu::BufferSlice<'_>| -> Result<Vec<u8>, RenderError> {
-            let view = s.get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
-            Ok(view[..n * 4].to_vec())
-        };
-        let v: Vec<f32> = bytemuck::pod_collect_to_vec(&read(&slices[0])?);
-        let h: Vec<u32> = if fine { Vec::new() } else { bytemuck::pod_collect_to_vec(&read(&slices[1])?) };
-        drop(slices);
-        staging_vals.unmap();
-        if !fine {
-            staging_hard.unmap();
-        }
+        let (v, h) = read_back(device, staging_vals, (!fine).then_some(staging_hard), out_bytes, n)?;
         log::debug!("pass kind {kind} fine {fine}: {} items in {:.2} ms", work.len(), t0.elapsed().as_secs_f64() * 1e3);
         Ok((v, h))
     }
@@ -331,4 +306,45 @@ impl Renderer {
         }
         Ok(img)
     }
+}
+
+/// Map the staging buffers (values, and the hard flags when given), wait for the device and copy
+/// out the first `n` words of each.
+fn read_back(
+    device: &wgpu::Device,
+    staging_vals: &wgpu::Buffer,
+    staging_hard: Option<&wgpu::Buffer>,
+    out_bytes: u64,
+    n: usize,
+) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
+    let mut slices = vec![staging_vals.slice(..out_bytes)];
+    if let Some(h) = staging_hard {
+        slices.push(h.slice(..out_bytes));
+    }
+    let (tx, rx) = std::sync::mpsc::channel();
+    for s in &slices {
+        let tx = tx.clone();
+        s.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+    }
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Device(e.to_string()))?;
+    for _ in &slices {
+        rx.recv().map_err(|e| RenderError::Device(e.to_string()))?.map_err(|e| RenderError::Device(e.to_string()))?;
+    }
+    let read = |s: &wgpu::BufferSlice<'_>| -> Result<Vec<u8>, RenderError> {
+        let view = s.get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
+        Ok(view[..n * 4].to_vec())
+    };
+    let v: Vec<f32> = bytemuck::pod_collect_to_vec(&read(&slices[0])?);
+    let h: Vec<u32> = match slices.get(1) {
+        Some(s) => bytemuck::pod_collect_to_vec(&read(s)?),
+        None => Vec::new(),
+    };
+    drop(slices);
+    staging_vals.unmap();
+    if let Some(h) = staging_hard {
+        h.unmap();
+    }
+    Ok((v, h))
 }

@@ -10,13 +10,13 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::controller::EyeInHand;
-use super::scenario::course_world;
+use super::scenario::{course_world, SimScenario};
 use super::sensor::sensor_for;
 use super::{Sim, SimError};
 use crate::handeye::refine::{refine_joint, JointRefinement, Observations};
-use crate::handeye::{course_linear, park_martin, HandEyeResult};
+use crate::handeye::{linear_known_rotations, park_martin, HandEyeResult};
 use crate::render::Renderer;
-use crate::robot::{Cell, Irb1200};
+use crate::robot::{Cell, Irb1200, Robot};
 
 /// How the dots are observed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,8 +65,8 @@ pub struct HandEyeRun {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum HandEyeRunError {
-    /// No configuration shows the whole S.
-    #[error("no configuration out of {0} draws shows the whole S-path: the scenario is unreachable")]
+    /// Too few configurations show the whole target (and have it detected).
+    #[error("too few of {0} drawn configurations show the whole target and have it detected: the scenario is unreachable")]
     Unreachable(usize),
     /// A view could not be measured.
     #[error("view {view}: {reason}")]
@@ -91,24 +91,42 @@ pub enum HandEyeRunError {
 /// Unreachable scenario, failed detection or PnP, degenerate motions.
 pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Cell, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
     let sc = course_world(scenario, &scenario.q0_rad, Isometry3::identity(), seed);
+    run_handeye_on(renderer, obs, sc, Box::new(Irb1200), views, scenario.spread_rad, seed)
+}
+
+/// The experiment in any scenario (an open scenario file's [`SimScenario`] and robot), views
+/// drawn around its start joints, observed as `obs` says (ideal: 0.1 px noise).
+///
+/// # Errors
+/// As [`run_handeye_in`], and a scenario the simulator refuses.
+pub fn run_handeye_on(
+    renderer: Option<&Renderer>,
+    obs: Observation,
+    scenario: SimScenario,
+    robot: Box<dyn Robot>,
+    views: usize,
+    spread_rad: f64,
+    seed: u64,
+) -> Result<HandEyeRun, HandEyeRunError> {
     let sensor = sensor_for(obs, renderer, 0.1, seed)?;
-    let mut sim = Sim::new(sc, Box::new(Irb1200), sensor)?;
-    run_handeye_in(&mut sim, views, scenario.spread_rad, seed)
+    let mut sim = Sim::new(scenario, robot, sensor)?;
+    run_handeye_in(&mut sim, views, spread_rad, seed)
 }
 
 /// Fewest detected features a hand-eye view may have.
 const MIN_VIEW_FEATURES: usize = 10;
 
 /// The hand-eye experiment in any [`Sim`]: configurations drawn uniformly within `spread_rad` of
-/// the current joints until `views` show the whole target; each is observed, PnP (for the
+/// the current joints until `views` show the whole target and the detector finds at least 10
+/// features in them; each is observed, PnP (for the
 /// S-path's rendered beads with two rounds of the centroid correction) gives `cam_from_target`,
 /// and the course's linear solver, Park-Martin and the joint refinement estimate
 /// `tool_from_cam` and `target_from_base` (the course's `world_from_base`: its target frame is
 /// the world). The arm is returned to its joints afterwards.
 ///
 /// # Errors
-/// No configuration shows the target in 400 draws per view, a view with fewer than 10 detected
-/// features, failed PnP, degenerate motions.
+/// Fewer than `views` usable views (the whole target predicted in the image and at least 10
+/// features detected) in 400 draws per view, failed PnP, degenerate motions.
 pub fn run_handeye_in(sim: &mut Sim<'_>, views: usize, spread_rad: f64, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
     let sc = sim.scenario().clone();
     let (x_true, wb_true) = (sc.tool_from_cam, sc.world_from_target.inverse() * sc.world_from_base);
@@ -132,12 +150,10 @@ pub fn run_handeye_in(sim: &mut Sim<'_>, views: usize, spread_rad: f64, seed: u6
         let view = bt.len();
         sim.set_joints(&q)?;
         let obs = sim.observe()?;
-        // A partial detection (dots hidden at the sphere's rim) still gives a pose; too few
-        // features for PnP is a failed view.
+        // A partial detection (dots hidden at the sphere's rim) still gives a pose; a view the
+        // detector cannot use (too few features: a board not found whole) is drawn again.
         if obs.features.len() < MIN_VIEW_FEATURES {
-            sim.set_joints(&q0)?;
-            let why = obs.note.clone().unwrap_or_else(|| format!("{} of {} features detected", obs.features.len(), pts.len()));
-            return Err(HandEyeRunError::View { view, reason: why });
+            continue;
         }
         let (est, used_pixels) = cell.pose_and_pixels(&obs).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
         observations.push(obs.features.iter().map(|f| pts[f.id]).zip(used_pixels).collect());
@@ -148,7 +164,7 @@ pub fn run_handeye_in(sim: &mut Sim<'_>, views: usize, spread_rad: f64, seed: u6
     }
     sim.set_joints(&q0)?;
     let r_tc = x_true.rotation.to_rotation_matrix().into_inner();
-    let linear = course_linear(&bt, &wc, &r_tc)?;
+    let linear = linear_known_rotations(&bt, &wc, &r_tc, &wb_true.rotation.to_rotation_matrix().into_inner())?;
     let pm = park_martin(&bt, &wc)?;
     let refined = refine_joint(&sc.camera, &bt, &observations, &pm);
     let errors = [

@@ -103,6 +103,21 @@ fn sim_cli_runs_an_open_scenario_and_rejects_bad_input() {
     assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("--law"));
     let missing = std::process::Command::new(bin).args(["sim", "no/such/scenario.toml"]).output().expect("run");
     assert!(!missing.status.success() && String::from_utf8_lossy(&missing.stderr).contains("reading"));
+    // The hand-eye and servo runners take the same file (the course's formats stay their default).
+    let he_json = std::env::temp_dir().join("synthcam_handeye_open.json");
+    let he = std::process::Command::new(bin).args(["handeye", "--scenario", scenario, "--views", "6", "--json"]).arg(&he_json).output().expect("run");
+    assert!(he.status.success(), "{}", String::from_utf8_lossy(&he.stderr));
+    let he: serde_json::Value = serde_json::from_slice(&std::fs::read(&he_json).expect("json")).expect("parses");
+    for k in ["linear_tool_from_cam", "refined_tool_from_cam", "refined_world_from_base"] {
+        let mm = he["errors"][k]["mm"].as_f64().expect("mm");
+        assert!(mm < 0.5, "{k}: {mm} mm");
+    }
+    let out = std::env::temp_dir().join("synthcam_servo_open");
+    let servo = std::process::Command::new(bin).args(["servo", "--law", "ibvs", "--ideal", "--scenario", scenario, "-o"]).arg(&out).output().expect("run");
+    assert!(servo.status.success(), "{}", String::from_utf8_lossy(&servo.stderr));
+    let csv = std::fs::read_to_string(out.join("trace.csv")).expect("trace.csv");
+    assert!(csv.starts_with("step,q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,cam_x_m"), "{}", &csv[..80.min(csv.len())]);
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// The course's cell written as an open scenario (IRB 1200, S-path of beads, course camera) runs

@@ -79,7 +79,7 @@ pub fn run_servo_in(sim: &mut Sim<'_>, options: &ServoOptions, frame: &mut dyn F
         handeye_error: [PoseError::between(&cell.tool_from_cam, &sc.tool_from_cam), PoseError::between(&target_from_base, &truth_target_from_base)],
         desired_px: Vec::new(),
         goal_position_m: (sc.world_from_target * sc.goal_cam_from_target.inverse()).translation.vector.into(),
-        q_start_rad: sim.joints().to_vec(),
+        q_start_rad: sc.q_start_rad.clone(),
         steps: Vec::new(),
         handeye_s: t_he.elapsed().as_secs_f64(),
         loop_s: 0.0,
