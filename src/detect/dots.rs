@@ -108,6 +108,15 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     if w < 3 || h < 3 {
         return Ok(Vec::new());
     }
+    let (cores, keep) = find_cores(img, params);
+    let owner = owner_map(&cores, &keep, w, h, params.grow_px);
+    let mut outline: Option<Option<Outline>> = None;
+    Ok(keep.iter().filter_map(|&k| measure(img, params, &owner, &cores[k], k as u32 + 1, &mut outline)).collect())
+}
+
+/// Steps 1 and 2 (module docs): the cores, and which of them are dots (size, darker than the rim).
+fn find_cores(img: &ImageF32, params: &DotParams) -> (Vec<Vec<(usize, usize)>>, Vec<usize>) {
+    let (w, h) = (img.width, img.height);
     let t0 = std::time::Instant::now();
     // Local levels for the cores, on 4 x 4 min / max pooled images (16x fewer pixels; the window
     // grows to a multiple of 4, which only matters far from any dot).
@@ -137,15 +146,20 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     // take the sliver's pixels from it.
     let keep: Vec<usize> =
         (0..cores.len()).filter(|&k| (params.min_core_px..=params.max_core_px).contains(&cores[k].len()) && darker_than_rim(img, &cores[k], params)).collect();
-    // Owner map of the grown cores (label of the grown core covering a pixel, or 0).
-    let g = params.grow_px as i64;
+    (cores, keep)
+}
+
+/// Owner map of the grown cores `keep`: the label (index + 1) of the grown core covering a pixel,
+/// 0 for none, `u32::MAX` where two cores are equally near.
+fn owner_map(cores: &[Vec<(usize, usize)>], keep: &[usize], w: usize, h: usize, grow_px: usize) -> Vec<u32> {
+    let g = grow_px as i64;
     // A pixel in two grown cores goes to the nearer core (squared distance to its nearest core
     // pixel); at equal distance to neither (u32::MAX): between touching dots, the darkness of a
     // pixel belongs mostly to the dot it is nearer to.
     let mut owner = vec![0u32; w * h];
     // Squared distances within a grown core are at most 2 g^2 (small): one byte per pixel.
     let mut owner_d2 = vec![u8::MAX; w * h];
-    for &k in &keep {
+    for &k in keep {
         let id = k as u32 + 1;
         for &(x, y) in &cores[k] {
             for dy in -g..=g {
@@ -166,131 +180,153 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
             }
         }
     }
-    let mut dots = Vec::with_capacity(keep.len());
-    let mut outline: Option<Option<Outline>> = None;
-    for &k in &keep {
-        let core = &cores[k];
-        let id = k as u32 + 1;
-        let [x0, y0, x1, y1] = bbox(core);
-        let pad = params.grow_px + 1;
-        // A blob cut by the image border has a biased centre: not reported.
-        if x0 < pad || y0 < pad || x1 + pad >= w || y1 + pad >= h {
-            continue;
-        }
-        let (bx0, by0) = (x0.saturating_sub(pad), y0.saturating_sub(pad));
-        let (bx1, by1) = ((x1 + pad).min(w - 1), (y1 + pad).min(h - 1));
-        let d = f64::from(dark_level(img, core).unwrap_or(0.0));
-        // Closing (dilation then erosion) of the dot's neighbourhood: the surround level with the
-        // dot removed, exact on straight (anti-aliased) edges such as the sphere's outline. It
-        // rides on noise peaks; the median lift of the ring is subtracted below.
-        let r = params.window_px;
-        let (closed, [cx0, cy0, cx1, cy1]) = closed_window(img, [bx0, by0, bx1, by1], 2 * r, r);
-        let cw = cx1 - cx0 + 1;
-        let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
-        // A two-level edge (the sphere's outline) through the window: modelled, not closed.
-        let is_dot = |x: usize, y: usize| owner[y * w + x] != 0;
-        // Whether the closing shows an edge in the window at all.
-        let closed_has_edge = {
-            let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-            cmax - cmin > params.min_contrast
-        };
-        let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &is_dot, f64::from(params.min_contrast)).or_else(|| {
-            // Too few clean lines across the edge (neighbouring dots along the outline hide
-            // them): a window half as large again, where the first window holds an edge at all.
-            if !closed_has_edge {
-                return None;
-            }
-            let (big, rect) = closed_window(img, [bx0, by0, bx1, by1], 3 * r, r);
-            let bw = rect[2] - rect[0] + 1;
-            EdgeSurround::fit(img, rect, &|x, y| big.data[(y - rect[1]) * bw + (x - rect[0])], &is_dot, f64::from(params.min_contrast))
-        });
-        // Where the whole-image outline agrees with the window's clean lines, it bridges the
-        // lines the dots hide (fitted once, at the first dot with an edge, with its levels).
-        // Where no window holds enough clean lines, the outline alone, if the closing shows an
-        // edge in the window.
-        let edge = match edge {
-            Some(e) => {
-                let whole = outline.get_or_insert_with(|| {
-                    let (lo, hi) = e.levels();
-                    Outline::fit(img, lo, hi, &is_dot)
-                });
-                match whole {
-                    Some(o) => e.along(o, [cx0, cy0, cx1, cy1]).or(Some(e)),
-                    None => Some(e),
-                }
-            }
-            None => match &outline {
-                Some(Some(o)) if closed_has_edge => EdgeSurround::from_outline(o, [cx0, cy0, cx1, cy1]),
-                _ => None,
-            },
-        };
-        // The free pixels around the grown core.
-        let ring: Vec<(usize, usize)> = (by0..=by1).flat_map(|y| (bx0..=bx1).map(move |x| (x, y))).filter(|&(x, y)| owner[y * w + x] == 0).collect();
-        // Only thin cores (about two pixels across at most: a sliver seen edge-on) are flooded.
-        let thin = core.len() <= 2 * (x1 - x0 + 1).max(y1 - y0 + 1);
-        let reach = if thin { params.window_px / 3 } else { 0 };
-        let darkness_over = |s: f64, x: usize, y: usize| (s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6);
-        let region_under = |surround: &dyn Fn(usize, usize) -> f64| {
-            blob_region(&owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &|x, y| darkness_over(surround(x, y), x, y))
-        };
-        // The model must explain the ring outside the blob (a cubic bridging too long a hidden
-        // stretch can miss the edge by pixels there): mean error at most 8 grey levels.
-        let edge = edge.and_then(|e| {
-            let region = region_under(&|x, y| e.level_at(x, y));
-            let mut sorted = region.clone();
-            sorted.sort_unstable();
-            let free: Vec<&(usize, usize)> = ring.iter().filter(|p| sorted.binary_search(p).is_err()).collect();
-            let err: f64 = free.iter().map(|&&(x, y)| (e.level_at(x, y) - f64::from(img.data[y * w + x])).abs()).sum();
-            (free.is_empty() || err / free.len() as f64 <= 8.0).then_some((e, region))
-        });
-        let (edge, region, lift) = match edge {
-            Some((e, region)) => (Some(e), region, 0.0),
-            None => {
-                // Lift of the closing over the image in the ring (noise peaks).
-                let mut lift: Vec<f32> = ring.iter().map(|&(x, y)| closed_at(x, y) - img.data[y * w + x]).collect();
-                let lift = f64::from(median_by(&mut lift, f32::total_cmp).unwrap_or(0.0));
-                (None, region_under(&|x, y| f64::from(closed_at(x, y)) - lift), lift)
-            }
-        };
-        let surround_at = |x: usize, y: usize| match &edge {
-            Some(e) => e.level_at(x, y),
-            None => f64::from(closed_at(x, y)) - lift,
-        };
-        let s_core = median_by(&mut core.iter().map(|&(x, y)| surround_at(x, y)).collect::<Vec<_>>(), f64::total_cmp).unwrap_or(0.0);
-        if !(s_core - d > f64::from(params.min_contrast) * 0.5) {
-            continue;
-        }
-        let darkness = |x: usize, y: usize| darkness_over(surround_at(x, y), x, y);
-        // Not clamped at 0: noise in the surround then averages out instead of biasing.
-        // A thin blob has no wholly dark pixel, so its dark level `d` is too light and its
-        // darkness overshoots 1 where the blob is darkest: not clamped there (the overshoot is a
-        // common scale, which the centroid does not see).
-        let top = if thin { 2.0 } else { 1.0 };
-        let mut weights: Vec<f64> = region.iter().map(|&(x, y)| darkness(x, y).clamp(-params.min_weight, top)).collect();
-        if let Some(e) = &edge {
-            edge_weights(img, e, &region, &mut weights, d, top);
-        }
-        // Pixels farther than one pixel from any clearly dark one (weight above
-        // SIGNIFICANT_WEIGHT) carry nothing of the blob (the box filter spreads a boundary over
-        // one pixel), only noise at their lever arm: left out.
-        let mut sorted: Vec<(usize, usize)> = region.iter().zip(&weights).filter(|(_, w)| **w > SIGNIFICANT_WEIGHT).map(|(p, _)| *p).collect();
-        sorted.sort_unstable();
-        let near_dark =
-            |x: usize, y: usize| (y.saturating_sub(1)..=y + 1).any(|yy| (x.saturating_sub(1)..=x + 1).any(|xx| sorted.binary_search(&(xx, yy)).is_ok()));
-        let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
-        for (&(x, y), &wgt) in region.iter().zip(&weights) {
-            if !near_dark(x, y) {
-                continue;
-            }
-            sw += wgt;
-            su += wgt * x as f64;
-            sv += wgt * y as f64;
-        }
-        if sw > 0.0 {
-            dots.push(Dot { centre_px: Point2::new(su / sw, sv / sw), area_px: sw, core_px: core.len(), contrast: s_core - d });
-        }
+    owner
+}
+
+/// Steps 3 and 4 (module docs) for one core (`id` its label in `owner`): the surround, the
+/// weights and the centre; `None` for a blob cut by the border, too faint, or without weight.
+fn measure(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, usize)], id: u32, outline: &mut Option<Option<Outline>>) -> Option<Dot> {
+    let (w, h) = (img.width, img.height);
+    let [x0, y0, x1, y1] = bbox(core);
+    let pad = params.grow_px + 1;
+    // A blob cut by the image border has a biased centre: not reported.
+    if x0 < pad || y0 < pad || x1 + pad >= w || y1 + pad >= h {
+        return None;
     }
-    Ok(dots)
+    let (bx0, by0) = (x0.saturating_sub(pad), y0.saturating_sub(pad));
+    let (bx1, by1) = ((x1 + pad).min(w - 1), (y1 + pad).min(h - 1));
+    let d = f64::from(dark_level(img, core).unwrap_or(0.0));
+    // Closing (dilation then erosion) of the dot's neighbourhood: the surround level with the
+    // dot removed, exact on straight (anti-aliased) edges such as the sphere's outline. It
+    // rides on noise peaks; the median lift of the ring is subtracted below.
+    let r = params.window_px;
+    let (closed, [cx0, cy0, cx1, cy1]) = closed_window(img, [bx0, by0, bx1, by1], 2 * r, r);
+    let cw = cx1 - cx0 + 1;
+    let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
+    let edge = window_edge(img, params, owner, [bx0, by0, bx1, by1], (&closed, [cx0, cy0, cx1, cy1]), outline);
+    // The free pixels around the grown core.
+    let ring: Vec<(usize, usize)> = (by0..=by1).flat_map(|y| (bx0..=bx1).map(move |x| (x, y))).filter(|&(x, y)| owner[y * w + x] == 0).collect();
+    // Only thin cores (about two pixels across at most: a sliver seen edge-on) are flooded.
+    let thin = core.len() <= 2 * (x1 - x0 + 1).max(y1 - y0 + 1);
+    let reach = if thin { params.window_px / 3 } else { 0 };
+    let darkness_over = |s: f64, x: usize, y: usize| (s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6);
+    let region_under = |surround: &dyn Fn(usize, usize) -> f64| {
+        blob_region(owner, w, id, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1], reach, &|x, y| darkness_over(surround(x, y), x, y))
+    };
+    // The model must explain the ring outside the blob (a cubic bridging too long a hidden
+    // stretch can miss the edge by pixels there): mean error at most 8 grey levels.
+    let edge = edge.and_then(|e| {
+        let region = region_under(&|x, y| e.level_at(x, y));
+        let mut sorted = region.clone();
+        sorted.sort_unstable();
+        let free: Vec<&(usize, usize)> = ring.iter().filter(|p| sorted.binary_search(p).is_err()).collect();
+        let err: f64 = free.iter().map(|&&(x, y)| (e.level_at(x, y) - f64::from(img.data[y * w + x])).abs()).sum();
+        (free.is_empty() || err / free.len() as f64 <= 8.0).then_some((e, region))
+    });
+    let (edge, region, lift) = match edge {
+        Some((e, region)) => (Some(e), region, 0.0),
+        None => {
+            // Lift of the closing over the image in the ring (noise peaks).
+            let mut lift: Vec<f32> = ring.iter().map(|&(x, y)| closed_at(x, y) - img.data[y * w + x]).collect();
+            let lift = f64::from(median_by(&mut lift, f32::total_cmp).unwrap_or(0.0));
+            (None, region_under(&|x, y| f64::from(closed_at(x, y)) - lift), lift)
+        }
+    };
+    let surround_at = |x: usize, y: usize| match &edge {
+        Some(e) => e.level_at(x, y),
+        None => f64::from(closed_at(x, y)) - lift,
+    };
+    let s_core = median_by(&mut core.iter().map(|&(x, y)| surround_at(x, y)).collect::<Vec<_>>(), f64::total_cmp).unwrap_or(0.0);
+    if !(s_core - d > f64::from(params.min_contrast) * 0.5) {
+        return None;
+    }
+    let darkness = |x: usize, y: usize| darkness_over(surround_at(x, y), x, y);
+    // Not clamped at 0: noise in the surround then averages out instead of biasing.
+    // A thin blob has no wholly dark pixel, so its dark level `d` is too light and its
+    // darkness overshoots 1 where the blob is darkest: not clamped there (the overshoot is a
+    // common scale, which the centroid does not see).
+    let top = if thin { 2.0 } else { 1.0 };
+    let mut weights: Vec<f64> = region.iter().map(|&(x, y)| darkness(x, y).clamp(-params.min_weight, top)).collect();
+    if let Some(e) = &edge {
+        edge_weights(img, e, &region, &mut weights, d, top);
+    }
+    let (centre_px, area_px) = weighted_centroid(&region, &weights)?;
+    Some(Dot { centre_px, area_px, core_px: core.len(), contrast: s_core - d })
+}
+
+/// The two-level edge model of the dot's window, if an edge (the sphere's outline) crosses it:
+/// fitted on the clean lines across the edge (in a larger window when too few), bridged by the
+/// whole image's outline where they agree. `closed`: the window's closing and its rectangle.
+fn window_edge(
+    img: &ImageF32,
+    params: &DotParams,
+    owner: &[u32],
+    [bx0, by0, bx1, by1]: [usize; 4],
+    (closed, [cx0, cy0, cx1, cy1]): (&ImageF32, [usize; 4]),
+    outline: &mut Option<Option<Outline>>,
+) -> Option<EdgeSurround> {
+    let (w, r) = (img.width, params.window_px);
+    let cw = cx1 - cx0 + 1;
+    let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
+    // A two-level edge (the sphere's outline) through the window: modelled, not closed.
+    let is_dot = |x: usize, y: usize| owner[y * w + x] != 0;
+    // Whether the closing shows an edge in the window at all.
+    let closed_has_edge = {
+        let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        cmax - cmin > params.min_contrast
+    };
+    let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &is_dot, f64::from(params.min_contrast)).or_else(|| {
+        // Too few clean lines across the edge (neighbouring dots along the outline hide
+        // them): a window half as large again, where the first window holds an edge at all.
+        if !closed_has_edge {
+            return None;
+        }
+        let (big, rect) = closed_window(img, [bx0, by0, bx1, by1], 3 * r, r);
+        let bw = rect[2] - rect[0] + 1;
+        EdgeSurround::fit(img, rect, &|x, y| big.data[(y - rect[1]) * bw + (x - rect[0])], &is_dot, f64::from(params.min_contrast))
+    });
+    // Where the whole-image outline agrees with the window's clean lines, it bridges the
+    // lines the dots hide (fitted once, at the first dot with an edge, with its levels).
+    // Where no window holds enough clean lines, the outline alone, if the closing shows an
+    // edge in the window.
+    match edge {
+        Some(e) => {
+            let whole = outline.get_or_insert_with(|| {
+                let (lo, hi) = e.levels();
+                Outline::fit(img, lo, hi, &is_dot)
+            });
+            match whole {
+                Some(o) => e.along(o, [cx0, cy0, cx1, cy1]).or(Some(e)),
+                None => Some(e),
+            }
+        }
+        None => match outline.as_ref() {
+            Some(Some(o)) if closed_has_edge => EdgeSurround::from_outline(o, [cx0, cy0, cx1, cy1]),
+            _ => None,
+        },
+    }
+}
+
+/// The weighted centroid over the pixels within one pixel of a clearly dark one, and the weight
+/// sum (the blob's area).
+fn weighted_centroid(region: &[(usize, usize)], weights: &[f64]) -> Option<(Point2<f64>, f64)> {
+    // Pixels farther than one pixel from any clearly dark one (weight above
+    // SIGNIFICANT_WEIGHT) carry nothing of the blob (the box filter spreads a boundary over
+    // one pixel), only noise at their lever arm: left out.
+    let mut sorted: Vec<(usize, usize)> = region.iter().zip(weights).filter(|(_, w)| **w > SIGNIFICANT_WEIGHT).map(|(p, _)| *p).collect();
+    sorted.sort_unstable();
+    let near_dark =
+        |x: usize, y: usize| (y.saturating_sub(1)..=y + 1).any(|yy| (x.saturating_sub(1)..=x + 1).any(|xx| sorted.binary_search(&(xx, yy)).is_ok()));
+    let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
+    for (&(x, y), &wgt) in region.iter().zip(weights) {
+        if !near_dark(x, y) {
+            continue;
+        }
+        sw += wgt;
+        su += wgt * x as f64;
+        sv += wgt * y as f64;
+    }
+    (sw > 0.0).then(|| (Point2::new(su / sw, sv / sw), sw))
 }
 
 mod blob;

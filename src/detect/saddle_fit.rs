@@ -12,8 +12,10 @@
 use nalgebra::{Point2, SMatrix, SVector, Vector2};
 
 use super::{DetectError, GreyWindow};
+use iterate::{iterate, Outcome};
 use profile::{profile, profile_fast_pair};
 
+mod iterate;
 mod profile;
 
 /// Number of model parameters: qx, qy, theta1, theta2, m, a, sigma, kappa1, kappa2, bx, by.
@@ -280,7 +282,6 @@ pub fn refine_saddle(
     let active: [bool; NP] = [true, true, true, true, true, true, true, params.fit_curvature, params.fit_curvature, params.fit_gradient, params.fit_gradient];
     let idx_store: Vec<usize> = (0..NP).filter(|&p| active[p]).collect();
     let idx = &idx_store[..];
-    let mut lambda: f64 = 1e-3;
     let mut jac = SVector::<f64, NP>::zeros();
     let hf = (params.fast_half_window.max(2) as i64).min(h);
     let accumulate = |x: &SVector<f64, NP>, exact: bool, jac: &mut SVector<f64, NP>| {
@@ -299,76 +300,8 @@ pub fn refine_saddle(
     let Some(first) = solve_linear_part(&mut x, first, &active) else {
         return Err(fail("degenerate initial geometry"));
     };
-    let mut pending = Some(first);
-    // Fast-profile iterations until converged, then exact-profile iterations (at most 3).
-    let mut exact = false;
-    let mut exact_iters = 0;
-    let mut converged = false;
-    let mut saved: Option<Normal> = None;
-    let mut iterations = 0;
-    let mut cost = f64::INFINITY;
-    let fast_n = (2 * hf + 1) as usize;
-    let mut cost_pixels = n * n;
-    let max_total = params.max_iterations + 3;
-    while iterations < max_total {
-        iterations += 1;
-        let (jtj, jtr, c) = match pending.take() {
-            Some(normal) => normal,
-            None => accumulate(&x, exact, &mut jac),
-        };
-        let base = match &saved {
-            Some((xs, js, rs, cs)) if !(c <= *cs) => {
-                // last step made it worse: back to the saved point, more damping
-                lambda *= 10.0;
-                if lambda > 1e6 {
-                    x = *xs;
-                    break;
-                }
-                (*xs, *js, *rs, *cs)
-            }
-            _ => {
-                lambda = (lambda * 0.3).max(1e-7);
-                (x, jtj, jtr, c)
-            }
-        };
-        saved = Some(base);
-        cost = base.3;
-        cost_pixels = if exact { n * n } else { fast_n * fast_n };
-        let mut m = base.1;
-        for a in 0..NP {
-            m[(a, a)] *= 1.0 + lambda;
-        }
-        let Some(chol) = m.cholesky() else {
-            lambda *= 10.0;
-            continue;
-        };
-        let delta = chol.solve(&base.2);
-        x = base.0 + delta;
-        x[6] = x[6].clamp(if exact { -3.0 } else { -1.2 }, 1.6);
-        let step_q = (delta[0] * delta[0] + delta[1] * delta[1]).sqrt();
-        if exact {
-            exact_iters += 1;
-        }
-        let fast_done = !exact && (step_q < params.fast_epsilon_px.max(params.epsilon_px) || iterations >= params.max_iterations);
-        if fast_done || exact {
-            if exact && (step_q < params.epsilon_px || exact_iters >= params.exact_iterations) {
-                // the last exact step is a Gauss-Newton correction from a verified point; accept
-                // it unverified when small (typical: the fast/exact optima differ by < 0.1 px)
-                converged = step_q < 0.25;
-                break;
-            }
-            if !exact {
-                exact = true;
-                // total spread -> blur beyond the pixel footprint (variance 1/12 of a unit box)
-                let sf2 = (2.0 * x[6]).exp();
-                x[6] = 0.5 * (sf2 - 1.0 / 12.0).max(0.15 * 0.15).ln();
-                saved = None;
-            }
-        }
-    }
-    if let (false, Some((xs, _, _, _))) = (converged, saved) {
-        x = xs;
-    }
+    let Outcome { x, cost, cost_pixels, iterations } =
+        iterate(x, first, &|x: &SVector<f64, NP>, exact: bool| accumulate(x, exact, &mut SVector::zeros()), params, (n, (2 * hf + 1) as usize));
     if !x.iter().all(|v| v.is_finite()) {
         return Err(fail("fit diverged"));
     }
