@@ -8,7 +8,8 @@ use anyhow::Context;
 use synthcam::dataset::write_atomic;
 use synthcam::robot::Cell;
 use synthcam::sim::handeye_run::{run_handeye, run_handeye_on, Observation};
-use synthcam::sim::ScenarioSpec;
+
+use super::scenario_file::ScenarioFile;
 
 /// Arguments of `handeye`.
 #[derive(Debug, clap::Args)]
@@ -35,34 +36,17 @@ pub struct HandEyeArgs {
     pub json: Option<PathBuf>,
 }
 
-/// A scenario file of either format.
-enum Loaded {
-    Cell(Cell),
-    Open(Box<ScenarioSpec>),
-}
-
-fn load(args: &HandEyeArgs) -> anyhow::Result<Loaded> {
-    let Some(p) = &args.scenario else { return Ok(Loaded::Cell(Cell::default())) };
-    let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-    match ScenarioSpec::parse(&text) {
-        Ok(spec) => Ok(Loaded::Open(Box::new(spec))),
-        Err(open) => Ok(Loaded::Cell(
-            toml::from_str::<Cell>(&text).with_context(|| format!("in scenario {} (read as a course cell; as an open scenario: {open})", p.display()))?,
-        )),
-    }
-}
-
 /// Run `handeye`.
 pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.views >= 3, "--views must be at least 3 (the AX = XB solver needs 3 views), got {}", args.views);
     let obs = if args.ideal { Observation::Ideal } else { Observation::Rendered };
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
-    let (r, x, wb) = match load(args)? {
-        Loaded::Cell(cell) => {
+    let (r, x, wb) = match super::scenario_file::read::<Cell>(args.scenario.as_deref(), "a course cell")? {
+        ScenarioFile::Course(cell) => {
             let (x, wb) = cell.truth();
             (run_handeye(renderer.as_ref(), obs, &cell, args.views, args.seed).context("hand-eye experiment")?, x, wb)
         }
-        Loaded::Open(spec) => {
+        ScenarioFile::Open(spec) => {
             let sc = spec.to_scenario().context("scenario")?;
             let (x, wb) = (sc.tool_from_cam, sc.world_from_target.inverse() * sc.world_from_base);
             let robot = spec.robot.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;

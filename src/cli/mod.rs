@@ -12,6 +12,7 @@ mod detect;
 mod experiment;
 mod handeye;
 mod render;
+mod scenario_file;
 mod servo;
 mod sim;
 mod skipped;

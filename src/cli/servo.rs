@@ -10,7 +10,9 @@ use synthcam::report::servo::{budget_markdown, contact_sheet, csv, error_png, pa
 use synthcam::servo::{IbvsParams, InteractionFrom};
 use synthcam::sim::handeye_run::Observation;
 use synthcam::sim::servo_run::{run_servo_on, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
-use synthcam::sim::{RobotSpec, ScenarioSpec, SimScenario};
+use synthcam::sim::{RobotSpec, SimScenario};
+
+use super::scenario_file::ScenarioFile;
 
 /// The law on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -161,18 +163,12 @@ type Loaded = (SimScenario, RobotSpec, Option<Vec<f64>>);
 /// The scenario of `--scenario`: an open scenario file (any camera, target, robot) or the course's
 /// servo format (`assets/scenarios/servo_course.toml`, the default), with its robot.
 fn load_scenario(args: &ServoArgs) -> anyhow::Result<Loaded> {
-    let course = |s: &ServoScenario| -> anyhow::Result<Loaded> {
-        Ok((s.to_sim_scenario(args.seed).context("scenario")?, RobotSpec::Named("irb1200".into()), Some(s.handeye.q0_rad.to_vec())))
-    };
-    let Some(p) = &args.scenario else { return course(&ServoScenario::default()) };
-    let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-    match ScenarioSpec::parse(&text) {
-        Ok(spec) => Ok((spec.to_scenario().with_context(|| format!("in scenario {}", p.display()))?, spec.robot, None)),
-        Err(open) => {
-            let s = toml::from_str::<ServoScenario>(&text)
-                .with_context(|| format!("in scenario {} (read as the course's servo format; as an open scenario: {open})", p.display()))?;
-            course(&s)
+    match super::scenario_file::read::<ServoScenario>(args.scenario.as_deref(), "the course's servo format")? {
+        ScenarioFile::Open(spec) => {
+            let where_ = args.scenario.as_deref().map_or_else(String::new, |p| p.display().to_string());
+            Ok((spec.to_scenario().with_context(|| format!("in scenario {where_}"))?, spec.robot, None))
         }
+        ScenarioFile::Course(s) => Ok((s.to_sim_scenario(args.seed).context("scenario")?, RobotSpec::Named("irb1200".into()), Some(s.handeye.q0_rad.to_vec()))),
     }
 }
 

@@ -6,14 +6,13 @@
 //! the hand-eye solvers estimate `tool_from_cam` and `world_from_base`.
 
 use nalgebra::Isometry3;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 use super::controller::EyeInHand;
+use super::handeye_views::{draw_views, Draw, DrawFailure, Views};
 use super::scenario::{course_world, SimScenario};
 use super::sensor::sensor_for;
 use super::{Sim, SimError};
-use crate::handeye::refine::{refine_joint, JointRefinement, Observations};
+use crate::handeye::refine::{refine_joint, JointRefinement};
 use crate::handeye::{linear_known_rotations, park_martin, HandEyeResult};
 use crate::render::Renderer;
 use crate::robot::{Cell, Irb1200, Robot};
@@ -131,38 +130,15 @@ pub fn run_handeye_in(sim: &mut Sim<'_>, views: usize, spread_rad: f64, seed: u6
     let sc = sim.scenario().clone();
     let (x_true, wb_true) = (sc.tool_from_cam, sc.world_from_target.inverse() * sc.world_from_base);
     let cell = EyeInHand { camera: sc.camera, target: sc.target.clone(), tool_from_cam: x_true };
-    let pts = sc.target.feature_points_m();
-    let q0 = sim.joints().to_vec();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let spread = spread_rad.abs().max(1e-12);
-    let (mut bt, mut wc, mut pnp_mm, mut observations) = (Vec::new(), Vec::new(), Vec::new(), Vec::<Observations>::new());
-    let mut drawn = 0;
-    while bt.len() < views {
-        if drawn >= 400 * views.max(1) {
-            sim.set_joints(&q0)?;
-            return Err(HandEyeRunError::Unreachable(drawn));
-        }
-        drawn += 1;
-        let q: Vec<f64> = q0.iter().map(|v| v + rng.random_range(-spread..spread)).collect();
-        if sim.admits(&q).is_err() || !sc.camera.sees_all(&sim.cam_from_target_at(&q)?, &pts, 0.0) {
-            continue;
-        }
-        let view = bt.len();
-        sim.set_joints(&q)?;
-        let obs = sim.observe()?;
-        // A partial detection (dots hidden at the sphere's rim) still gives a pose; a view the
-        // detector cannot use (too few features: a board not found whole) is drawn again.
-        if obs.features.len() < MIN_VIEW_FEATURES {
-            continue;
-        }
-        let (est, used_pixels) = cell.pose_and_pixels(&obs).map_err(|e| HandEyeRunError::View { view, reason: e.to_string() })?;
-        observations.push(obs.features.iter().map(|f| pts[f.id]).zip(used_pixels).collect());
-        let wc_est = est.cam_from_target.inverse();
-        pnp_mm.push(1e3 * (wc_est.translation.vector - obs.truth.cam_from_target.inverse().translation.vector).norm());
-        bt.push(sim.robot().base_from_tool(&q).map_err(SimError::from)?);
-        wc.push(wc_est);
-    }
-    sim.set_joints(&q0)?;
+    // A partial detection (dots hidden at the sphere's rim) still gives a pose; a view the
+    // detector cannot use (too few features: a board not found whole) is drawn again.
+    let draw = Draw { views, spread_rad, margin_px: 0.0, min_features: MIN_VIEW_FEATURES, seed };
+    let Views { base_from_tool: bt, target_from_cam: wc, truth_target_from_cam, observations, drawn } = draw_views(sim, &cell, &draw).map_err(|f| match f {
+        DrawFailure::Unreachable(drawn) => HandEyeRunError::Unreachable(drawn),
+        DrawFailure::View { view, error } => HandEyeRunError::View { view, reason: error.to_string() },
+        DrawFailure::Sim(e) => HandEyeRunError::Sim(e),
+    })?;
+    let pnp_mm = wc.iter().zip(&truth_target_from_cam).map(|(e, t)| 1e3 * (e.translation.vector - t.translation.vector).norm()).collect();
     let r_tc = x_true.rotation.to_rotation_matrix().into_inner();
     let linear = linear_known_rotations(&bt, &wc, &r_tc, &wb_true.rotation.to_rotation_matrix().into_inner())?;
     let pm = park_martin(&bt, &wc)?;
