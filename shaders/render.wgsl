@@ -26,9 +26,13 @@ struct Params {
     size: vec4<u32>,     // width, height, kind (0 chessboard, 1 dot grid, 2 s-path), samples per axis
     tiles: vec4<u32>,    // tiles_x, tiles_y, dot style (0 bead, 1 disc), fine-pass work length
     intr: vec4<f32>,     // fx, fy, cx, cy
-    intr2: vec4<f32>,    // skew, r2_max (undistorted r^2 beyond which the lens folds), has_distortion, 0
-    dist0: vec4<f32>,    // k1, k2, p1, p2
-    dist1: vec4<f32>,    // k3, 0, 0, 0
+    intr2: vec4<f32>,    // skew, r2_max (undistorted r^2 beyond which the lens folds), has_distortion, model
+    dist0: vec4<f32>,    // OpenCV: k1, k2, p1, p2 | fisheye: k1..k4 | double sphere: xi, alpha
+    dist1: vec4<f32>,    // OpenCV: k3, k4, k5, k6 | fisheye: theta_max
+    dist2: vec4<f32>,    // OpenCV: s1, s2, s3, s4
+    tilt0: vec4<f32>,    // OpenCV tilt matrix rows (xyz); tilt0.w = 1 when tilted
+    tilt1: vec4<f32>,
+    tilt2: vec4<f32>,
     h0: vec4<f32>,       // rows of H: (X, Y, W) = H (xu, yu, 1), target plane from normalised coords
     h1: vec4<f32>,
     h2: vec4<f32>,
@@ -59,27 +63,110 @@ fn len2(a: vec2<f32>) -> f32 { return sqrt(dot2(a, a)); }
 fn len3(a: vec3<f32>) -> f32 { return sqrt(dot3(a, a)); }
 
 // ---------------------------------------------------------------- lens model
+// Pipeline constants: the lens model and whether the OpenCV sensor is tilted. llvmpipe runs every
+// side of a branch under a lane mask, so a uniform `if` on the model would run all three models'
+// code per call; as constants, the compiler removes the other models (one pipeline per model).
+override LENS_MODEL: u32 = 0u;
+override LENS_TILT: bool = false;
 
-fn distort(p: vec2<f32>) -> vec2<f32> {
+// Three models behind distort / distort_jac (LENS_MODEL, mirrored in P.intr2.w):
+// 0 OpenCV (camera::Distortion: rational radial, tangential, thin prism, tilt), 1 OpenCV fisheye
+// (camera::Fisheye), 2 Double Sphere (camera::DoubleSphere). Rays are (xu, 1).
+
+fn opencv_untilted(p: vec2<f32>) -> vec2<f32> {
     let r2 = dot2(p, p);
-    let g = 1.0 + r2 * (P.dist0.x + r2 * (P.dist0.y + r2 * P.dist1.x));
+    let g = (1.0 + r2 * (P.dist0.x + r2 * (P.dist0.y + r2 * P.dist1.x))) / (1.0 + r2 * (P.dist1.y + r2 * (P.dist1.z + r2 * P.dist1.w)));
     let xy = p.x * p.y;
     return vec2<f32>(
-        g * p.x + 2.0 * P.dist0.z * xy + P.dist0.w * (r2 + 2.0 * p.x * p.x),
-        g * p.y + P.dist0.z * (r2 + 2.0 * p.y * p.y) + 2.0 * P.dist0.w * xy);
+        g * p.x + 2.0 * P.dist0.z * xy + P.dist0.w * (r2 + 2.0 * p.x * p.x) + r2 * (P.dist2.x + P.dist2.y * r2),
+        g * p.y + P.dist0.z * (r2 + 2.0 * p.y * p.y) + 2.0 * P.dist0.w * xy + r2 * (P.dist2.z + P.dist2.w * r2));
+}
+
+fn tilt_v(p0: vec2<f32>) -> vec3<f32> {
+    return vec3<f32>(
+        P.tilt0.x * p0.x + P.tilt0.y * p0.y + P.tilt0.z,
+        P.tilt1.x * p0.x + P.tilt1.y * p0.y + P.tilt1.z,
+        P.tilt2.x * p0.x + P.tilt2.y * p0.y + P.tilt2.z);
+}
+
+fn fisheye_theta_d(th: f32) -> vec2<f32> { // theta_d and its derivative
+    let t2 = th * th;
+    let poly = 1.0 + t2 * (P.dist0.x + t2 * (P.dist0.y + t2 * (P.dist0.z + t2 * P.dist0.w)));
+    let dpoly = 1.0 + t2 * (3.0 * P.dist0.x + t2 * (5.0 * P.dist0.y + t2 * (7.0 * P.dist0.z + t2 * 9.0 * P.dist0.w)));
+    return vec2<f32>(th * poly, dpoly);
+}
+
+// Double sphere: denominator, and its gradient with respect to xu (z = 1).
+struct DsDen { den: f32, grad: vec2<f32> };
+fn ds_den(p: vec2<f32>) -> DsDen {
+    let xi = P.dist0.x; let al = P.dist0.y;
+    let d1 = sqrt(p.x * p.x + p.y * p.y + 1.0);
+    let e = xi * d1 + 1.0;
+    let d2 = sqrt(p.x * p.x + p.y * p.y + e * e);
+    let de = p * (xi / d1);
+    let dd2 = (p + de * e) / d2;
+    var r: DsDen;
+    r.den = al * d2 + (1.0 - al) * e;
+    r.grad = dd2 * al + de * (1.0 - al);
+    return r;
+}
+
+fn distort(p: vec2<f32>) -> vec2<f32> {
+    if (LENS_MODEL == 1u) {
+        let r = len2(p);
+        if (r < 1e-10) { return p; }
+        return p * (fisheye_theta_d(atan(r)).x / r);
+    }
+    if (LENS_MODEL == 2u) {
+        return p / ds_den(p).den;
+    }
+    let p0 = opencv_untilted(p);
+    if (!LENS_TILT) { return p0; }
+    let v = tilt_v(p0);
+    return vec2<f32>(v.x / v.z, v.y / v.z);
+}
+
+fn opencv_untilted_jac(p: vec2<f32>) -> mat2x2<f32> {
+    let r2 = dot2(p, p);
+    let k1 = P.dist0.x; let k2 = P.dist0.y; let p1 = P.dist0.z; let p2 = P.dist0.w; let k3 = P.dist1.x;
+    let num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    let den = 1.0 + r2 * (P.dist1.y + r2 * (P.dist1.z + r2 * P.dist1.w));
+    let g = num / den;
+    let dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);
+    let dden = P.dist1.y + r2 * (2.0 * P.dist1.z + 3.0 * P.dist1.w * r2);
+    let dg = (dnum - g * dden) / den; // dg/d(r2)
+    let sx = P.dist2.x + 2.0 * P.dist2.y * r2;
+    let sy = P.dist2.z + 2.0 * P.dist2.w * r2;
+    let dxdx = g + 2.0 * p.x * p.x * dg + 2.0 * p1 * p.y + 6.0 * p2 * p.x + 2.0 * p.x * sx;
+    let dxdy = 2.0 * p.x * p.y * dg + 2.0 * p1 * p.x + 2.0 * p2 * p.y + 2.0 * p.y * sx;
+    let dydx = 2.0 * p.x * p.y * dg + 2.0 * p1 * p.x + 2.0 * p2 * p.y + 2.0 * p.x * sy;
+    let dydy = g + 2.0 * p.y * p.y * dg + 6.0 * p1 * p.y + 2.0 * p2 * p.x + 2.0 * p.y * sy;
+    return mat2x2<f32>(vec2<f32>(dxdx, dydx), vec2<f32>(dxdy, dydy));
 }
 
 // d(distort)/d(p), column-major: columns d/dx, d/dy.
 fn distort_jac(p: vec2<f32>) -> mat2x2<f32> {
-    let r2 = dot2(p, p);
-    let k1 = P.dist0.x; let k2 = P.dist0.y; let p1 = P.dist0.z; let p2 = P.dist0.w; let k3 = P.dist1.x;
-    let g = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-    let dg = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2); // dg/d(r2)
-    let dxdx = g + 2.0 * p.x * p.x * dg + 2.0 * p1 * p.y + 6.0 * p2 * p.x;
-    let dxdy = 2.0 * p.x * p.y * dg + 2.0 * p1 * p.x + 2.0 * p2 * p.y;
-    let dydx = 2.0 * p.x * p.y * dg + 2.0 * p1 * p.x + 2.0 * p2 * p.y;
-    let dydy = g + 2.0 * p.y * p.y * dg + 6.0 * p1 * p.y + 2.0 * p2 * p.x;
-    return mat2x2<f32>(vec2<f32>(dxdx, dydx), vec2<f32>(dxdy, dydy));
+    if (LENS_MODEL == 1u) {
+        let r = len2(p);
+        if (r < 1e-10) { return mat2x2<f32>(vec2<f32>(1.0, 0.0), vec2<f32>(0.0, 1.0)); }
+        let td = fisheye_theta_d(atan(r));
+        let s = td.x / r;
+        let ds_r = (td.y / (1.0 + r * r) - s) / (r * r);
+        return mat2x2<f32>(vec2<f32>(s + ds_r * p.x * p.x, ds_r * p.x * p.y), vec2<f32>(ds_r * p.x * p.y, s + ds_r * p.y * p.y));
+    }
+    if (LENS_MODEL == 2u) {
+        let d = ds_den(p);
+        let m = p / (d.den * d.den);
+        return mat2x2<f32>(vec2<f32>(1.0 / d.den, 0.0) - m * d.grad.x, vec2<f32>(0.0, 1.0 / d.den) - m * d.grad.y);
+    }
+    let j0 = opencv_untilted_jac(p);
+    if (!LENS_TILT) { return j0; }
+    let v = tilt_v(opencv_untilted(p));
+    let iz = 1.0 / v.z;
+    // d(v.xy / v.z)/d(p0) = [I | -v.xy / v.z] / v.z times the tilt matrix's first two columns.
+    let c0 = vec2<f32>(P.tilt0.x - v.x * iz * P.tilt2.x, P.tilt1.x - v.y * iz * P.tilt2.x) * iz;
+    let c1 = vec2<f32>(P.tilt0.y - v.x * iz * P.tilt2.y, P.tilt1.y - v.y * iz * P.tilt2.y) * iz;
+    return mat2x2<f32>(c0, c1) * j0;
 }
 
 fn inverse2(m: mat2x2<f32>) -> mat2x2<f32> {
@@ -104,13 +191,38 @@ fn pixel_ray(q: vec2<f32>) -> Ray {
         r.ok = true;
         return r;
     }
-    // First-order start, then Newton (quadratic convergence; 4 steps reach f32 precision).
     let rd2 = dot2(xd, xd);
-    var xu = xd / (1.0 + rd2 * (P.dist0.x + rd2 * (P.dist0.y + rd2 * P.dist1.x)));
-    if (!(dot2(xu, xu) < P.intr2.y)) { xu = xd; }
-    for (var i = 0; i < 4; i = i + 1) {
-        let j = distort_jac(xu);
-        xu = xu - inverse2(j) * (distort(xu) - xd);
+    var xu = xd;
+    if (LENS_MODEL == 1u) {
+        // Fisheye: Newton on theta (theta_d is monotonic up to theta_max = dist1.x).
+        let rd = sqrt(rd2);
+        var th = min(rd, P.dist1.x);
+        for (var i = 0; i < 6; i = i + 1) {
+            let td = fisheye_theta_d(th);
+            th = clamp(th - (td.x - rd) / td.y, 0.0, P.dist1.x);
+        }
+        if (rd > 1e-10) { xu = xd * (tan(th) / rd); }
+    } else if (LENS_MODEL == 2u) {
+        // Double sphere: closed form (Usenko et al. 2018, eq. 45-47); z <= 0 fails the r2_max test.
+        let xi = P.dist0.x; let al = P.dist0.y;
+        let q = max(1.0 - (2.0 * al - 1.0) * rd2, 0.0);
+        let mz = (1.0 - al * al * rd2) / (al * sqrt(q) + 1.0 - al);
+        let s = (mz * xi + sqrt(max(mz * mz + (1.0 - xi * xi) * rd2, 0.0))) / (mz * mz + rd2);
+        let z = s * mz - xi;
+        // Rays at or behind 90 degrees: a finite point far outside r2_max (no NaN or infinity
+        // reaches the tests below, which GL and Vulkan may compile differently for NaN).
+        xu = vec2<f32>(1e6, 1e6);
+        if (z > 1e-6) {
+            xu = xd * (s / z);
+        }
+    } else {
+        // First-order start, then Newton (quadratic convergence; 4 steps reach f32 precision).
+        xu = xd / (1.0 + rd2 * (P.dist0.x + rd2 * (P.dist0.y + rd2 * P.dist1.x)));
+        if (!(dot2(xu, xu) < P.intr2.y)) { xu = xd; }
+        for (var i = 0; i < 4; i = i + 1) {
+            let j = distort_jac(xu);
+            xu = xu - inverse2(j) * (distort(xu) - xd);
+        }
     }
     let j = distort_jac(xu);
     let det = j[0].x * j[1].y - j[1].x * j[0].y;

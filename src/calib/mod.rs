@@ -1,16 +1,21 @@
-//! Intrinsic camera calibration from views of a planar target: Zhang's closed form, then
-//! Levenberg-Marquardt over intrinsics, Brown-Conrady distortion and every view's pose.
+//! Intrinsic camera calibration from views of a planar target: Zhang's closed form (OpenCV
+//! models) or a focal-length search (fisheye, Double Sphere; [`init_wide`]), then
+//! Levenberg-Marquardt over intrinsics, the lens parameters and every view's pose.
 //!
 //! Reference: Z. Zhang, "A flexible new technique for camera calibration", IEEE PAMI 22(11), 2000;
 //! OpenCV `calibrateCamera` (same model and objective: its results are the outside reference in
 //! the tests).
 
+pub mod init_wide;
+pub mod model;
 pub mod refine;
 pub mod zhang;
 
+pub use model::{CalibModel, CALIB_MODELS};
+
 use nalgebra::{Isometry3, Point2, Point3, Vector2, Vector3, Vector6};
 
-use crate::camera::{CameraModel, ImageSize};
+use crate::camera::{CameraModel, ImageSize, MAX_LENS_PARAMS, N_INTRINSICS};
 use crate::math::so3::rvec_from_rotation;
 pub use refine::View;
 
@@ -57,15 +62,18 @@ pub enum CalibError {
 pub struct CalibParams {
     /// Estimate the skew `K[0][1]` (OpenCV never does).
     pub estimate_skew: bool,
-    /// Fix distortion coefficients (k1, k2, p1, p2, k3) at 0.
-    pub fix_distortion: [bool; 5],
+    /// The lens model to estimate.
+    pub model: CalibModel,
+    /// Fix lens parameters (in [`crate::camera::LensKind::param_names`] order) at their
+    /// initial value (0; Double Sphere: `xi = 0`, `alpha = 0.5`).
+    pub fix_distortion: [bool; MAX_LENS_PARAMS],
     /// Levenberg-Marquardt iteration limit.
     pub max_iterations: usize,
 }
 
 impl Default for CalibParams {
     fn default() -> Self {
-        Self { estimate_skew: false, fix_distortion: [false; 5], max_iterations: 200 }
+        Self { estimate_skew: false, model: CalibModel::OpenCv5, fix_distortion: [false; MAX_LENS_PARAMS], max_iterations: 200 }
     }
 }
 
@@ -84,9 +92,9 @@ pub struct ViewResult {
     pub residuals_px: Vec<Vector2<f64>>,
 }
 
-/// Standard deviations of the intrinsics (NaN for fixed ones), order fx, fy, cx, cy, skew, k1,
-/// k2, p1, p2, k3.
-pub type IntrinsicStd = [f64; 10];
+/// Standard deviations of the intrinsics (NaN for fixed ones), in
+/// [`crate::camera::intrinsic_names`] order: fx, fy, cx, cy, skew, then the lens parameters.
+pub type IntrinsicStd = [f64; N_INTRINSICS];
 
 /// Result of [`calibrate`].
 #[derive(Debug, Clone, PartialEq)]
@@ -137,12 +145,8 @@ fn validate(views: &[View]) -> Result<(), CalibError> {
     Ok(())
 }
 
-/// Calibrate from views of a planar target.
-///
-/// # Errors
-/// Fewer than 3 views or 4 points per view, NaN, collinear or parallel views.
-pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Result<CalibResult, CalibError> {
-    validate(views)?;
+/// Zhang's closed form: intrinsics and every view's pose (OpenCV models).
+fn initial_zhang(views: &[View], params: &CalibParams) -> Result<(refine::IntrinsicVector, Vec<Vector6<f64>>), CalibError> {
     let hs = views
         .iter()
         .enumerate()
@@ -161,17 +165,34 @@ pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Resul
             Vector6::new(r.x, r.y, r.z, t.x, t.y, t.z)
         })
         .collect();
-    let a0 = [k0.fx, k0.fy, k0.cx, k0.cy, k0.skew, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let mut a0 = [0.0; N_INTRINSICS];
+    a0[..5].copy_from_slice(&[k0.fx, k0.fy, k0.cx, k0.cy, k0.skew]);
+    Ok((a0, poses))
+}
+
+/// Calibrate from views of a planar target, with the lens model of `params.model`.
+///
+/// # Errors
+/// Fewer than 3 views or 4 points per view, NaN, collinear or parallel views, or (fisheye,
+/// Double Sphere) no focal length under which every view has a pose.
+pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Result<CalibResult, CalibError> {
+    validate(views)?;
+    let kind = params.model.kind();
+    let (a0, poses) = match kind {
+        crate::camera::LensKind::OpenCv => initial_zhang(views, params)?,
+        _ => init_wide::initial(size, kind, views)
+            .ok_or_else(|| CalibError::Degenerate { reason: format!("no {} focal length fits every view", params.model) })?,
+    };
     let mut free: Vec<usize> = vec![0, 1, 2, 3];
     if params.estimate_skew {
         free.push(4);
     }
-    free.extend((0..5).filter(|i| !params.fix_distortion[*i]).map(|i| 5 + i));
-    let init = refine::State { a: a0, poses };
+    free.extend((0..params.model.n_lens_params()).filter(|i| !params.fix_distortion[*i]).map(|i| 5 + i));
+    let init = refine::State { kind, a: a0, poses };
     let r = refine::refine(size, init, views, &free, params.max_iterations)
         .ok_or_else(|| CalibError::Degenerate { reason: "the normal equations are singular".into() })?;
-    let camera = refine::camera_of(size, &r.state.a);
-    let mut std = [f64::NAN; 10];
+    let camera = refine::camera_of(size, kind, &r.state.a);
+    let mut std = [f64::NAN; N_INTRINSICS];
     for (j, &f) in free.iter().enumerate() {
         std[f] = r.covariance[(j, j)].sqrt();
     }

@@ -1,5 +1,6 @@
-//! Pinhole camera with Brown–Conrady lens distortion: image size, intrinsics,
-//! distortion, forward projection, un-projection and analytic Jacobians.
+//! Cameras: image size, intrinsics `K` and a lens model ([`Lens`]: OpenCV's 14-coefficient
+//! model, OpenCV's fisheye / Kannala-Brandt, Double Sphere), forward projection, un-projection
+//! and analytic Jacobians.
 //!
 //! Reference: Brown 1966 "Decentering distortion of lenses"; Conrady 1919;
 //! OpenCV calib3d docs "Camera Calibration and 3D Reconstruction"; Bouguet,
@@ -32,14 +33,25 @@
 //! `fx = fy = 1500`, `cx = 640`, `cy = 512`, no distortion and no skew.
 
 pub mod distortion;
+pub mod double_sphere;
+pub mod fisheye;
+pub mod formats;
 pub mod intrinsics;
+pub mod lens;
 pub mod project;
 
 pub use distortion::Distortion;
+pub use double_sphere::DoubleSphere;
+pub use fisheye::Fisheye;
 pub use intrinsics::Intrinsics;
-pub use project::{Projection, INTRINSIC_NAMES};
+pub use lens::{Lens, LensKind, MAX_LENS_PARAMS};
+pub use project::{intrinsic_names, Projection, BASE_INTRINSIC_NAMES, N_INTRINSICS};
 
 use nalgebra::Point2;
+
+/// Rays are `(xu, yu, 1)`: the fisheye and Double Sphere models are rendered and reported
+/// visible up to this angle from the optical axis (89.5 degrees; a field of view below 180).
+pub const MAX_RAY_ANGLE_RAD: f64 = 89.5 * std::f64::consts::PI / 180.0;
 
 /// Errors of the camera model.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -91,15 +103,15 @@ impl ImageSize {
     }
 }
 
-/// A complete camera: image size, intrinsics and lens distortion.
+/// A complete camera: image size, intrinsics and lens model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraModel {
     /// Image size in pixels.
     pub size: ImageSize,
     /// Pinhole intrinsics (focal lengths, principal point, skew).
     pub intrinsics: Intrinsics,
-    /// Brown–Conrady distortion coefficients.
-    pub distortion: Distortion,
+    /// The lens: normalised ray `(xu, 1)` to distorted normalised point.
+    pub lens: Lens,
 }
 
 fn check_finite(field: &'static str, v: f64) -> Result<(), CameraError> {
@@ -126,17 +138,27 @@ impl CameraModel {
         check_finite("intrinsics.cx", k.cx)?;
         check_finite("intrinsics.cy", k.cy)?;
         check_finite("intrinsics.skew", k.skew)?;
-        let d = &self.distortion;
-        check_finite("distortion.k1", d.k1)?;
-        check_finite("distortion.k2", d.k2)?;
-        check_finite("distortion.p1", d.p1)?;
-        check_finite("distortion.p2", d.p2)?;
-        check_finite("distortion.k3", d.k3)?;
+        self.lens.validate()?;
         if k.fx <= 0.0 {
             return Err(CameraError::InvalidParameter { field: "intrinsics.fx", reason: format!("must be > 0, got {}", k.fx) });
         }
         if k.fy <= 0.0 {
             return Err(CameraError::InvalidParameter { field: "intrinsics.fy", reason: format!("must be > 0, got {}", k.fy) });
+        }
+        self.check_lens_reach()
+    }
+
+    /// A lens that is one-to-one only within a pixel of the principal point cannot image
+    /// anything: an error naming the lens field.
+    fn check_lens_reach(&self) -> Result<(), CameraError> {
+        let Some(r) = self.lens.max_radius() else { return Ok(()) };
+        let reach_px = self.lens.distort(&nalgebra::Vector2::new(r, 0.0)).norm() * self.intrinsics.fx.min(self.intrinsics.fy);
+        if !(reach_px >= 1.0) {
+            let field = if self.lens.kind() == LensKind::DoubleSphere { "xi" } else { "dist" };
+            return Err(CameraError::InvalidParameter {
+                field,
+                reason: format!("the lens is one-to-one only within {reach_px:.3e} px of the principal point"),
+            });
         }
         Ok(())
     }
@@ -147,7 +169,7 @@ impl CameraModel {
         Self {
             size: ImageSize { width: 1280, height: 1024 },
             intrinsics: Intrinsics { fx: 1500.0, fy: 1500.0, cx: 640.0, cy: 512.0, skew: 0.0 },
-            distortion: Distortion::default(),
+            lens: Lens::default(),
         }
     }
 
@@ -168,14 +190,30 @@ impl CameraModel {
         Self {
             size: ImageSize { width, height },
             intrinsics: Intrinsics { fx: f_px, fy: f_px, cx: (f64::from(width) - 1.0) / 2.0, cy: (f64::from(height) - 1.0) / 2.0, skew: 0.0 },
-            distortion: Distortion::default(),
+            lens: Lens::default(),
         }
     }
 
     /// The same camera with Brown-Conrady coefficients in OpenCV's order (k1, k2, p1, p2, k3).
     pub fn with_distortion(self, dist: [f64; 5]) -> Self {
-        let [k1, k2, p1, p2, k3] = dist;
-        Self { distortion: Distortion { k1, k2, p1, p2, k3 }, ..self }
+        Self { lens: Lens::OpenCv(Distortion::from_array(dist)), ..self }
+    }
+
+    /// The same camera with another lens.
+    ///
+    /// ```
+    /// use synthcam::camera::{CameraModel, Fisheye, Lens};
+    /// let cam = CameraModel::pinhole(1280, 1024, 400.0).with_lens(Lens::Fisheye(Fisheye { k: [0.05, -0.01, 0.0, 0.0] }));
+    /// let q = cam.project(&nalgebra::Point3::new(1.0, 0.0, 1.0)); // 45 degrees off-axis
+    /// assert!(q.visible() && (q.pixel_px.x - 639.5 - 400.0 * 0.806633).abs() < 1e-3);
+    /// ```
+    pub fn with_lens(self, lens: Lens) -> Self {
+        Self { lens, ..self }
+    }
+
+    /// The OpenCV distortion of this camera (zero for other lens models).
+    pub fn distortion(&self) -> Distortion {
+        self.lens.opencv().copied().unwrap_or_default()
     }
 }
 
@@ -200,7 +238,7 @@ mod tests {
         assert_eq!(c.validate(), Ok(()));
         assert_eq!(c.size.width, 1280);
         assert_eq!(c.size.height, 1024);
-        assert!(c.distortion.is_zero());
+        assert!(c.lens.is_identity());
     }
 
     #[test]
@@ -209,8 +247,10 @@ mod tests {
         c.intrinsics.fy = -1.0;
         assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "intrinsics.fy", .. })));
         let mut c = CameraModel::course_default();
-        c.distortion.p2 = f64::NAN;
-        assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "distortion.p2", .. })));
+        c.lens = Lens::OpenCv(Distortion { p2: f64::NAN, ..Distortion::default() });
+        assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "p2", .. })));
+        c.lens = Lens::DoubleSphere(DoubleSphere { xi: 0.5, alpha: 1.5 });
+        assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "alpha", .. })));
         let mut c = CameraModel::course_default();
         c.size.height = 0;
         assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "size.height", .. })));

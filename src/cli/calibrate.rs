@@ -5,11 +5,12 @@ use std::path::PathBuf;
 use anyhow::Context;
 use nalgebra::{Point2, Point3};
 use serde::Serialize;
-use synthcam::calib::{calibrate, CalibParams, View};
-use synthcam::camera::ImageSize;
+use synthcam::calib::{calibrate, CalibModel, CalibParams, View};
+use synthcam::camera::formats::{kalibr_yaml, mrcal_cameramodel, opencv_yaml, ros_yaml};
+use synthcam::camera::{intrinsic_names, ImageSize, Lens};
 use synthcam::dataset::{load_grey, write_atomic};
 use synthcam::detect::target::{detect, TargetSpec};
-use synthcam::report::calib::{opencv_yaml, plot_png, ros_yaml};
+use synthcam::report::calib::plot_png;
 
 use super::skipped::Skipped;
 
@@ -28,6 +29,9 @@ pub struct CalibrateArgs {
     /// Also estimate the skew K[0][1].
     #[arg(long)]
     pub skew: bool,
+    /// Lens model: opencv4, opencv5, opencv8, opencv12, opencv14, fisheye, double-sphere.
+    #[arg(long, default_value = "opencv5", value_parser = |s: &str| s.parse::<CalibModel>())]
+    pub model: CalibModel,
     /// Write the result as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -37,6 +41,12 @@ pub struct CalibrateArgs {
     /// Write the result as a ROS camera_info YAML.
     #[arg(long)]
     pub ros_yaml: Option<PathBuf>,
+    /// Write the result as a Kalibr camchain YAML.
+    #[arg(long)]
+    pub kalibr_yaml: Option<PathBuf>,
+    /// Write the result as an mrcal .cameramodel.
+    #[arg(long)]
+    pub mrcal: Option<PathBuf>,
     /// Plot per-view errors and residual vectors to this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
@@ -55,9 +65,15 @@ struct ViewOut {
 struct Output {
     image_size: [u32; 2],
     rms_px: f64,
+    model: &'static str,
     #[serde(rename = "K")]
     k: [[f64; 3]; 3],
-    dist: [f64; 5],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dist: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    xi: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    alpha: Option<f64>,
     std: serde_json::Value,
     views: Vec<ViewOut>,
     used: usize,
@@ -101,6 +117,36 @@ fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
     Ok((found, skipped))
 }
 
+/// The detections of the inputs: one detections JSON, or images detected here.
+fn load_detections(args: &CalibrateArgs, n: usize) -> anyhow::Result<Detections> {
+    if args.inputs.len() == 1 && args.inputs[0].extension().is_some_and(|e| e == "json") {
+        return from_json(&args.inputs[0], n);
+    }
+    let (mut found, mut skipped) = (Vec::new(), Vec::new());
+    for f in super::detect::expand_images(&args.inputs)? {
+        let name = f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned());
+        match load_grey(&f) {
+            Ok(img) => {
+                let det = detect(&img, &args.target)?;
+                if det.found {
+                    found.push((name, img.width, img.height, det.points_px));
+                } else {
+                    skipped.push(Skipped::new(name, "board not found"));
+                }
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                skipped.push(Skipped::new(name, e.to_string()));
+            }
+        }
+    }
+    Ok((found, skipped))
+}
+
+fn keep_first_size_of((found, skipped): Detections) -> Detections {
+    keep_first_size(found, skipped)
+}
+
 /// Keep the images of the first image's size; the others go to `skipped` with a warning (one
 /// camera has one image size: a resized or cropped frame would bias the intrinsics).
 fn keep_first_size(found: Vec<Found>, mut skipped: Vec<Skipped>) -> (Vec<Found>, Vec<Skipped>) {
@@ -110,6 +156,24 @@ fn keep_first_size(found: Vec<Found>, mut skipped: Vec<Skipped>) -> (Vec<Found>,
     (same, skipped)
 }
 
+/// The camera files asked for, as (path, text); an error names the format that cannot hold the camera.
+fn export_files<'a>(args: &'a CalibrateArgs, cam: &synthcam::camera::CameraModel, rms_px: f64) -> anyhow::Result<Vec<(&'a PathBuf, String)>> {
+    let mut out = Vec::new();
+    if let Some(p) = &args.opencv_yaml {
+        out.push((p, opencv_yaml(cam, rms_px)?));
+    }
+    if let Some(p) = &args.ros_yaml {
+        out.push((p, ros_yaml(cam, "synthcam")?));
+    }
+    if let Some(p) = &args.kalibr_yaml {
+        out.push((p, kalibr_yaml(cam)?));
+    }
+    if let Some(p) = &args.mrcal {
+        out.push((p, mrcal_cameramodel(cam)?));
+    }
+    Ok(out)
+}
+
 /// Run `calibrate`.
 pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     let TargetSpec::Chessboard { cols, rows } = args.target else {
@@ -117,52 +181,40 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     };
     anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be a positive number of metres, got {}", args.square);
     let n = cols * rows;
-    let (found, skipped) = if args.inputs.len() == 1 && args.inputs[0].extension().is_some_and(|e| e == "json") {
-        from_json(&args.inputs[0], n)?
-    } else {
-        let (mut found, mut skipped) = (Vec::new(), Vec::new());
-        for f in super::detect::expand_images(&args.inputs)? {
-            let name = f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned());
-            match load_grey(&f) {
-                Ok(img) => {
-                    let det = detect(&img, &args.target)?;
-                    if det.found {
-                        found.push((name, img.width, img.height, det.points_px));
-                    } else {
-                        skipped.push(Skipped::new(name, "board not found"));
-                    }
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    skipped.push(Skipped::new(name, e.to_string()));
-                }
-            }
-        }
-        (found, skipped)
-    };
-    let (found, skipped) = keep_first_size(found, skipped);
+    let (found, skipped) = keep_first_size_of(load_detections(args, n)?);
     let Some(&(_, w, h, _)) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
     let board: Vec<Point3<f64>> = (0..n).map(|k| Point3::new((k % cols) as f64 * args.square, (k / cols) as f64 * args.square, 0.0)).collect();
     let views: Vec<View> = found.iter().map(|(_, _, _, pts)| board.iter().copied().zip(pts.iter().copied()).collect()).collect();
     let size = ImageSize { width: w as u32, height: h as u32 };
     let t0 = std::time::Instant::now();
-    let r = calibrate(&views, size, &CalibParams { estimate_skew: args.skew, ..Default::default() }).context("calibrating")?;
+    let r = calibrate(&views, size, &CalibParams { estimate_skew: args.skew, model: args.model, ..Default::default() }).context("calibrating")?;
     let time_ms = t0.elapsed().as_secs_f64() * 1e3;
+    // Files the chosen formats cannot hold fail before anything is written.
+    let files = export_files(args, &r.camera, r.rms_px)?;
     let k = r.camera.intrinsics;
-    let names = ["fx", "fy", "cx", "cy", "skew", "k1", "k2", "p1", "p2", "k3"];
+    let names = intrinsic_names(r.camera.lens.kind());
     let std: serde_json::Map<String, serde_json::Value> =
         names.iter().zip(r.std).filter(|(_, v)| v.is_finite()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect();
+    let n_lens = args.model.n_lens_params();
+    let (dist, xi, alpha) = match r.camera.lens {
+        Lens::DoubleSphere(d) => (None, Some(d.xi), Some(d.alpha)),
+        l => (Some(l.params()[..n_lens].to_vec()), None, None),
+    };
     println!("{} views used, {} skipped; RMS {:.4} px", found.len(), skipped.len(), r.rms_px);
     println!(
         "fx {:.4} +- {:.4}  fy {:.4} +- {:.4}  cx {:.4} +- {:.4}  cy {:.4} +- {:.4}  skew {:.4}",
         k.fx, r.std[0], k.fy, r.std[1], k.cx, r.std[2], k.cy, r.std[3], k.skew
     );
-    println!("dist (k1, k2, p1, p2, k3) = {:?}", r.camera.distortion.to_array());
+    let lens_names = &r.camera.lens.kind().param_names()[..n_lens];
+    println!("{} ({}) = {:?}", args.model, lens_names.join(", "), &r.camera.lens.params()[..n_lens]);
     let out = Output {
         image_size: [size.width, size.height],
         rms_px: r.rms_px,
+        model: args.model.name(),
         k: [[k.fx, k.skew, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
-        dist: r.camera.distortion.to_array(),
+        dist,
+        xi,
+        alpha,
         std: serde_json::Value::Object(std),
         views: found
             .iter()
@@ -178,11 +230,8 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     if let Some(p) = &args.json {
         write_atomic(p, &serde_json::to_vec_pretty(&out)?)?;
     }
-    if let Some(p) = &args.opencv_yaml {
-        write_atomic(p, opencv_yaml(&r).as_bytes())?;
-    }
-    if let Some(p) = &args.ros_yaml {
-        write_atomic(p, ros_yaml(&r, "synthcam").as_bytes())?;
+    for (p, text) in files {
+        write_atomic(p, text.as_bytes())?;
     }
     if let Some(p) = &args.plot {
         let pts: Vec<Vec<Point2<f64>>> = found.iter().map(|f| f.3.clone()).collect();

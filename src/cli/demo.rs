@@ -97,14 +97,14 @@ fn calibration(renderer: &Renderer) -> anyhow::Result<String> {
         kt.fy,
         kt.cx,
         kt.cy,
-        cal.camera.distortion.k1,
-        base.camera.distortion.k1,
+        cal.camera.distortion().k1,
+        base.camera.distortion().k1,
         cal.rms_px,
         t0.elapsed().as_secs_f64()
     );
     report += &format!(
         "\n## Calibration from {views} rendered and detected views\n\n| | fx | fy | cx | cy | k1 | k2 |\n|---|---|---|---|---|---|---|\n| truth | {} | {} | {} | {} | {} | {} |\n| estimate | {:.3} | {:.3} | {:.3} | {:.3} | {:.5} | {:.5} |\n\nRMS reprojection error {:.4} px.\n",
-        kt.fx, kt.fy, kt.cx, kt.cy, base.camera.distortion.k1, base.camera.distortion.k2, k.fx, k.fy, k.cx, k.cy, cal.camera.distortion.k1, cal.camera.distortion.k2, cal.rms_px
+        kt.fx, kt.fy, kt.cx, kt.cy, base.camera.distortion().k1, base.camera.distortion().k2, k.fx, k.fy, k.cx, k.cy, cal.camera.distortion().k1, cal.camera.distortion().k2, cal.rms_px
     );
     Ok(report)
 }

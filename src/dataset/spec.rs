@@ -293,7 +293,7 @@ impl DatasetSpec {
         if self.render.seed.is_some() {
             return Err(invalid("render.seed", "per-image noise seeds derive from the top-level `seed`; remove it"));
         }
-        let camera = self.camera.to_model();
+        let camera = self.camera.to_model().map_err(SceneError::from)?;
         let target = self.target.to_target();
         let render = self.render.to_settings();
         // Validate camera, target and render settings with the scene's own rules (a pose straight
@@ -318,11 +318,12 @@ pub fn parse_dataset_spec(text: &str) -> Result<DatasetPlan, SpecError> {
 mod tests {
     use super::*;
 
-    const EXAMPLES: [(&str, &str); 4] = [
+    const EXAMPLES: [(&str, &str); 5] = [
         ("tiny", include_str!("../../assets/specs/tiny.toml")),
         ("chessboard_1280", include_str!("../../assets/specs/chessboard_1280.toml")),
         ("course_calibration", include_str!("../../assets/specs/course_calibration.toml")),
         ("s_path_robot", include_str!("../../assets/specs/s_path_robot.toml")),
+        ("fisheye_1280", include_str!("../../assets/specs/fisheye_1280.toml")),
     ];
 
     #[test]

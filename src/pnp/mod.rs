@@ -216,8 +216,7 @@ mod tests {
 
     #[test]
     fn s_path_pose_is_recovered_exactly_from_ideal_projections() {
-        let mut cam = CameraModel::course_default();
-        cam.distortion.k1 = -0.1;
+        let cam = CameraModel::course_default().with_distortion([-0.1, 0.0, 0.0, 0.0, 0.0]);
         let truth = desired_pose();
         let pts = course_s_path().points_m;
         let px: Vec<Point2<f64>> = pts.iter().map(|p| cam.project_unchecked(&(truth * p))).collect();

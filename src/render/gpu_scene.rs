@@ -4,7 +4,7 @@
 use nalgebra::{Isometry3, Matrix3, Point2, Vector3};
 use rayon::prelude::*;
 
-use crate::camera::CameraModel;
+use crate::camera::{CameraModel, Lens};
 
 use super::uniforms::Params;
 use super::RenderError;
@@ -42,19 +42,15 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     let cam = &scene.camera;
     let (w, h) = (cam.size.width, cam.size.height);
     let k = &cam.intrinsics;
-    let d = &cam.distortion;
-    let r2_max = d.max_monotonic_radius().map_or(1e30, |r| (r * r) as f32);
     let tiles_x = w.div_ceil(TILE_PX);
     let tiles_y = h.div_ceil(TILE_PX);
     let mut p = Params {
         size: [w, h, 0, scene.render.samples],
         tiles: [tiles_x, tiles_y, 0, 0],
         intr: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
-        intr2: [k.skew as f32, r2_max, if d.is_zero() { 0.0 } else { 1.0 }, 0.0],
-        dist0: [d.k1 as f32, d.k2 as f32, d.p1 as f32, d.p2 as f32],
-        dist1: [d.k3 as f32, 0.0, 0.0, 0.0],
         ..Default::default()
     };
+    lens_params(&mut p, cam);
     let (mut dots, tile_start, mut tile_items) = match &scene.target {
         Target::Chessboard(_) | Target::DotGrid(_) => {
             planar_params(&mut p, scene)?;
@@ -71,6 +67,36 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         tile_items.push(0);
     }
     Ok(GpuScene { params: p, dots, tile_start, tile_items, tile_flat })
+}
+
+/// The lens model's uniforms (see `Params`).
+fn lens_params(p: &mut Params, cam: &CameraModel) {
+    let r2_max = cam.lens.max_radius().map_or(1e30, |r| (r * r) as f32);
+    let model = match cam.lens {
+        Lens::OpenCv(_) => 0.0,
+        Lens::Fisheye(_) => 1.0,
+        Lens::DoubleSphere(_) => 2.0,
+    };
+    p.intr2 = [cam.intrinsics.skew as f32, r2_max, if cam.lens.is_identity() { 0.0 } else { 1.0 }, model];
+    let a = cam.lens.params().map(|v| v as f32);
+    p.dist0 = [a[0], a[1], a[2], a[3]];
+    p.tilt0 = [1.0, 0.0, 0.0, 0.0];
+    p.tilt1 = [0.0, 1.0, 0.0, 0.0];
+    p.tilt2 = [0.0, 0.0, 1.0, 0.0];
+    match cam.lens {
+        Lens::OpenCv(d) => {
+            p.dist1 = [a[4], a[5], a[6], a[7]];
+            p.dist2 = [a[8], a[9], a[10], a[11]];
+            if d.tau_x != 0.0 || d.tau_y != 0.0 {
+                let t = crate::camera::distortion::tilt::matrix(d.tau_x, d.tau_y);
+                p.tilt0 = [t[(0, 0)] as f32, t[(0, 1)] as f32, t[(0, 2)] as f32, 1.0];
+                p.tilt1 = [t[(1, 0)] as f32, t[(1, 1)] as f32, t[(1, 2)] as f32, 0.0];
+                p.tilt2 = [t[(2, 0)] as f32, t[(2, 1)] as f32, t[(2, 2)] as f32, 0.0];
+            }
+        }
+        Lens::Fisheye(f) => p.dist1 = [f.theta_max() as f32, 0.0, 0.0, 0.0],
+        Lens::DoubleSphere(_) => {}
+    }
 }
 
 /// The plane homography and the board's or grid's parameters (chessboard, dot grid).

@@ -12,12 +12,20 @@ pub struct Params {
     pub tiles: [u32; 4],
     /// fx, fy, cx, cy.
     pub intr: [f32; 4],
-    /// skew, r2_max, 0, 0.
+    /// skew, r2_max, has_distortion, lens model (0 OpenCV, 1 fisheye, 2 Double Sphere).
     pub intr2: [f32; 4],
-    /// k1, k2, p1, p2.
+    /// OpenCV: k1, k2, p1, p2; fisheye: k1, k2, k3, k4; Double Sphere: xi, alpha, 0, 0.
     pub dist0: [f32; 4],
-    /// k3, 0, 0, 0.
+    /// OpenCV: k3, k4, k5, k6; fisheye: theta_max, 0, 0, 0.
     pub dist1: [f32; 4],
+    /// OpenCV: s1, s2, s3, s4.
+    pub dist2: [f32; 4],
+    /// OpenCV tilt matrix rows 0..2 (xyz) and, in `tilt0.w`, 1 when the sensor is tilted.
+    pub tilt0: [f32; 4],
+    /// Tilt matrix row 1.
+    pub tilt1: [f32; 4],
+    /// Tilt matrix row 2.
+    pub tilt2: [f32; 4],
     /// Homography row 0 (target plane from normalised coordinates).
     pub h0: [f32; 4],
     /// Homography row 1.
@@ -35,7 +43,7 @@ pub struct Params {
 #[cfg(test)]
 mod tests {
     #[test]
-    fn params_is_12_vec4() {
-        assert_eq!(std::mem::size_of::<super::Params>(), 12 * 16);
+    fn params_is_16_vec4() {
+        assert_eq!(std::mem::size_of::<super::Params>(), 16 * 16);
     }
 }

@@ -1,4 +1,4 @@
-//! Reports: plots, detection overlays, calibration file formats (OpenCV, ROS) and the tables of the
+//! Reports: plots, detection overlays, calibration plots and the tables of the
 //! servo, hand-eye and sweep runs. Everything here returns bytes or text; the CLI writes them.
 
 pub mod calib;

@@ -155,7 +155,7 @@ fn dot_grid_sum(g: &DotGrid, quad: &[Vector2<f64>], a: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::{CameraModel, Distortion, ImageSize, Intrinsics};
+    use crate::camera::{CameraModel, ImageSize, Intrinsics, Lens};
     use crate::scene::RenderSettings;
     use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
@@ -163,7 +163,7 @@ mod tests {
         let camera = CameraModel {
             size: ImageSize { width: 16, height: 16 },
             intrinsics: Intrinsics { fx: f, fy: f, cx: 7.0, cy: 7.0, skew: 0.0 },
-            distortion: Distortion::from_array([0.0; 5]),
+            lens: Lens::default(),
         };
         let t = Translation3::new(-centre_m[0], -centre_m[1], 1.0);
         Scene { camera, target, cam_from_target: Isometry3::from_parts(t, UnitQuaternion::identity()), render: RenderSettings::default() }

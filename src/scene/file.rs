@@ -9,7 +9,9 @@
 //! cx = 640.0
 //! cy = 512.0
 //! skew = 0.0                 # K[0][1], pixels
-//! dist = [-0.25, 0.0, 0.0, 0.0, 0.0]   # OpenCV order k1, k2, p1, p2, k3
+//! model = "opencv"           # or "fisheye", "double-sphere" (default "opencv")
+//! dist = [-0.25, 0.0, 0.0, 0.0, 0.0]   # OpenCV order k1, k2, p1, p2, k3[, k4, k5, k6[, s1..s4[, tau_x, tau_y]]]
+//! # fisheye: dist = [k1, k2, k3, k4]; double-sphere: xi = -0.2, alpha = 0.6 (no dist)
 //!
 //! [target]
 //! kind = "chessboard"        # or "dot-grid", "s-path"
@@ -32,51 +34,13 @@
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
+mod camera;
+
+pub use camera::{CameraSpec, ModelName};
+
 use super::{RenderSettings, Scene, SceneError};
-use crate::camera::{CameraModel, Distortion, ImageSize, Intrinsics};
 use crate::math::so3::rotation_from_rvec;
 use crate::target::{Chessboard, DotGrid, DotStyle, SPathDots, Target};
-
-/// `[camera]` table.
-#[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct CameraSpec {
-    /// Image width, pixels.
-    pub width: u32,
-    /// Image height, pixels.
-    pub height: u32,
-    /// Focal length along x, pixels.
-    pub fx: f64,
-    /// Focal length along y, pixels.
-    pub fy: f64,
-    /// Principal point x, pixels (OpenCV convention).
-    pub cx: f64,
-    /// Principal point y, pixels.
-    pub cy: f64,
-    /// `K[0][1]`, pixels.
-    #[serde(default)]
-    pub skew: f64,
-    /// k1, k2, p1, p2, k3.
-    #[serde(default)]
-    pub dist: [f64; 5],
-}
-
-impl CameraSpec {
-    /// The camera model this table describes (not yet validated).
-    pub fn to_model(&self) -> CameraModel {
-        CameraModel {
-            size: ImageSize { width: self.width, height: self.height },
-            intrinsics: Intrinsics { fx: self.fx, fy: self.fy, cx: self.cx, cy: self.cy, skew: self.skew },
-            distortion: Distortion::from_array(self.dist),
-        }
-    }
-
-    /// The table describing `camera`.
-    pub fn from_model(camera: &CameraModel) -> Self {
-        let k = &camera.intrinsics;
-        Self { width: camera.size.width, height: camera.size.height, fx: k.fx, fy: k.fy, cx: k.cx, cy: k.cy, skew: k.skew, dist: camera.distortion.to_array() }
-    }
-}
 
 /// `[target]` table.
 #[derive(Debug, Clone, Deserialize)]
@@ -280,7 +244,7 @@ impl SceneSpec {
     /// Any invalid field (named), or a target behind the camera.
     pub fn to_scene(&self) -> Result<Scene, SceneError> {
         let scene = Scene {
-            camera: self.camera.to_model(),
+            camera: self.camera.to_model()?,
             target: self.target.to_target(),
             cam_from_target: self.pose.to_isometry()?,
             render: self.render.to_settings(),

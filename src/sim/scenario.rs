@@ -169,7 +169,7 @@ impl ScenarioSpec {
     /// # Errors
     /// An invalid camera, target or pose (named).
     pub fn to_scenario(&self) -> Result<SimScenario, SimError> {
-        let camera = self.camera.to_model();
+        let camera = self.camera.to_model().map_err(crate::scene::SceneError::from)?;
         camera.validate().map_err(crate::scene::SceneError::from)?;
         let target = self.target.to_target();
         target.validate().map_err(crate::scene::SceneError::from)?;

@@ -121,7 +121,7 @@ pub fn run_sweep(mode: SweepMode, ms: &[usize], ns: &[usize], seeds: u64, render
                 if pool.len() < m {
                     continue;
                 }
-                let params = CalibParams { fix_distortion: [true; 5], ..Default::default() };
+                let params = CalibParams { fix_distortion: [true; crate::camera::MAX_LENS_PARAMS], ..Default::default() };
                 let Ok(r) = calibrate(&pool[..m], cam.size, &params) else { continue };
                 let (k, kt) = (r.camera.intrinsics, cam.intrinsics);
                 let pct = |a: f64, b: f64| 100.0 * (a - b).abs() / b;

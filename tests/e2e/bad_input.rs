@@ -31,6 +31,12 @@ fn bad_scenes_fail_cleanly() {
         ("unknown-field", GOOD.replace("seed = 1", "seed = 1\nsead = 2"), "sead"),
         ("not-a-rotation", GOOD.replace("rvec = [0.6981317007977318, 0.0, 0.0]", "R = [[1, 0, 0], [0, 2, 0], [0, 0, 1]]"), "rotation"),
         ("garbage", "this is { not toml".to_string(), "parse"),
+        ("dist-6-values", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "dist = [-0.25, 0.0, 0.0, 0.0, 0.0, 0.1]"), "dist"),
+        ("fisheye-5-values", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "model = \"fisheye\"\ndist = [0.1, 0.0, 0.0, 0.0, 0.0]"), "dist"),
+        ("fisheye-folded", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "model = \"fisheye\"\ndist = [-2e9, 0.0, 0.0, 0.0]"), "dist"),
+        ("ds-alpha", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "model = \"double-sphere\"\nxi = 0.1\nalpha = 1.5"), "alpha"),
+        ("ds-nan-xi", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "model = \"double-sphere\"\nxi = nan\nalpha = 0.5"), "xi"),
+        ("unknown-model", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "model = \"omni\""), "omni"),
     ];
     for (name, text, needle) in cases {
         let (ok, stderr, wrote) = run_scene(name, &text);

@@ -118,3 +118,67 @@ fn images_of_another_size_are_skipped_not_fatal() {
     assert!(skipped[0]["reason"].as_str().is_some_and(|r| r.contains("641x481") && r.contains("640x480")), "{skipped:?}");
     assert!((v["K"][0][0].as_f64().expect("fx") - 600.0).abs() < 1.0, "fx {}", v["K"][0][0]);
 }
+
+/// OpenCV reads the YAML back (`cv2.FileStorage`), when Python has OpenCV (CI installs it);
+/// otherwise says that it skipped.
+fn opencv_reads(yaml: &std::path::Path) -> Option<Vec<f64>> {
+    let script = "import sys, cv2\nfs = cv2.FileStorage(sys.argv[1], cv2.FILE_STORAGE_READ)\nk = fs.getNode('camera_matrix').mat()\nd = fs.getNode('distortion_coefficients').mat()\nprint(' '.join(repr(float(v)) for v in list(k.ravel()) + list(d.ravel())))";
+    let o = Command::new("python3").arg("-c").arg(script).arg(yaml).output().ok()?;
+    if !o.status.success() {
+        eprintln!("skipped: OpenCV read-back (python3 -c 'import cv2' failed: {})", String::from_utf8_lossy(&o.stderr).lines().last().unwrap_or(""));
+        return None;
+    }
+    Some(String::from_utf8_lossy(&o.stdout).split_whitespace().filter_map(|v| v.parse().ok()).collect())
+}
+
+#[test]
+fn fisheye_renders_calibrate_with_their_model_and_export_for_other_tools() {
+    let dir = std::env::temp_dir().join(format!("synthcam-cal-{}-fisheye", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let spec = "version = 1\ncount = 10\nseed = 3\n[camera]\nwidth = 640\nheight = 512\nfx = 200.0\nfy = 201.0\ncx = 319.5\ncy = 255.5\nmodel = \"fisheye\"\ndist = [0.05, -0.01, 0.002, -0.0005]\n[target]\nkind = \"chessboard\"\nsquares = [9, 7]\nsquare_m = 0.04\n[render]\nnoise_sigma = 1.0\n[poses]\nmode = \"board\"\ndistance_m = [0.25, 0.5]\ntilt_deg = [0.0, 40.0]\nroll_deg = [-180.0, 180.0]\noffset_x_m = [-0.3, 0.3]\noffset_y_m = [-0.25, 0.25]\nmargin_px = 8.0\n";
+    std::fs::write(dir.join("spec.toml"), spec).expect("spec");
+    let ok = |args: &[&std::ffi::OsStr]| {
+        let o = Command::new(bin()).args(args).output().expect("run");
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    let p = |s: &str| dir.join(s).into_os_string();
+    ok(&["dataset".as_ref(), &p("spec.toml"), "-o".as_ref(), &p("ds")]);
+    ok(&["detect".as_ref(), &p("ds/images"), "--target".as_ref(), "chessboard:8x6".as_ref(), "--json".as_ref(), &p("det.json")]);
+    let cal = |extra: &[&str]| {
+        Command::new(bin())
+            .arg("calibrate")
+            .arg(p("det.json"))
+            .args(["--target", "chessboard:8x6", "--square", "0.04", "--model", "fisheye"])
+            .args(extra)
+            .output()
+            .expect("run")
+    };
+    let files = ["cal.json", "cv.yaml", "ros.yaml", "kalibr.yaml"].map(|f| dir.join(f).to_string_lossy().into_owned());
+    let o = cal(&["--json", &files[0], "--opencv-yaml", &files[1], "--ros-yaml", &files[2], "--kalibr-yaml", &files[3]]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&files[0]).expect("json")).expect("parse");
+    assert_eq!(r["model"], "fisheye");
+    assert_eq!(r["dist"].as_array().map(Vec::len), Some(4));
+    let k = &r["K"];
+    let fx = k[0][0].as_f64().expect("fx");
+    // 10 views, noise 1: the 0.3 px bound on fx, fy, cx, cy.
+    for (got, truth) in [(fx, 200.0), (k[1][1].as_f64().expect("fy"), 201.0), (k[0][2].as_f64().expect("cx"), 319.5), (k[1][2].as_f64().expect("cy"), 255.5)] {
+        assert!((got - truth).abs() < 0.3, "{got} vs {truth}");
+    }
+    for f in &files[1..] {
+        let cam = synthcam::camera::formats::read(&std::fs::read_to_string(f).expect("read")).expect("our reader");
+        assert_eq!(cam.lens.kind().name(), "fisheye", "{f}");
+        assert!((cam.intrinsics.fx - fx).abs() < 1e-9, "{f}");
+    }
+    if let Some(v) = opencv_reads(std::path::Path::new(&files[1])) {
+        assert_eq!(v.len(), 13, "{v:?}");
+        assert!((v[0] - fx).abs() < 1e-9 && (v[9] - r["dist"][0].as_f64().expect("k1")).abs() < 1e-12, "{v:?}");
+    }
+    // mrcal has no fisheye model: an error naming it, and no output at all.
+    let json2 = dir.join("cal2.json").to_string_lossy().into_owned();
+    let o = cal(&["--json", &json2, "--mrcal", &dir.join("m.cameramodel").to_string_lossy()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("mrcal"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!dir.join("cal2.json").exists() && !dir.join("m.cameramodel").exists());
+}

@@ -61,7 +61,7 @@ fn calibration_from_rendered_and_detected_corners() {
         kt.fy,
         kt.cx,
         kt.cy,
-        r.camera.distortion.to_array(),
+        r.camera.distortion().to_array(),
         r.rms_px,
         t0.elapsed().as_secs_f64() * 1e3
     );

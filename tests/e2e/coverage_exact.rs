@@ -44,9 +44,9 @@ fn random_camera(rng: &mut ChaCha8Rng, w: u32, h: u32) -> CameraModel {
                 cy: 0.5 * f64::from(h) - 0.5 + rng.random_range(-8.0..8.0),
                 skew,
             },
-            distortion: Distortion::from_array(dist),
+            lens: synthcam::camera::Lens::OpenCv(Distortion::from_array(dist)),
         };
-        let r_max = cam.distortion.max_monotonic_radius().unwrap_or(f64::INFINITY);
+        let r_max = cam.lens.max_radius().unwrap_or(f64::INFINITY);
         let corners = [(-1.0, -1.0), (f64::from(w), -1.0), (-1.0, f64::from(h)), (f64::from(w), f64::from(h))];
         let inside = corners.iter().all(|&(x, y)| cam.unproject(&Point2::new(x, y)).is_ok_and(|d| d.xy().norm() < 0.9 * r_max));
         if inside {
@@ -239,7 +239,7 @@ fn s_path_scene(style: &str, turn_deg: [f64; 2], k1: f64) -> Scene {
     s.camera = CameraModel {
         size: ImageSize { width: 320, height: 256 },
         intrinsics: Intrinsics { fx: k.fx * scale, fy: k.fy * scale, cx: (k.cx + 0.5) * scale - 0.5, cy: (k.cy + 0.5) * scale - 0.5, skew: 0.0 },
-        distortion: Distortion::from_array([k1, 0.0, 0.0, 0.0, 0.0]),
+        lens: synthcam::camera::Lens::OpenCv(Distortion::from_array([k1, 0.0, 0.0, 0.0, 0.0])),
     };
     // Turn the target about its sphere's centre (target frame (0, 0, 0.5)).
     let c = nalgebra::Point3::new(0.0, 0.0, 0.5);

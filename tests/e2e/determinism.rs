@@ -15,7 +15,17 @@ fn scenes() -> Vec<(&'static str, synthcam::scene::Scene)> {
     board.render.blur_sigma_px = 0.7;
     board.render.seed = 42;
     let spath = parse_scene(include_str!("../../assets/scenes/course_s_path.toml")).expect("scene");
-    vec![("chessboard", board), ("s-path", spath)]
+    let fisheye_text = include_str!("../../assets/scenes/fisheye_chessboard.toml");
+    let fisheye = parse_scene(fisheye_text).expect("scene");
+    let ds =
+        parse_scene(&fisheye_text.replace("model = \"fisheye\"\ndist = [0.05, -0.01, 0.002, -0.0005]", "model = \"double-sphere\"\nxi = -0.2\nalpha = 0.6"))
+            .expect("scene");
+    assert_eq!(ds.camera.lens.kind().name(), "double-sphere");
+    let mut opencv14 = board.clone();
+    opencv14.camera.lens = synthcam::camera::Lens::OpenCv(synthcam::camera::Distortion::from_coefficients([
+        -0.2, 0.05, 0.001, -0.002, 0.01, 0.03, -0.01, 0.002, 1e-3, -2e-4, 5e-4, 3e-4, 0.02, -0.015,
+    ]));
+    vec![("chessboard", board), ("s-path", spath), ("fisheye", fisheye), ("double-sphere", ds), ("opencv14", opencv14)]
 }
 
 #[test]

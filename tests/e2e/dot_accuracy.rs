@@ -58,7 +58,7 @@ fn run_with(style: DotStyle, views: usize, seed: u64, dist: [f64; 5], shift_m: f
             let shift = Vector3::new(rng.random_range(-shift_m..shift_m), rng.random_range(-shift_m..shift_m), 0.0);
             scene.cam_from_target = Translation3::from(shift) * scene.cam_from_target;
         }
-        scene.camera.distortion = Distortion::from_array(dist);
+        scene.camera.lens = synthcam::camera::Lens::OpenCv(Distortion::from_array(dist));
         scene.render.noise_sigma = 1.0;
         scene.render.seed = rng.random();
         if let Target::SPath(s) = &mut scene.target {

@@ -36,7 +36,7 @@ fn small(mut s: Scene, w: u32, h: u32) -> Scene {
             cy: (k.cy + 0.5) * scale - 0.5,
             skew: k.skew * scale,
         },
-        distortion: s.camera.distortion,
+        lens: s.camera.lens,
     };
     s
 }

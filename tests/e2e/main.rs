@@ -18,6 +18,7 @@ mod dot_grid;
 mod fidelity;
 mod golden;
 mod handeye;
+mod lens_models;
 mod open_scenario;
 mod options_proptest;
 mod robustness;

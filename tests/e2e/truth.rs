@@ -52,9 +52,9 @@ fn undistort_distort_round_trip_over_whole_image() {
         for x in (0..1280).step_by(4) {
             let q = Point2::new(f64::from(x), f64::from(y));
             let xd = cam.intrinsics.pixel_to_normalized(&q);
-            let xu = cam.distortion.undistort(&xd).expect("invertible");
-            worst = worst.max((cam.distortion.distort(&xu) - xd).norm());
-            let back = cam.distortion.undistort(&cam.distortion.distort(&xu)).expect("invertible");
+            let xu = cam.lens.undistort(&xd).expect("invertible");
+            worst = worst.max((cam.lens.distort(&xu) - xd).norm());
+            let back = cam.lens.undistort(&cam.lens.distort(&xu)).expect("invertible");
             worst = worst.max((back - xu).norm());
         }
     }

@@ -33,7 +33,7 @@ pub fn camera(width: u32, height: u32, f: f64, dist: [f64; 5]) -> CameraModel {
     CameraModel {
         size: ImageSize { width, height },
         intrinsics: Intrinsics { fx: f, fy: f, cx: 0.5 * f64::from(width) - 0.5, cy: 0.5 * f64::from(height) - 0.5, skew: 0.0 },
-        distortion: Distortion::from_array(dist),
+        lens: synthcam::camera::Lens::OpenCv(Distortion::from_array(dist)),
     }
 }
 
