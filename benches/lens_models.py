@@ -116,7 +116,7 @@ def one(model, count, repeat, bin_, d):
     n_pts = sum(len(im["points_px"]) for im in found)
     sc_sse = r["rms_px"] ** 2 * n_pts
     e = [K[0, 0] - cam["fx"], K[1, 1] - cam["fy"], K[0, 2] - cam["cx"], K[1, 2] - cam["cy"]]
-    print(f"synthcam: fx fy cx cy - truth = {', '.join(f'{v:+.4f}' for v in e)} px; rms {r["rms_px"]:.5f} px, SSE {sc_sse:.7f} px^2; median {statistics.median(st):.2f} ms")
+    print(f"synthcam: fx fy cx cy - truth = {', '.join(f'{v:+.4f}' for v in e)} px; rms {r['rms_px']:.5f} px, SSE {sc_sse:.7f} px^2; median {statistics.median(st):.2f} ms")
     lens = r.get("dist") or [r["xi"], r["alpha"]]
     print(f"synthcam lens: {', '.join(f'{v:.5f}' for v in lens)}")
     if model == "double-sphere":
