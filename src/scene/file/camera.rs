@@ -55,12 +55,6 @@ fn bad(field: &'static str, reason: String) -> CameraError {
 }
 
 impl CameraSpec {
-    /// An OpenCV-model table with Brown-Conrady `dist = [k1, k2, p1, p2, k3]`.
-    pub fn opencv(size: [u32; 2], k: [f64; 5], dist: [f64; 5]) -> Self {
-        let [fx, fy, cx, cy, skew] = k;
-        Self { width: size[0], height: size[1], fx, fy, cx, cy, skew, model: ModelName::Opencv, dist: Some(dist.to_vec()), xi: None, alpha: None }
-    }
-
     fn lens(&self) -> Result<Lens, CameraError> {
         let dist = self.dist.as_deref();
         match self.model {
