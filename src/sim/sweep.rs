@@ -5,14 +5,15 @@
 //! Views: a rotation of uniform angle in [0, pi/10] about a uniform random axis and a camera
 //! position (x, y) uniform in [-0.4, 0.4] m, z uniform in [-6, -3] m in the target frame, looking
 //! along its own +z at the 0.4 m target; re-drawn until every point is in the image. Camera: the
-//! course's (1280 x 1024, f = 1500 px, no distortion); calibration with distortion fixed at 0.
+//! course's (1280 x 1024, f = 1500 px, no distortion), calibration with distortion fixed at 0; or
+//! any camera and lens model ([`SweepSetup`], `experiment calib-sweep --camera --model`).
 
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use crate::calib::{calibrate, CalibParams, View};
+use crate::calib::{calibrate, CalibModel, CalibParams, View};
 use crate::camera::CameraModel;
 use crate::detect::target::{detect, TargetSpec};
 use crate::detect::ImageF32;
@@ -46,6 +47,30 @@ pub struct SweepRun {
     pub rms_px: f64,
 }
 
+/// The camera of a sweep and the model its calibrations estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepSetup {
+    /// The camera the views are made with.
+    pub camera: CameraModel,
+    /// The lens model estimated; `None`: the course's study (pinhole, distortion fixed at 0).
+    pub model: Option<CalibModel>,
+}
+
+impl Default for SweepSetup {
+    fn default() -> Self {
+        Self { camera: CameraModel::course_default(), model: None }
+    }
+}
+
+impl SweepSetup {
+    fn params(&self) -> CalibParams {
+        match self.model {
+            Some(model) => CalibParams { model, ..Default::default() },
+            None => CalibParams { fix_distortion: [true; crate::camera::MAX_LENS_PARAMS], ..Default::default() },
+        }
+    }
+}
+
 /// The N x N target points (x slow, y fast) over 0.4 m, centred.
 fn grid_points(n: usize) -> Vec<Point3<f64>> {
     let s = 0.4 / (n - 1) as f64;
@@ -59,10 +84,26 @@ fn grid_points(n: usize) -> Vec<Point3<f64>> {
 /// No M or N values, an N below 2 (a grid needs two points per side) or an M below 3 (Zhang's
 /// method needs three views).
 pub fn run_sweep(mode: SweepMode, ms: &[usize], ns: &[usize], seeds: u64, renderer: Option<&Renderer>) -> Result<Vec<SweepRun>, super::SimError> {
+    run_sweep_with(&SweepSetup::default(), mode, ms, ns, seeds, renderer)
+}
+
+/// [`run_sweep`] with another camera and lens model.
+///
+/// # Errors
+/// As [`run_sweep`], and an invalid camera.
+pub fn run_sweep_with(
+    setup: &SweepSetup,
+    mode: SweepMode,
+    ms: &[usize],
+    ns: &[usize],
+    seeds: u64,
+    renderer: Option<&Renderer>,
+) -> Result<Vec<SweepRun>, super::SimError> {
     if ms.is_empty() || ns.is_empty() || ns.iter().any(|n| *n < 2) || ms.iter().any(|m| *m < 3) {
         return Err(super::SimError::Scenario(format!("the sweep needs M >= 3 and N >= 2 values, got M {ms:?}, N {ns:?}")));
     }
-    let cam = CameraModel::course_default();
+    let cam = setup.camera;
+    cam.validate().map_err(|e| super::SimError::Scenario(format!("sweep camera: {e}")))?;
     let m_max = ms.iter().copied().max().unwrap_or(0);
     let mut out = Vec::new();
     for &n in ns {
@@ -101,7 +142,7 @@ pub fn run_sweep(mode: SweepMode, ms: &[usize], ns: &[usize], seeds: u64, render
                             render: RenderSettings { noise_sigma: 1.0, seed: rng.random(), ..Default::default() },
                         };
                         let Ok(img) = r.render(&scene) else { continue };
-                        let Ok(grey) = ImageF32::from_u8(1280, 1024, &img.to_u8()) else { continue };
+                        let Ok(grey) = ImageF32::from_u8(cam.size.width as usize, cam.size.height as usize, &img.to_u8()) else { continue };
                         let Ok(det) = detect(&grey, &TargetSpec::Chessboard { cols: n, rows: n }) else { continue };
                         if !det.found {
                             continue;
@@ -121,8 +162,7 @@ pub fn run_sweep(mode: SweepMode, ms: &[usize], ns: &[usize], seeds: u64, render
                 if pool.len() < m {
                     continue;
                 }
-                let params = CalibParams { fix_distortion: [true; crate::camera::MAX_LENS_PARAMS], ..Default::default() };
-                let Ok(r) = calibrate(&pool[..m], cam.size, &params) else { continue };
+                let Ok(r) = calibrate(&pool[..m], cam.size, &setup.params()) else { continue };
                 let (k, kt) = (r.camera.intrinsics, cam.intrinsics);
                 let pct = |a: f64, b: f64| 100.0 * (a - b).abs() / b;
                 out.push(SweepRun { mode, m, n, seed, err_pct: [pct(k.fx, kt.fx), pct(k.fy, kt.fy), pct(k.cx, kt.cx), pct(k.cy, kt.cy)], rms_px: r.rms_px });

@@ -74,6 +74,23 @@ fn calib_sweep_runs_in_both_modes() {
 }
 
 #[test]
+fn calib_sweep_runs_with_any_lens_model() {
+    use synthcam::calib::CalibModel;
+    use synthcam::camera::{CameraModel, Fisheye, Lens};
+    use synthcam::sim::sweep::{run_sweep_with, SweepSetup};
+    // The course's poses through a fisheye lens of the course's focal length, its four
+    // coefficients estimated with the intrinsics.
+    let camera = CameraModel::pinhole(1280, 1024, 1500.0).with_lens(Lens::Fisheye(Fisheye { k: [0.3, -0.1, 0.0, 0.0] }));
+    let setup = SweepSetup { camera, model: Some(CalibModel::Fisheye) };
+    let rendered = run_sweep_with(&setup, SweepMode::Rendered, &[8], &[5], 1, Some(renderer())).expect("sweep");
+    assert_eq!(rendered.len(), 1);
+    eprintln!("rendered fisheye sweep, M = 8, N = 5: % errors {:?}, rms {:.4} px", rendered[0].err_pct, rendered[0].rms_px);
+    assert!(rendered[0].err_pct.iter().all(|e| *e < 1.0) && rendered[0].rms_px < 0.05, "{:?}", rendered[0]);
+    let bad = SweepSetup { camera: CameraModel { size: synthcam::camera::ImageSize { width: 0, height: 10 }, ..camera }, model: None };
+    assert!(run_sweep_with(&bad, SweepMode::Ideal, &[5], &[5], 1, None).is_err());
+}
+
+#[test]
 fn images_of_another_size_are_skipped_not_fatal() {
     // Six rendered views at 640 x 480 and one at 641 x 481 (as a real set with two odd frames):
     // calibrate uses the six, lists the odd one in `skipped` with its reason, exits 0.
