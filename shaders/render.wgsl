@@ -26,11 +26,11 @@ struct Params {
     size: vec4<u32>,     // width, height, kind (0 chessboard, 1 dot grid, 2 s-path), samples per axis
     tiles: vec4<u32>,    // tiles_x, tiles_y, dot style (0 bead, 1 disc), fine-pass work length
     intr: vec4<f32>,     // fx, fy, cx, cy
-    intr2: vec4<f32>,    // skew, r2_max (undistorted r^2 beyond which the lens folds), has_distortion, model
+    intr2: vec4<f32>,    // skew, r2_max (undistorted r^2 beyond which the lens folds), has_distortion, 0
     dist0: vec4<f32>,    // OpenCV: k1, k2, p1, p2 | fisheye: k1..k4 | double sphere: xi, alpha
     dist1: vec4<f32>,    // OpenCV: k3, k4, k5, k6 | fisheye: theta_max
     dist2: vec4<f32>,    // OpenCV: s1, s2, s3, s4
-    tilt0: vec4<f32>,    // OpenCV tilt matrix rows (xyz); tilt0.w = 1 when tilted
+    tilt0: vec4<f32>,    // OpenCV tilt matrix rows (xyz; used when LENS_TILT)
     tilt1: vec4<f32>,
     tilt2: vec4<f32>,
     h0: vec4<f32>,       // rows of H: (X, Y, W) = H (xu, yu, 1), target plane from normalised coords
@@ -69,7 +69,7 @@ fn len3(a: vec3<f32>) -> f32 { return sqrt(dot3(a, a)); }
 override LENS_MODEL: u32 = 0u;
 override LENS_TILT: bool = false;
 
-// Three models behind distort / distort_jac (LENS_MODEL, mirrored in P.intr2.w):
+// Three models behind distort / distort_jac (LENS_MODEL; src/render/gpu_scene.rs LENS_VARIANTS):
 // 0 OpenCV (camera::Distortion: rational radial, tangential, thin prism, tilt), 1 OpenCV fisheye
 // (camera::Fisheye), 2 Double Sphere (camera::DoubleSphere). Rays are (xu, 1).
 

@@ -11,10 +11,9 @@
 
 use nalgebra::{Isometry3, Point2, Vector6};
 
-use super::refine::{vector_of, IntrinsicVector, View};
+use super::refine::{pose_vector, vector_of, IntrinsicVector, View};
 use super::zhang::pose_from_homography;
 use crate::camera::{CameraModel, ImageSize, Intrinsics, LensKind};
-use crate::math::so3::rvec_from_rotation;
 
 /// Candidate focal lengths, as fractions of the larger image side (log-spaced).
 const F_LO: f64 = 0.05;
@@ -32,12 +31,6 @@ fn base_camera(size: ImageSize, kind: LensKind, f: f64) -> CameraModel {
         _ => kind.lens(&[]),
     };
     CameraModel { size, intrinsics: k, lens }
-}
-
-fn pose_vector(p: &Isometry3<f64>) -> Vector6<f64> {
-    let r = rvec_from_rotation(&p.rotation.to_rotation_matrix());
-    let t = p.translation.vector;
-    Vector6::new(r.x, r.y, r.z, t.x, t.y, t.z)
 }
 
 /// One view's pose under `cam`, and its sum of squared reprojection errors.

@@ -13,10 +13,9 @@ pub mod zhang;
 
 pub use model::{CalibModel, CALIB_MODELS};
 
-use nalgebra::{Isometry3, Point2, Point3, Vector2, Vector3, Vector6};
+use nalgebra::{Point2, Point3, Vector2, Vector3, Vector6};
 
 use crate::camera::{CameraModel, ImageSize, MAX_LENS_PARAMS, N_INTRINSICS};
-use crate::math::so3::rvec_from_rotation;
 pub use refine::View;
 
 /// Errors of the calibration.
@@ -156,15 +155,7 @@ fn initial_zhang(views: &[View], params: &CalibParams) -> Result<(refine::Intrin
         })
         .collect::<Result<Vec<_>, _>>()?;
     let k0 = zhang::intrinsics_from_homographies(&hs, !params.estimate_skew)?;
-    let poses: Vec<Vector6<f64>> = hs
-        .iter()
-        .map(|h| {
-            let p: Isometry3<f64> = zhang::pose_from_homography(h, &k0);
-            let r = rvec_from_rotation(&p.rotation.to_rotation_matrix());
-            let t = p.translation.vector;
-            Vector6::new(r.x, r.y, r.z, t.x, t.y, t.z)
-        })
-        .collect();
+    let poses: Vec<Vector6<f64>> = hs.iter().map(|h| refine::pose_vector(&zhang::pose_from_homography(h, &k0))).collect();
     let mut a0 = [0.0; N_INTRINSICS];
     a0[..5].copy_from_slice(&[k0.fx, k0.fy, k0.cx, k0.cy, k0.skew]);
     Ok((a0, poses))

@@ -34,6 +34,13 @@ pub fn vector_of(cam: &CameraModel) -> IntrinsicVector {
     a
 }
 
+/// `cam_from_board` as the optimisation's `[rvec, t]`.
+pub fn pose_vector(p: &nalgebra::Isometry3<f64>) -> Vector6<f64> {
+    let r = crate::math::so3::rvec_from_rotation(&p.rotation.to_rotation_matrix());
+    let t = p.translation.vector;
+    Vector6::new(r.x, r.y, r.z, t.x, t.y, t.z)
+}
+
 /// The right Jacobian `Jr(w)` of SO(3).
 fn right_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
     let th = w.norm();
@@ -47,7 +54,12 @@ fn right_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
 
 /// d(R(w) x)/dw = -R `[x]x` Jr(w), with Jr the right Jacobian of SO(3).
 pub fn drotated_drvec(w: &Vector3<f64>, x: &Vector3<f64>) -> Matrix3<f64> {
-    -rotation_from_rvec(w).matrix() * skew(x) * right_jacobian(w)
+    drotated(rotation_from_rvec(w).matrix(), &right_jacobian(w), x)
+}
+
+/// [`drotated_drvec`] from `R` and `Jr` already at hand.
+fn drotated(r: &Matrix3<f64>, jr: &Matrix3<f64>, x: &Vector3<f64>) -> Matrix3<f64> {
+    -(r * skew(x)) * jr
 }
 
 /// One view's pose, with what every point's Jacobian needs (computed once per view).
@@ -77,7 +89,7 @@ fn residual(
     let r = cam.project_unchecked(&p) - q;
     let dq_dp = cam.dq_dp_cam(&p);
     let mut jb = SMatrix::<f64, 2, 6>::zeros();
-    jb.fixed_view_mut::<2, 3>(0, 0).copy_from(&(dq_dp * (-(pose.r * skew(&x.coords)) * pose.jr)));
+    jb.fixed_view_mut::<2, 3>(0, 0).copy_from(&(dq_dp * drotated(&pose.r, &pose.jr, &x.coords)));
     jb.fixed_view_mut::<2, 3>(0, 3).copy_from(&dq_dp);
     (r, cam.dq_dintrinsics_n(&p, n_lens), jb)
 }

@@ -126,7 +126,8 @@ impl Distortion {
         self.coefficients().iter().all(|&c| c == 0.0)
     }
 
-    fn has_tilt(&self) -> bool {
+    /// Whether the sensor is tilted (`tau_x` or `tau_y` non-zero).
+    pub fn has_tilt(&self) -> bool {
         self.tau_x != 0.0 || self.tau_y != 0.0
     }
 

@@ -143,13 +143,9 @@ fn load_detections(args: &CalibrateArgs, n: usize) -> anyhow::Result<Detections>
     Ok((found, skipped))
 }
 
-fn keep_first_size_of((found, skipped): Detections) -> Detections {
-    keep_first_size(found, skipped)
-}
-
 /// Keep the images of the first image's size; the others go to `skipped` with a warning (one
 /// camera has one image size: a resized or cropped frame would bias the intrinsics).
-fn keep_first_size(found: Vec<Found>, mut skipped: Vec<Skipped>) -> (Vec<Found>, Vec<Skipped>) {
+fn keep_first_size((found, mut skipped): Detections) -> Detections {
     let Some(&(_, w, h, _)) = found.first() else { return (found, skipped) };
     let (same, other): (Vec<Found>, Vec<Found>) = found.into_iter().partition(|f| f.1 == w && f.2 == h);
     skipped.extend(other.into_iter().map(|(file, fw, fh, _)| Skipped::other_size(file, (fw, fh), (w, h), "")));
@@ -181,7 +177,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     };
     anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be a positive number of metres, got {}", args.square);
     let n = cols * rows;
-    let (found, skipped) = keep_first_size_of(load_detections(args, n)?);
+    let (found, skipped) = keep_first_size(load_detections(args, n)?);
     let Some(&(_, w, h, _)) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
     let board: Vec<Point3<f64>> = (0..n).map(|k| Point3::new((k % cols) as f64 * args.square, (k / cols) as f64 * args.square, 0.0)).collect();
     let views: Vec<View> = found.iter().map(|(_, _, _, pts)| board.iter().copied().zip(pts.iter().copied()).collect()).collect();

@@ -15,11 +15,27 @@ use crate::target::{DotStyle, SPathDots, Target};
 /// Tile edge, pixels. Fixed at 8: the shader's coarse pass runs one 8 x 8 workgroup per tile.
 pub const TILE_PX: u32 = 8;
 
+/// The shader's lens variants: its `LENS_MODEL` and `LENS_TILT` pipeline constants
+/// (`shaders/render.wgsl`), indexed by [`lens_variant`].
+pub const LENS_VARIANTS: [(f64, bool); 4] = [(0.0, false), (0.0, true), (1.0, false), (2.0, false)];
+
+/// The index in [`LENS_VARIANTS`] of a lens: OpenCV, OpenCV with a tilted sensor, fisheye,
+/// Double Sphere.
+pub fn lens_variant(lens: &Lens) -> usize {
+    match lens {
+        Lens::OpenCv(d) => usize::from(d.has_tilt()),
+        Lens::Fisheye(_) => 2,
+        Lens::DoubleSphere(_) => 3,
+    }
+}
+
 /// Everything the compute pass reads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GpuScene {
     /// Uniform block.
     pub params: Params,
+    /// The pipeline variant of the scene's lens ([`lens_variant`]).
+    pub lens_variant: usize,
     /// Dots: centre (camera frame, metres) and radius.
     pub dots: Vec<[f32; 4]>,
     /// Per tile, the start of its list in `tile_items` (`tiles + 1` entries).
@@ -66,18 +82,13 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     if tile_items.is_empty() {
         tile_items.push(0);
     }
-    Ok(GpuScene { params: p, dots, tile_start, tile_items, tile_flat })
+    Ok(GpuScene { params: p, lens_variant: lens_variant(&cam.lens), dots, tile_start, tile_items, tile_flat })
 }
 
 /// The lens model's uniforms (see `Params`).
 fn lens_params(p: &mut Params, cam: &CameraModel) {
     let r2_max = cam.lens.max_radius().map_or(1e30, |r| (r * r) as f32);
-    let model = match cam.lens {
-        Lens::OpenCv(_) => 0.0,
-        Lens::Fisheye(_) => 1.0,
-        Lens::DoubleSphere(_) => 2.0,
-    };
-    p.intr2 = [cam.intrinsics.skew as f32, r2_max, if cam.lens.is_identity() { 0.0 } else { 1.0 }, model];
+    p.intr2 = [cam.intrinsics.skew as f32, r2_max, if cam.lens.is_identity() { 0.0 } else { 1.0 }, 0.0];
     let a = cam.lens.params().map(|v| v as f32);
     p.dist0 = [a[0], a[1], a[2], a[3]];
     p.tilt0 = [1.0, 0.0, 0.0, 0.0];
@@ -87,9 +98,9 @@ fn lens_params(p: &mut Params, cam: &CameraModel) {
         Lens::OpenCv(d) => {
             p.dist1 = [a[4], a[5], a[6], a[7]];
             p.dist2 = [a[8], a[9], a[10], a[11]];
-            if d.tau_x != 0.0 || d.tau_y != 0.0 {
+            if d.has_tilt() {
                 let t = crate::camera::distortion::tilt::matrix(d.tau_x, d.tau_y);
-                p.tilt0 = [t[(0, 0)] as f32, t[(0, 1)] as f32, t[(0, 2)] as f32, 1.0];
+                p.tilt0 = [t[(0, 0)] as f32, t[(0, 1)] as f32, t[(0, 2)] as f32, 0.0];
                 p.tilt1 = [t[(1, 0)] as f32, t[(1, 1)] as f32, t[(1, 2)] as f32, 0.0];
                 p.tilt2 = [t[(2, 0)] as f32, t[(2, 1)] as f32, t[(2, 2)] as f32, 0.0];
             }

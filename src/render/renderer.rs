@@ -9,7 +9,7 @@
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::context::GpuContext;
-use super::gpu_scene::{gpu_scene, GpuScene, TileCornerRays, TILE_PX};
+use super::gpu_scene::{gpu_scene, GpuScene, TileCornerRays, LENS_VARIANTS, TILE_PX};
 use super::{GreyImage, RenderError};
 use crate::scene::Scene;
 
@@ -67,8 +67,8 @@ pub struct Renderer {
     ctx: GpuContext,
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
-    /// Per target kind, coarse / fine, lens variant ([`lens_variant`]).
-    pipelines: [[[OnceLock<wgpu::ComputePipeline>; LENS_VARIANTS]; 2]; 4],
+    /// Per target kind, coarse / fine, lens variant (`gpu_scene::LENS_VARIANTS`).
+    pipelines: [[[OnceLock<wgpu::ComputePipeline>; LENS_VARIANTS.len()]; 2]; 4],
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     buffers: Mutex<Buffers>,
@@ -81,19 +81,6 @@ fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
         count: None,
-    }
-}
-
-/// Lens variants the shader is specialised for (its `LENS_MODEL`, `LENS_TILT` constants).
-const LENS_VARIANTS: usize = 4;
-
-/// The shader variant of a scene's lens: 0 OpenCV, 1 OpenCV with a tilted sensor, 2 fisheye,
-/// 3 Double Sphere (read back from the uniforms `gpu_scene` filled).
-fn lens_variant(p: &super::uniforms::Params) -> usize {
-    match p.intr2[3] as u32 {
-        1 => 2,
-        2 => 3,
-        _ => usize::from(p.tilt0[3] != 0.0),
     }
 }
 
@@ -170,12 +157,8 @@ impl Renderer {
         self.pipelines[kind][usize::from(fine)][variant].get_or_init(|| {
             let entry = ENTRY_POINTS[kind][usize::from(fine)];
             let t0 = std::time::Instant::now();
-            let (model, tilt) = match variant {
-                2 => (1.0, 0.0),
-                3 => (2.0, 0.0),
-                v => (0.0, v as f64),
-            };
-            let constants = [("LENS_MODEL", model), ("LENS_TILT", tilt)];
+            let (model, tilt) = LENS_VARIANTS[variant];
+            let constants = [("LENS_MODEL", model), ("LENS_TILT", f64::from(u8::from(tilt)))];
             let p = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: Some(&self.pipeline_layout),
@@ -250,7 +233,7 @@ impl Renderer {
         let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render") });
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(if fine { "fine" } else { "coarse" }), timestamp_writes: None });
-            pass.set_pipeline(self.pipeline(kind, fine, lens_variant(&gs.params)));
+            pass.set_pipeline(self.pipeline(kind, fine, gs.lens_variant));
             pass.set_bind_group(0, &bind, &[]);
             let (gx, gy) = grid(groups);
             pass.dispatch_workgroups(gx, gy, 1);

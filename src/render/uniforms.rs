@@ -12,7 +12,7 @@ pub struct Params {
     pub tiles: [u32; 4],
     /// fx, fy, cx, cy.
     pub intr: [f32; 4],
-    /// skew, r2_max, has_distortion, lens model (0 OpenCV, 1 fisheye, 2 Double Sphere).
+    /// skew, r2_max, has_distortion, 0 (the lens model is a pipeline constant).
     pub intr2: [f32; 4],
     /// OpenCV: k1, k2, p1, p2; fisheye: k1, k2, k3, k4; Double Sphere: xi, alpha, 0, 0.
     pub dist0: [f32; 4],
@@ -20,7 +20,7 @@ pub struct Params {
     pub dist1: [f32; 4],
     /// OpenCV: s1, s2, s3, s4.
     pub dist2: [f32; 4],
-    /// OpenCV tilt matrix rows 0..2 (xyz) and, in `tilt0.w`, 1 when the sensor is tilted.
+    /// OpenCV tilt matrix row 0 (xyz; whether it is used is a pipeline constant).
     pub tilt0: [f32; 4],
     /// Tilt matrix row 1.
     pub tilt1: [f32; 4],
