@@ -29,15 +29,18 @@
 use nalgebra::{Point2, Point3};
 
 use super::dots::Dot;
-use super::filters::median_by;
-use super::s_path_order::{anonymous_chains, indexed, start_chain, start_dot_chain, IndexedDot, SPathOrderParams, MAX_SKIP};
+use super::s_path_order::{anonymous_chains, indexed, start_chain, start_dot_chain, ChainGrowth, IndexedDot, SPathOrderParams, MAX_SKIP};
 use super::DetectError;
 use dlt::Dlt;
 pub use residuals::{path_residuals, PathResidual};
 
+mod checks;
 mod dlt;
 mod residuals;
+mod resolve;
 use crate::target::SPath;
+use checks::{drop_merged, drop_outliers};
+use resolve::{chain_labels, resolve_labels, resolve_steps};
 
 /// Parameters of [`index_s_path`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -92,13 +95,21 @@ fn labellings(chain: &[(i64, usize)], dots: &[Dot], path: &SPath) -> Vec<(f64, L
     fits
 }
 
-/// The labelling of a whole chain, when it is clearly the best.
-fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Option<Labels> {
+/// The runner-up labelling's RMS over the best's that a chain holding most of the dots (as many
+/// as a path needs) must exceed, in place of [`SPathFitParams::ambiguity_ratio`]: clutter never
+/// chains most of the dots, and on a target whose dots stray from the nominal path the strays
+/// set both RMS values (2.7 against 4.2 px for a 97-dot chain of 5 mm strays).
+const DOMINANT_AMBIGUITY_RATIO: f64 = 1.25;
+
+/// The labelling of a whole chain, when it is clearly the best; `dominant`: the chain holds as
+/// many dots as a path needs ([`DOMINANT_AMBIGUITY_RATIO`]).
+fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams, dominant: bool) -> Option<Labels> {
     let mut fits = labellings(chain, dots, path);
     let best = fits.first()?.0;
     let runner_up = fits.get(1).map_or(f64::INFINITY, |f| f.0);
     log::debug!("s-path chain of {} dots: best RMS {best:.3} px, runner-up {runner_up:.3} px", chain.len());
-    (best <= params.max_seed_rms_px && runner_up > params.ambiguity_ratio * best.max(0.05)).then(|| fits.swap_remove(0).1)
+    let ratio = if dominant { DOMINANT_AMBIGUITY_RATIO } else { params.ambiguity_ratio };
+    (best <= params.max_seed_rms_px && runner_up > ratio * best.max(0.05)).then(|| fits.swap_remove(0).1)
 }
 
 /// Dots per window of [`search_windows`].
@@ -268,68 +279,6 @@ fn extend_locally(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, p
     labels
 }
 
-/// Blobs smaller than this (px^2) are held to [`SMALL_BLOB_DEVIATION_PX`] by [`drop_outliers`].
-const SMALL_BLOB_PX: f64 = 20.0;
-/// Largest deviation of a small blob's residual from its neighbours', pixels.
-const SMALL_BLOB_DEVIATION_PX: f64 = 0.6;
-
-/// A residual's jump is an outlier beyond this many robust standard deviations of all jumps.
-const JUMP_SIGMAS: f64 = 4.0;
-
-/// Drop matches whose reprojection residual differs from the median residual of their path
-/// neighbours (up to 3 indices either side) by more than `max_px` (small blobs: see
-/// [`SMALL_BLOB_DEVIATION_PX`]). The residuals of good dots vary smoothly along the path (the
-/// blob-centroid bias of beads, lens distortion); a blob that lost part of itself (a sliver
-/// along the outline) jumps. On a target whose dots stray from the nominal path (painted or
-/// glued by hand) every residual jumps: the bound widens to [`JUMP_SIGMAS`] robust standard
-/// deviations (1.4826 median absolute jumps) of all the jumps.
-fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px: f64) -> Vec<(usize, usize)> {
-    let (world, image) = correspondences(&labels, dots, path);
-    let Some(dlt) = Dlt::fit(&world, &image) else { return labels };
-    let residual: Vec<Option<nalgebra::Vector2<f64>>> = world.iter().zip(&image).map(|(x, u)| dlt.project(x).map(|q| u - q)).collect();
-    // Each residual's jump against its path neighbours' median (None: behind the camera; 0 with
-    // fewer than two neighbours, which are always kept).
-    let jumps: Vec<Option<f64>> = (0..labels.len())
-        .map(|k| {
-            let r = residual[k]?;
-            let near: Vec<nalgebra::Vector2<f64>> =
-                (0..labels.len()).filter(|&m| m != k && labels[m].0.abs_diff(labels[k].0) <= 3).filter_map(|m| residual[m]).collect();
-            if near.len() < 2 {
-                return Some(0.0);
-            }
-            let med = |f: fn(&nalgebra::Vector2<f64>) -> f64| median_by(&mut near.iter().map(f).collect::<Vec<_>>(), f64::total_cmp).unwrap_or(0.0);
-            Some((r - nalgebra::Vector2::new(med(|v| v.x), med(|v| v.y))).norm())
-        })
-        .collect();
-    let sigma = 1.4826 * median_by(&mut jumps.iter().flatten().copied().collect::<Vec<_>>(), f64::total_cmp).unwrap_or(0.0);
-    let spread = JUMP_SIGMAS * sigma;
-    log::debug!("s-path residual jumps: robust sigma {sigma:.3} px");
-    let keep = jumps.iter().zip(&labels).map(|(jump, &(_, j))| {
-        // Small blobs (slivers, far dots) carry little centroid bias: a tighter bound.
-        let base = if dots[j].area_px < SMALL_BLOB_PX { SMALL_BLOB_DEVIATION_PX.min(max_px) } else { max_px };
-        jump.is_some_and(|d| d <= base.max(spread))
-    });
-    let keep: Vec<bool> = keep.collect();
-    labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
-}
-
-/// Drop blobs far larger than their path neighbours (up to 5 indices either side, the start dot
-/// left out of the comparison): beads squeezed together along the sphere's outline merge into
-/// one blob, whose centroid is no dot's. The start dot itself may be `start_ratio` times larger.
-fn drop_merged(dots: &[Dot], labels: Vec<(usize, usize)>, start_ratio: f64) -> Vec<(usize, usize)> {
-    const MAX_RATIO: f64 = 2.0;
-    let keep: Vec<bool> = labels
-        .iter()
-        .map(|&(i, j)| {
-            let mut near: Vec<f64> = labels.iter().filter(|&&(k, _)| k != i && k != 0 && k.abs_diff(i) <= 5).map(|&(_, m)| dots[m].area_px).collect();
-            let Some(typical) = median_by(&mut near, f64::total_cmp) else { return true };
-            let limit = MAX_RATIO * if i == 0 { start_ratio.max(1.0) * 1.5 } else { 1.0 };
-            dots[j].area_px <= limit * typical
-        })
-        .collect();
-    labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
-}
-
 /// Start dots recognised at this share of `start_area_ratio` are tried last: at the course's
 /// distances a 10 mm cap covers only about 1.7 times the area of its 6 mm neighbours.
 const RELAXED_START: f64 = 0.8;
@@ -339,11 +288,12 @@ const RELAXED_START: f64 = 0.8;
 /// stray from the nominal path, a jittered chain's labellings all fit about equally (a projective
 /// camera absorbs a shift along a smooth curve), and the start dot is what fixes them; the chain
 /// stops where the curve-following growth loses the jittered dots, the projection does the rest.
-fn relaxed_start_seed(dots: &[Dot], order: &SPathOrderParams, params: &SPathFitParams) -> Option<Labels> {
+fn relaxed_start_seed(dots: &[Dot], path: &SPath, order: &SPathOrderParams, params: &SPathFitParams) -> Option<Labels> {
     let relaxed = SPathOrderParams { start_area_ratio: RELAXED_START * order.start_area_ratio, ..*order };
     let chain = start_dot_chain(dots, &relaxed).ok().filter(|c| c.len() >= params.min_seed)?;
+    let chain = if order.growth == ChainGrowth::Strays { resolve_steps(dots, path, chain) } else { chain };
     log::debug!("s-path relaxed start chain: {} dots", chain.len());
-    Some(chain.iter().map(|&(i, j)| (i as usize, j)).collect())
+    Some(chain_labels(&chain))
 }
 
 /// Is the labelling free of index gaps longer than [`MAX_SKIP`]? A fallback labelling from the
@@ -356,7 +306,10 @@ fn without_gaps(labels: &[(usize, usize)]) -> bool {
 }
 
 /// Index the S-path's dots: the start chain or a labelled chain, grown by projecting the known
-/// path (see the module docs).
+/// path (see the module docs). Chains grow strictly first ([`ChainGrowth::Strict`]), and only
+/// where that places too few dots with [`ChainGrowth::Strays`] (unless `params.order.growth`
+/// asks for it outright): results on targets true to the nominal geometry do not depend on the
+/// looser growth.
 ///
 /// # Errors
 /// [`DetectError::NotFound`] when no stretch of dots can be labelled unambiguously, or the result
@@ -364,29 +317,8 @@ fn without_gaps(labels: &[(usize, usize)]) -> bool {
 pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Vec<IndexedDot>, DetectError> {
     let order = SPathOrderParams { points: path.len(), ..params.order };
     let need = order.needed(dots.len());
-    let place = |seed: Labels| {
-        let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
-        drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px)
-    };
-    // Chain indices from the start dot are 0 and up.
-    let start: Option<Labels> =
-        start_chain(dots, &order).ok().filter(|c| c.len() >= params.min_seed).map(|c| c.iter().map(|&(i, j)| (i as usize, j)).collect());
-    let labels = match start {
-        Some(seed) => Some(place(seed)),
-        None => {
-            let chains = anonymous_chains(dots, order.tolerance, path.len(), params.min_seed);
-            let by_shape = chains.iter().find_map(|c| label_chain(c, dots, path, params)).or_else(|| search_windows(&chains, dots, path, params)).map(place);
-            match by_shape {
-                Some(l) if l.len() >= need => Some(l),
-                // Where the shape fell short, the start dot's own chain competes (see
-                // relaxed_start_seed); the labelling placing more dots wins.
-                short => match (short, relaxed_start_seed(dots, &order, params).map(place).filter(|l| without_gaps(l))) {
-                    (Some(a), Some(b)) => Some(if b.len() > a.len() { b } else { a }),
-                    (a, b) => a.or(b),
-                },
-            }
-        }
-    };
+    let strict = (order.growth == ChainGrowth::Strict).then(|| place_labels(dots, path, params, &order)).flatten().filter(|l| l.len() >= need);
+    let labels = strict.or_else(|| place_labels(dots, path, params, &SPathOrderParams { growth: ChainGrowth::Strays, ..order }));
     let Some(labels) = labels else {
         return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
     };
@@ -394,6 +326,43 @@ pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Resu
         return Err(DetectError::NotFound { reason: format!("{} of {} dots placed on the S-path (at least {need} needed)", labels.len(), dots.len()) });
     }
     Ok(indexed(dots, &labels))
+}
+
+/// The labelling of [`index_s_path`] with chains grown as `order.growth` says; `None` where no
+/// stretch of dots could be placed.
+fn place_labels(dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPathOrderParams) -> Option<Labels> {
+    let need = order.needed(dots.len());
+    let strays = order.growth == ChainGrowth::Strays;
+    let place = |seed: Labels| {
+        let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
+        drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px)
+    };
+    // Chain indices from the start dot are 0 and up. With strays, where the path's shape labels
+    // the start chain unambiguously (at the strict ratio), the shape wins over the count from the
+    // start dot: a bead pressed against the start bead, or the first step seen through strong
+    // distortion, can leave the count one off from there on.
+    let label_start = |c: Vec<(i64, usize)>| match strays {
+        true => label_chain(&c, dots, path, params, c.len() >= need).unwrap_or_else(|| chain_labels(&resolve_steps(dots, path, c))),
+        false => chain_labels(&c),
+    };
+    if let Some(seed) = start_chain(dots, order).ok().filter(|c| c.len() >= params.min_seed).map(label_start) {
+        return Some(place(seed));
+    }
+    let chains = anonymous_chains(dots, order, params.min_seed);
+    let by_chain = match strays {
+        true => chains.iter().find_map(|c| label_chain(c, dots, path, params, c.len() >= need)).map(|l| resolve_labels(dots, path, l)),
+        false => chains.iter().find_map(|c| label_chain(c, dots, path, params, false)),
+    };
+    let by_shape = by_chain.or_else(|| search_windows(&chains, dots, path, params)).map(place);
+    match by_shape {
+        Some(l) if l.len() >= need => Some(l),
+        // Where the shape fell short, the start dot's own chain competes (see
+        // relaxed_start_seed); the labelling placing more dots wins.
+        short => match (short, relaxed_start_seed(dots, path, order, params).map(place).filter(|l| without_gaps(l))) {
+            (Some(a), Some(b)) => Some(if b.len() > a.len() { b } else { a }),
+            (a, b) => a.or(b),
+        },
+    }
 }
 
 #[cfg(test)]

@@ -3,7 +3,8 @@
 //! The first dot of the S-path target is larger (10 mm against 6 mm): the start is the dot whose
 //! area is largest relative to its two nearest neighbours (seen at about the same obliquity), and it
 //! must exceed them by `start_area_ratio`. From there the chain follows the curve with a
-//! constant-curvature prediction (the last step turned by the angle between the last two steps), accepting the nearest
+//! constant-curvature prediction (the last step turned by the angle between the last two steps,
+//! or with [`ChainGrowth::Strays`] the same on means of the last few steps), accepting the nearest
 //! unused dot within `tolerance` of the step length; dots missing from the image (occluded, out of
 //! view) are bridged by predicting up to [`MAX_SKIP`] steps ahead, so the visible dots
 //! keep their path index.
@@ -15,6 +16,12 @@ use nalgebra::Point2;
 
 use super::dots::Dot;
 use super::DetectError;
+use ahead::Ahead;
+pub(crate) use steps::ambiguous_steps;
+use steps::reindex_steps;
+
+mod ahead;
+mod steps;
 
 /// Most steps a prediction may bridge (one missing dot). Bridging three (for painted discs that
 /// thin to slivers) let random clutter chain into a path in the robustness test.
@@ -33,6 +40,34 @@ pub struct SPathOrderParams {
     pub min_chain: usize,
     /// Smallest share of the detected dots the chain must hold (the rest are taken as clutter).
     pub min_chain_share: f64,
+    /// How the chain follows the dots ([`ChainGrowth`]).
+    pub growth: ChainGrowth,
+}
+
+/// How a chain follows the S-path's dots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ChainGrowth {
+    /// Dots on the nominal curve: each step predicted from the last one (its length and the turn
+    /// between the last two), the next dot within 40 degrees of it.
+    #[default]
+    Strict,
+    /// Dots that stray from the nominal curve by up to a fifth of their spacing (a painted or
+    /// printed-and-glued target: 5 mm on the course's 25.7 mm): direction and length from the mean
+    /// of the last few steps, a 50-degree cone, and each step's index increment re-decided against
+    /// the centred local step length once the chain is grown (see `steps`). Looser, so it is
+    /// tried where the strict chain fails ([`crate::detect::s_path_fit::index_s_path`]).
+    Strays,
+}
+
+impl ChainGrowth {
+    /// Half-angle of the cone ahead in which the next dot is looked for, degrees: a stray dot's
+    /// step leaves the mean direction by up to about 25 degrees, on top of the path's own turn.
+    fn cone_deg(self) -> f64 {
+        match self {
+            Self::Strict => 40.0,
+            Self::Strays => 50.0,
+        }
+    }
 }
 
 impl SPathOrderParams {
@@ -45,7 +80,7 @@ impl SPathOrderParams {
 
 impl Default for SPathOrderParams {
     fn default() -> Self {
-        Self { points: 101, start_area_ratio: 1.8, tolerance: 0.45, min_chain: 10, min_chain_share: 0.8 }
+        Self { points: 101, start_area_ratio: 1.8, tolerance: 0.45, min_chain: 10, min_chain_share: 0.8, growth: ChainGrowth::Strict }
     }
 }
 
@@ -66,73 +101,57 @@ fn two_nearest(dots: &[Dot], i: usize) -> Vec<(usize, f64)> {
     d
 }
 
-/// Extend `chain` ((path index, dot) pairs, at least two, in path order) forward from its last
-/// two entries: constant-curvature prediction (the last step turned by the angle between the last
-/// two steps), the nearest unused dot within `tolerance` of the step length, bridging up to
-/// [`MAX_SKIP`] steps; stops at `index_limit` or when no dot fits. Marks the dots it takes in `used`.
-pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>, tolerance: f64, index_limit: i64) {
+/// Extend `chain` ((path index, dot) pairs, at least two, in path order) forward from its end:
+/// a constant-curvature prediction of the next step ([`ChainGrowth`]: from the last steps or
+/// their means), the nearest unused dot ahead, or within `tolerance` of the step length of a
+/// prediction bridging up to [`MAX_SKIP`] steps, at the distance its index implies; stops at
+/// `index_limit` or when no dot fits. Marks the dots it takes in `used`.
+pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>, tolerance: f64, index_limit: i64, growth: ChainGrowth) {
     let radius = |d: &Dot| (d.area_px / std::f64::consts::PI).sqrt();
     let nearest_unused = |p: Point2<f64>, used: &[bool]| {
         dots.iter().enumerate().filter(|(j, _)| !used[*j]).map(|(j, d)| (j, (d.centre_px - p).norm())).min_by(|a, b| a.1.total_cmp(&b.1))
     };
+    let cos_cone = growth.cone_deg().to_radians().cos();
     while chain.len() >= 2 {
-        let n = chain.len();
-        let ((i_prev, j_prev), (i_cur, j_cur)) = (chain[n - 2], chain[n - 1]);
-        let (prev, cur) = (dots[j_prev].centre_px, dots[j_cur].centre_px);
-        let step = (cur - prev) / (i_cur - i_prev) as f64;
-        // Constant curvature: turn the step by the angle between the last two steps.
-        let turn = if n >= 3 {
-            let (i_before, j_before) = chain[n - 3];
-            let before = (prev - dots[j_before].centre_px) / (i_prev - i_before) as f64;
-            let ang = before.x * step.y - before.y * step.x;
-            ang.atan2(before.dot(&step)).clamp(-0.6, 0.6)
-        } else {
-            0.0
-        };
-        let rot = nalgebra::Rotation2::new(turn);
-        // The next dot: the nearest unused one ahead (within 40 degrees of the predicted
-        // direction, 0.5 to 1.6 steps away). Nearest-to-prediction alone takes every other dot
-        // when the last step is too long (the start dot's centroid is off its path point).
-        let ahead = rot * step;
-        let step_len = step.norm();
-        let cos_cone = 40f64.to_radians().cos();
-        let next = dots
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| !used[*j])
-            .map(|(j, d)| (j, d.centre_px - cur))
-            .filter(|(_, v)| {
-                let l = v.norm();
-                (0.5 * step_len..=1.6 * step_len).contains(&l) && v.dot(&ahead) >= l * step_len * cos_cone
-            })
-            .min_by(|a, b| a.1.norm().total_cmp(&b.1.norm()));
+        let (i_cur, j_cur) = chain[chain.len() - 1];
+        let cur = dots[j_cur].centre_px;
+        let Some(ahead) = Ahead::of(growth, dots, chain) else { break };
+        let (step, step_len, rot) = (ahead.step, ahead.step.norm(), nalgebra::Rotation2::new(ahead.turn));
+        let steps_to = |j: usize| (dots[j].centre_px - cur).norm() / step_len;
         // Path dots do not overlap (25.7 mm apart, 12 mm beads): two blobs closer than most of
         // their radii are clutter, not consecutive dots.
         let apart = |j: usize| (dots[j].centre_px - cur).norm() >= 0.8 * (radius(&dots[j]) + radius(&dots[j_cur]));
+        // The next dot: the nearest unused one ahead (within the cone around the predicted
+        // direction, one step away). Nearest-to-prediction alone takes every other dot when the
+        // last step is too long (the start dot's centroid is off its path point).
+        // Strict growth takes the nearest and rejects it when it is too close (clutter); with
+        // strays, too-close blobs are passed over for the next one out.
+        let towards = rot * step;
+        let pass_over = growth == ChainGrowth::Strays;
+        let next = (0..dots.len())
+            .filter(|&j| !used[j] && ahead.next_band().is_some_and(|b| b.contains(&steps_to(j))) && (!pass_over || apart(j)))
+            .map(|j| (j, dots[j].centre_px - cur))
+            .filter(|(_, v)| v.dot(&towards) >= v.norm() * step_len * cos_cone)
+            .min_by(|a, b| a.1.norm().total_cmp(&b.1.norm()));
         let mut found = next.filter(|(j, _)| apart(*j)).map(|(j, _)| (j, i_cur + 1));
+        let mut pred = cur;
+        let mut s = step;
         for skip in 1..=MAX_SKIP {
             if found.is_some() {
                 break;
             }
             // Predict skip steps ahead along the arc.
-            let mut pred = cur;
-            let mut s = step;
-            for _ in 0..skip {
-                s = rot * s;
-                pred += s;
-            }
+            s = rot * s;
+            pred += s;
             if let Some((j, dist)) = nearest_unused(pred, used) {
-                // A dot taken `skip` steps on must lie about that far from the last one: where
-                // dots stray from the curve, the next dot itself can fall within the widened
-                // radius of a two-step prediction, and the chain would miscount from there on.
-                let far_enough = (dots[j].centre_px - cur).norm() >= (skip as f64 - 0.5) * step_len;
+                let far_enough = ahead.bridge_band(skip).is_some_and(|b| b.contains(&steps_to(j)));
                 if apart(j) && far_enough && dist <= tolerance * step_len * skip as f64 + 1.0 {
                     found = Some((j, i_cur + skip as i64));
-                    break;
                 }
             }
         }
         let Some((j, index)) = found else { break };
+        log::trace!("chain {i_cur} -> {index}: {:.2} steps of {step_len:.1} px, turn {:.1} deg", steps_to(j), rot.angle().to_degrees());
         if index >= index_limit {
             break;
         }
@@ -143,8 +162,10 @@ pub fn grow_chain(dots: &[Dot], used: &mut [bool], chain: &mut Vec<(i64, usize)>
 
 /// Chains of dots without a known start: from each unused dot (largest first) and its nearest
 /// unused neighbour, grown both ways with [`grow_chain`]. Indices are relative to the seed dot
-/// (0) and may be negative. Chains of fewer than `min_len` dots are dropped; longest first.
-pub fn anonymous_chains(dots: &[Dot], tolerance: f64, points: usize, min_len: usize) -> Vec<Vec<(i64, usize)>> {
+/// (0) and may be negative; `params` gives the tolerance, the number of path points and the
+/// growth. Chains of fewer than `min_len` dots are dropped; longest first.
+pub fn anonymous_chains(dots: &[Dot], params: &SPathOrderParams, min_len: usize) -> Vec<Vec<(i64, usize)>> {
+    let (tolerance, points, growth) = (params.tolerance, params.points, params.growth);
     let mut used = vec![false; dots.len()];
     let mut seeds: Vec<usize> = (0..dots.len()).collect();
     seeds.sort_by(|a, b| dots[*b].area_px.total_cmp(&dots[*a].area_px));
@@ -164,11 +185,14 @@ pub fn anonymous_chains(dots: &[Dot], tolerance: f64, points: usize, min_len: us
         used[next] = true;
         let limit = points as i64;
         let mut forward = vec![(0, seed), (1, next)];
-        grow_chain(dots, &mut used, &mut forward, tolerance, limit);
+        grow_chain(dots, &mut used, &mut forward, tolerance, limit, growth);
         // Backward: the same growth on the reversed chain (indices negated).
         let mut backward: Vec<(i64, usize)> = forward.iter().rev().map(|&(i, j)| (-i, j)).collect();
-        grow_chain(dots, &mut used, &mut backward, tolerance, limit);
-        let chain: Vec<(i64, usize)> = backward.iter().rev().map(|&(i, j)| (-i, j)).collect();
+        grow_chain(dots, &mut used, &mut backward, tolerance, limit, growth);
+        let mut chain: Vec<(i64, usize)> = backward.iter().rev().map(|&(i, j)| (-i, j)).collect();
+        if growth == ChainGrowth::Strays {
+            reindex_steps(dots, &mut chain, i64::MAX);
+        }
         if chain.len() >= min_len {
             chains.push(chain);
         } else {
@@ -219,7 +243,10 @@ pub fn start_dot_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i
     let Some(&(second, _)) = two_nearest(dots, start).first() else { return Ok(vec![(0, start)]) };
     used[second] = true;
     let mut chain = vec![(0, start), (1, second)];
-    grow_chain(dots, &mut used, &mut chain, params.tolerance, params.points as i64);
+    grow_chain(dots, &mut used, &mut chain, params.tolerance, params.points as i64, params.growth);
+    if params.growth == ChainGrowth::Strays {
+        reindex_steps(dots, &mut chain, params.points as i64);
+    }
     Ok(chain)
 }
 
@@ -238,36 +265,4 @@ pub fn indexed<I: Copy + TryInto<usize>>(dots: &[Dot], pairs: &[(I, usize)]) -> 
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn dot(x: f64, y: f64, area: f64) -> Dot {
-        Dot { centre_px: Point2::new(x, y), area_px: area, core_px: 4, contrast: 200.0 }
-    }
-
-    #[test]
-    fn orders_a_curve_and_bridges_a_gap() {
-        // A quarter circle of 20 dots, the first larger, dot 7 missing, input shuffled.
-        let mut dots: Vec<Dot> = (0..20)
-            .filter(|i| *i != 7)
-            .map(|i| {
-                let a = f64::from(i) * 0.08;
-                dot(100.0 + 200.0 * a.cos(), 100.0 + 200.0 * a.sin(), if i == 0 { 90.0 } else { 30.0 })
-            })
-            .collect();
-        dots.reverse();
-        dots.swap(3, 11);
-        let params = SPathOrderParams { points: 20, min_chain: 5, ..Default::default() };
-        let out = order_s_path(&dots, &params).unwrap();
-        assert_eq!(out.len(), 19);
-        let idx: Vec<usize> = out.iter().map(|d| d.index).collect();
-        assert_eq!(idx, (0..20).filter(|i| *i != 7).collect::<Vec<_>>());
-    }
-
-    #[test]
-    fn no_start_dot_is_an_error() {
-        let dots: Vec<Dot> = (0..10).map(|i| dot(f64::from(i) * 10.0, 0.0, 30.0)).collect();
-        assert!(matches!(order_s_path(&dots, &SPathOrderParams::default()), Err(DetectError::NotFound { .. })));
-        assert!(order_s_path(&dots[..2], &SPathOrderParams::default()).is_err());
-    }
-}
+mod tests;
