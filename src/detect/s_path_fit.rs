@@ -21,6 +21,12 @@
 //! 3. *Check*: drop blobs far larger than their path neighbours (dots merged into one blob) and
 //!    dots whose reprojection residual jumps against their neighbours' (`drop_outliers`).
 //!
+//! 4. *Strays*: where the strict chains leave dots unplaced, all of this runs again on chains
+//!    grown for dots that stray from the nominal path ([`ChainGrowth::Strays`], up to a fifth of
+//!    the spacing: 5 mm on the course's target), with each chain's open index increments decided
+//!    by the path's shape (`resolve`), a short start chain ruling out the labellings of the other
+//!    chains that contradict it, or the two longest chains labelling each other (`strays`).
+//!
 //! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera.
 //!
 //! Reference: Hartley and Zisserman, *Multiple View Geometry*, 2nd ed., section 7.1 (normalised
@@ -38,9 +44,11 @@ mod checks;
 mod dlt;
 mod residuals;
 mod resolve;
+mod strays;
 use crate::target::SPath;
 use checks::{drop_merged, drop_outliers};
-use resolve::{chain_labels, resolve_labels, resolve_steps};
+use resolve::{chain_labels, resolve_steps};
+use strays::{compatible, median_step_px, with_anchor, STRAY_RMS_STEPS};
 
 /// Parameters of [`index_s_path`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -101,15 +109,26 @@ fn labellings(chain: &[(i64, usize)], dots: &[Dot], path: &SPath) -> Vec<(f64, L
 /// set both RMS values (2.7 against 4.2 px for a 97-dot chain of 5 mm strays).
 const DOMINANT_AMBIGUITY_RATIO: f64 = 1.25;
 
-/// The labelling of a whole chain, when it is clearly the best; `dominant`: the chain holds as
-/// many dots as a path needs ([`DOMINANT_AMBIGUITY_RATIO`]).
-fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams, dominant: bool) -> Option<Labels> {
+/// The labelling of a whole chain, when it is clearly the best among those compatible with
+/// `anchor` (labels known otherwise, e.g. a short chain from the start dot; may be empty);
+/// `dominant`: the chain holds as many dots as a path needs ([`DOMINANT_AMBIGUITY_RATIO`]).
+fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams, dominant: bool, anchor: &[(usize, usize)]) -> Option<Labels> {
     let mut fits = labellings(chain, dots, path);
+    fits.retain(|f| compatible(&f.1, anchor));
+    if !anchor.is_empty() {
+        // Ranked by the fit of the labelling and the anchor together: a labelling shifted along
+        // the smooth path fits the chain alone almost as well, but not the anchor beside it.
+        fits = fits.into_iter().filter_map(|(_, l)| Some((fit_rms(dots, path, &with_anchor(l.clone(), anchor))?, l))).collect();
+        fits.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
     let best = fits.first()?.0;
     let runner_up = fits.get(1).map_or(f64::INFINITY, |f| f.0);
     log::debug!("s-path chain of {} dots: best RMS {best:.3} px, runner-up {runner_up:.3} px", chain.len());
-    let ratio = if dominant { DOMINANT_AMBIGUITY_RATIO } else { params.ambiguity_ratio };
-    (best <= params.max_seed_rms_px && runner_up > ratio * best.max(0.05)).then(|| fits.swap_remove(0).1)
+    let (ratio, max_rms) = match dominant {
+        true => (DOMINANT_AMBIGUITY_RATIO, params.max_seed_rms_px.max(STRAY_RMS_STEPS * median_step_px(chain, dots))),
+        false => (params.ambiguity_ratio, params.max_seed_rms_px),
+    };
+    (best <= max_rms && runner_up > ratio * best.max(0.05)).then(|| fits.swap_remove(0).1)
 }
 
 /// Dots per window of [`search_windows`].
@@ -291,9 +310,17 @@ const RELAXED_START: f64 = 0.8;
 fn relaxed_start_seed(dots: &[Dot], path: &SPath, order: &SPathOrderParams, params: &SPathFitParams) -> Option<Labels> {
     let relaxed = SPathOrderParams { start_area_ratio: RELAXED_START * order.start_area_ratio, ..*order };
     let chain = start_dot_chain(dots, &relaxed).ok().filter(|c| c.len() >= params.min_seed)?;
-    let chain = if order.growth == ChainGrowth::Strays { resolve_steps(dots, path, chain) } else { chain };
+    let chain = if order.growth == ChainGrowth::Strays { resolve_steps(dots, path, chain, &[]) } else { chain };
     log::debug!("s-path relaxed start chain: {} dots", chain.len());
     Some(chain_labels(&chain))
+}
+
+/// The labelling placing more dots (`first` on a tie), or the one there is.
+fn more_placed(first: Option<Labels>, second: Option<Labels>) -> Option<Labels> {
+    match (first, second) {
+        (Some(a), Some(b)) => Some(if b.len() > a.len() { b } else { a }),
+        (a, b) => a.or(b),
+    }
 }
 
 /// Is the labelling free of index gaps longer than [`MAX_SKIP`]? A fallback labelling from the
@@ -306,10 +333,10 @@ fn without_gaps(labels: &[(usize, usize)]) -> bool {
 }
 
 /// Index the S-path's dots: the start chain or a labelled chain, grown by projecting the known
-/// path (see the module docs). Chains grow strictly first ([`ChainGrowth::Strict`]), and only
-/// where that places too few dots with [`ChainGrowth::Strays`] (unless `params.order.growth`
-/// asks for it outright): results on targets true to the nominal geometry do not depend on the
-/// looser growth.
+/// path (see the module docs). Chains grow strictly first ([`ChainGrowth::Strict`]); where that
+/// leaves detected dots unplaced they grow again with [`ChainGrowth::Strays`] (or only so, when
+/// `params.order.growth` asks for it), and the labelling placing more dots wins, the strict one
+/// on a tie.
 ///
 /// # Errors
 /// [`DetectError::NotFound`] when no stretch of dots can be labelled unambiguously, or the result
@@ -317,8 +344,14 @@ fn without_gaps(labels: &[(usize, usize)]) -> bool {
 pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Vec<IndexedDot>, DetectError> {
     let order = SPathOrderParams { points: path.len(), ..params.order };
     let need = order.needed(dots.len());
-    let strict = (order.growth == ChainGrowth::Strict).then(|| place_labels(dots, path, params, &order)).flatten().filter(|l| l.len() >= need);
-    let labels = strict.or_else(|| place_labels(dots, path, params, &SPathOrderParams { growth: ChainGrowth::Strays, ..order }));
+    let strict = (order.growth == ChainGrowth::Strict).then(|| place_labels(dots, path, params, &order)).flatten();
+    // A strict labelling that places every dot stands; otherwise the one placing more wins
+    // (strict on a tie): strict growth misses stray dots, and can take a short stray step's
+    // successor for two steps and count one index too many from there on, placing fewer dots.
+    let labels = match strict {
+        Some(l) if l.len() == dots.len() => Some(l),
+        strict => more_placed(strict, place_labels(dots, path, params, &SPathOrderParams { growth: ChainGrowth::Strays, ..order })),
+    };
     let Some(labels) = labels else {
         return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
     };
@@ -337,31 +370,22 @@ fn place_labels(dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPa
         let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
         drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px)
     };
-    // Chain indices from the start dot are 0 and up. With strays, where the path's shape labels
-    // the start chain unambiguously (at the strict ratio), the shape wins over the count from the
-    // start dot: a bead pressed against the start bead, or the first step seen through strong
-    // distortion, can leave the count one off from there on.
-    let label_start = |c: Vec<(i64, usize)>| match strays {
-        true => label_chain(&c, dots, path, params, c.len() >= need).unwrap_or_else(|| chain_labels(&resolve_steps(dots, path, c))),
-        false => chain_labels(&c),
-    };
+    // Chain indices from the start dot are 0 and up.
+    let label_start = |c: Vec<(i64, usize)>| if strays { strays::label_start_chain(&c, dots, path, params, need) } else { chain_labels(&c) };
     if let Some(seed) = start_chain(dots, order).ok().filter(|c| c.len() >= params.min_seed).map(label_start) {
         return Some(place(seed));
     }
     let chains = anonymous_chains(dots, order, params.min_seed);
     let by_chain = match strays {
-        true => chains.iter().find_map(|c| label_chain(c, dots, path, params, c.len() >= need)).map(|l| resolve_labels(dots, path, l)),
-        false => chains.iter().find_map(|c| label_chain(c, dots, path, params, false)),
+        true => strays::label_chains(&chains, dots, path, params, order),
+        false => chains.iter().find_map(|c| label_chain(c, dots, path, params, false, &[])),
     };
     let by_shape = by_chain.or_else(|| search_windows(&chains, dots, path, params)).map(place);
     match by_shape {
         Some(l) if l.len() >= need => Some(l),
         // Where the shape fell short, the start dot's own chain competes (see
         // relaxed_start_seed); the labelling placing more dots wins.
-        short => match (short, relaxed_start_seed(dots, path, order, params).map(place).filter(|l| without_gaps(l))) {
-            (Some(a), Some(b)) => Some(if b.len() > a.len() { b } else { a }),
-            (a, b) => a.or(b),
-        },
+        short => more_placed(short, relaxed_start_seed(dots, path, order, params).map(place).filter(|l| without_gaps(l))),
     }
 }
 

@@ -54,8 +54,9 @@ pub enum ChainGrowth {
     /// Dots that stray from the nominal curve by up to a fifth of their spacing (a painted or
     /// printed-and-glued target: 5 mm on the course's 25.7 mm): direction and length from the mean
     /// of the last few steps, a 50-degree cone, and each step's index increment re-decided against
-    /// the centred local step length once the chain is grown (see `steps`). Looser, so it is
-    /// tried where the strict chain fails ([`crate::detect::s_path_fit::index_s_path`]).
+    /// the centred local step length once the chain is grown (see `steps`). Looser, so
+    /// [`crate::detect::s_path_fit::index_s_path`] tries it where the strict chains leave dots
+    /// unplaced.
     Strays,
 }
 

@@ -1,6 +1,6 @@
 //! Index increments a chain's step lengths leave open, decided by the path's shape.
 
-use super::{fit_rms, Labels};
+use super::{fit_rms, with_anchor, Labels};
 use crate::detect::dots::Dot;
 use crate::detect::s_path_order::ambiguous_steps;
 use crate::target::SPath;
@@ -10,6 +10,10 @@ use crate::target::SPath;
 /// fits no labelling well (strong lens distortion over the whole chain), both fit alike.
 const RESOLVE_GAIN: f64 = 0.85;
 
+/// Largest reprojection RMS (px) of the chain's own fit at which [`resolve_steps`] decides
+/// anything: 5 mm strays fit at 2 to 5 px, a chain one index off beyond a step at 10 to 20.
+const DECIDABLE_RMS_PX: f64 = 100.0;
+
 /// Decide the steps of a chain (path indices from 0) whose index increment its lengths leave
 /// open ([`ambiguous_steps`]: a stray dot, a missing one, or the projected steps lengthening
 /// abruptly where the path turns across the line of sight) by the shape of the path: the
@@ -18,27 +22,46 @@ const RESOLVE_GAIN: f64 = 0.85;
 /// not one of only its part beyond a step. Steps are decided in order, each with the ones before
 /// it settled. (Fitted to a window of 25 entries around the step instead, the camera's 11
 /// parameters absorb the shift of the strays' half-window: 14 of 40 views ordered, against 34.)
-pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usize)>) -> Vec<(i64, usize)> {
+///
+/// `beside`: labels fitted together with the chain's (those compatible with it), e.g. a
+/// labelled stretch elsewhere on the path that fixes where the chain lies along it (may be empty).
+pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usize)>, beside: &[(usize, usize)]) -> Vec<(i64, usize)> {
     let n = path.len() as i64;
     let rms = |c: &[(i64, usize)]| {
         let labels: Labels = c.iter().filter(|&&(i, _)| (0..n).contains(&i)).map(|&(i, j)| (i as usize, j)).collect();
-        fit_rms(dots, path, &labels).unwrap_or(f64::INFINITY)
+        fit_rms(dots, path, &with_anchor(labels, beside)).unwrap_or(f64::INFINITY)
     };
     let mut now = rms(&chain);
+    log::trace!(
+        "s-path resolve: {} entries, RMS {now:.3} px, open steps {:?}, chain {:?}",
+        chain.len(),
+        ambiguous_steps(dots, &chain),
+        chain.iter().map(|e| e.0).take(12).collect::<Vec<_>>()
+    );
+    if now > DECIDABLE_RMS_PX {
+        // A short stretch of the sphere is nearly planar: its DLT is degenerate, and comparing
+        // two of its residuals (6.9e5 against 4.7e5 px on a 23-dot start chain) decides nothing.
+        return chain;
+    }
     for k in ambiguous_steps(dots, &chain) {
         if k + 1 >= chain.len() {
             break;
         }
         let flip = if chain[k + 1].0 - chain[k].0 == 1 { 1 } else { -1 };
-        let mut alt = chain.clone();
-        alt[k + 1..].iter_mut().for_each(|e| e.0 += flip);
-        let other = rms(&alt);
+        // The other increment, with the part after the step moved, or the part before it (a
+        // chain that is not the start dot's is placed along the path by its own fit).
+        let (mut tail, mut head) = (chain.clone(), chain.clone());
+        tail[k + 1..].iter_mut().for_each(|e| e.0 += flip);
+        head[..=k].iter_mut().for_each(|e| e.0 -= flip);
+        let moves_head = chain[0].0 != 0 && head[0].0 >= 0;
+        let alts = [Some(tail), moves_head.then_some(head)].into_iter().flatten().map(|c| (rms(&c), c));
+        let Some((other, alt)) = alts.min_by(|a, b| a.0.total_cmp(&b.0)) else { continue };
         log::trace!("s-path step {k} (index {}): RMS {now:.3} px, with the other increment {other:.3} px", chain[k].0);
         if other < RESOLVE_GAIN * now {
             (chain, now) = (alt, other);
         }
     }
-    chain.retain(|&(i, _)| i < n);
+    chain.retain(|&(i, _)| (0..n).contains(&i));
     chain
 }
 
@@ -48,8 +71,8 @@ pub(super) fn chain_labels(chain: &[(i64, usize)]) -> Labels {
 }
 
 /// [`resolve_steps`] on a labelling.
-pub(super) fn resolve_labels(dots: &[Dot], path: &SPath, mut labels: Labels) -> Labels {
+pub(super) fn resolve_labels(dots: &[Dot], path: &SPath, mut labels: Labels, beside: &[(usize, usize)]) -> Labels {
     labels.sort_unstable();
     let chain = labels.iter().map(|&(i, j)| (i as i64, j)).collect();
-    chain_labels(&resolve_steps(dots, path, chain))
+    chain_labels(&resolve_steps(dots, path, chain, beside))
 }

@@ -102,12 +102,26 @@ fn dots_straying_from_the_nominal_path_keep_their_indices() {
             assert!((d.centre_px - image[d.index]).norm() < 1e-9, "seed {seed}: index {}", d.index);
         }
     }
+    // 5 mm (a fifth of the spacing, issue 14): found with ChainGrowth::Strays after the strict
+    // chain fails, every dot rightly indexed. With the start dot no larger than the rest (no
+    // start chain: the chains label each other) most seeds are found, and with the first 25 dots
+    // hidden none is (a lone chain shifted by one index fits almost as well: 3.6 against 3.0 px);
+    // neither is ever mis-indexed.
+    let mut plain_found = 0;
     for seed in 0..10 {
         let (path, dots, image) = jittered(0.005, seed);
-        if let Ok(out) = index_s_path(&dots, &path, &SPathFitParams::default()) {
-            assert!(out.iter().all(|d| (d.centre_px - image[d.index]).norm() < 1e-9), "5 mm, seed {seed}: a dot mis-indexed");
+        let right = |out: &[IndexedDot]| out.iter().all(|d| (d.centre_px - image[d.index]).norm() < 1e-9);
+        let out = index_s_path(&dots, &path, &SPathFitParams::default()).unwrap_or_else(|e| panic!("5 mm, seed {seed}: {e}"));
+        assert!(out.len() == 101 && right(&out), "5 mm, seed {seed}: {} dots, mis-indexed: {}", out.len(), !right(&out));
+        let plain: Vec<Dot> = dots.iter().map(|d| Dot { area_px: 30.0, ..*d }).collect();
+        for (case, dots) in [("no start dot", plain), ("25 hidden", dots[25..].to_vec())] {
+            if let Ok(out) = index_s_path(&dots, &path, &SPathFitParams::default()) {
+                assert!(right(&out), "5 mm, {case}, seed {seed}: a dot mis-indexed");
+                plain_found += usize::from(case == "no start dot" && out.len() == 101);
+            }
         }
     }
+    assert!(plain_found >= 8, "5 mm, no start dot: {plain_found} of 10 found");
 }
 
 #[test]
