@@ -17,9 +17,10 @@
 //   - dot grid: flat pixels take one sample, pixels near a disc or plate edge the exact area of the
 //     pixel on the plate and in each disc (the disc's image ellipse mapped onto the unit circle);
 //   - S-path: flat pixels one ray; the sphere's outline in closed form; one smooth dot boundary
-//     in closed form; elsewhere near a dot the outline in closed form plus the dots' change,
-//     integrated along `samples` scan lines with bisected crossings of exact rays (nearest hit
-//     among the sphere and the dots of the pixel's 16x16 tile).
+//     in closed form; elsewhere near a dot the grey seen (beads) or the caps' change plus the
+//     outline in closed form (caps), integrated along scan lines sampled also inside each near
+//     dot's chord and next to the outline, crossings bisected on exact rays (nearest hit among
+//     the sphere and the pixel's dots), adaptive Simpson across the lines (from `samples`).
 // Mirrors: src/scene/trace.rs (CPU, f64). Uniform layout: src/render/uniforms.rs `Params`.
 
 struct Params {
@@ -666,23 +667,87 @@ fn hit_sphere(d: vec3<f32>, c: vec3<f32>, r: f32) -> f32 {
     return select(t, -1.0, disc < 0.0);
 }
 
+// What a ray has met among the dots so far: the nearest bead entry, and whether its sphere hit
+// point h lies in a painted cap.
+struct Seen { best: f32, in_cap: bool, };
+
+fn see_dot(s: Seen, d: vec3<f32>, h: vec3<f32>, b: vec4<f32>) -> Seen {
+    var out: Seen;
+    let t = hit_sphere(d, b.xyz, b.w);
+    out.best = select(s.best, t, t > 0.0 && t < s.best);
+    let dh = h - b.xyz;
+    out.in_cap = s.in_cap || dot3(dh, dh) < b.w * b.w;
+    return out;
+}
+
+// Grey level of a ray that hits the sphere at distance ts (<= 0: misses) and met the dots `s`.
+fn spath_grey(ts: f32, s: Seen) -> f32 {
+    let sphere_or_bg = select(P.grey.w, P.grey.y, ts > 0.0);
+    let bead = select(sphere_or_bg, P.grey.x, s.best < 1e30 && (ts <= 0.0 || s.best <= ts));
+    let disc = select(sphere_or_bg, P.grey.x, ts > 0.0 && s.in_cap);
+    return select(bead, disc, P.tiles.z == 1u);
+}
+
 // Grey level seen along d (camera frame) with the dots k in [t_begin, t_end) of the tile list.
 fn spath_sample(d: vec3<f32>, t_begin: u32, t_end: u32) -> f32 {
     let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
-    var best = 1e30;
-    var in_cap = false;
     let h = d / len3(d) * ts;
+    var s = Seen(1e30, false);
+    for (var k = t_begin; k < t_end; k = k + 1u) {
+        s = see_dot(s, d, h, dots[tile_items[k]]);
+    }
+    return spath_grey(ts, s);
+}
+
+// The dots a fine-pass pixel's rays can meet (gather_near). llvmpipe ends every loop of an
+// invocation once the iterations of all its loops together reach 65 535 (gallivm's
+// LP_MAX_TGSI_LOOP_ITERATIONS, counted per SIMD batch and shared by every loop of the shader),
+// silently: scan lines that looped over a whole tile's dots for every sample, and over the
+// bisection steps, ran past it and lost part of the pixel (up to 47 grey levels, measured).
+// So the fine pass tests its pixel's first NEAR_SLOTS dots without a loop (only a pixel near
+// more dots than that loops over them) and stops refining at LINE_BUDGET scan lines.
+const NEAR_SLOTS: u32 = 4u;
+// A dot no ray meets: behind the camera, radius 0.
+const NO_DOT: vec4<f32> = vec4<f32>(0.0, 0.0, -1.0, 0.0);
+var<private> near_dots: array<vec4<f32>, 4>;
+var<private> near_count: u32;
+var<private> near_begin: u32;
+var<private> near_end: u32;
+
+fn gather_near(ray: Ray, t_begin: u32, t_end: u32) {
+    let d = vec3<f32>(ray.xu, 1.0);
+    let alpha = pixel_cone(ray);
+    near_count = 0u;
+    near_begin = t_begin;
+    near_end = t_end;
+    near_dots = array<vec4<f32>, 4>(NO_DOT, NO_DOT, NO_DOT, NO_DOT);
     for (var k = t_begin; k < t_end; k = k + 1u) {
         let b = dots[tile_items[k]];
-        let t = hit_sphere(d, b.xyz, b.w);
-        best = select(best, t, t > 0.0 && t < best);
-        let dh = h - b.xyz;
-        in_cap = in_cap || dot3(dh, dh) < b.w * b.w;
+        if cone_near_ball(d, alpha, b.xyz, b.w, true) {
+            if near_count < NEAR_SLOTS { near_dots[near_count] = b; }
+            near_count = near_count + 1u;
+        }
     }
-    let sphere_or_bg = select(P.grey.w, P.grey.y, ts > 0.0);
-    let bead = select(sphere_or_bg, P.grey.x, best < 1e30 && (ts <= 0.0 || best <= ts));
-    let disc = select(sphere_or_bg, P.grey.x, ts > 0.0 && in_cap);
-    return select(bead, disc, P.tiles.z == 1u);
+}
+
+// spath_sample over the gathered dots (the whole tile when more than NEAR_SLOTS were near).
+fn spath_sample_near(d: vec3<f32>) -> f32 {
+    if near_count > NEAR_SLOTS { return spath_sample(d, near_begin, near_end); }
+    let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
+    let h = d / len3(d) * ts;
+    var s = Seen(1e30, false);
+    s = see_dot(s, d, h, near_dots[0]);
+    s = see_dot(s, d, h, near_dots[1]);
+    s = see_dot(s, d, h, near_dots[2]);
+    s = see_dot(s, d, h, near_dots[3]);
+    return spath_grey(ts, s);
+}
+
+// Half-angle of a cone about the pixel's centre ray that holds the rays of the whole pixel
+// square: its half-diagonal plus 10 %.
+fn pixel_cone(ray: Ray) -> f32 {
+    let half_diag = 0.5 * max(len2(ray.dxu_dq[0] + ray.dxu_dq[1]), len2(ray.dxu_dq[0] - ray.dxu_dq[1]));
+    return 1.1 * half_diag / len3(vec3<f32>(ray.xu, 1.0));
 }
 
 // Does the cone of rays through the pixel (axis d, half-angle alpha >= the pixel's half-diagonal) reach the
@@ -901,9 +966,7 @@ const MARGIN_PX: f32 = 0.9;
 fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     var out: Coarse;
     let d = vec3<f32>(ray.xu, 1.0);
-    // Half-diagonal of the pixel footprint, 10 % margin, as an angle.
-    let half_diag = 0.5 * max(len2(ray.dxu_dq[0] + ray.dxu_dq[1]), len2(ray.dxu_dq[0] - ray.dxu_dq[1]));
-    let alpha = 1.1 * half_diag / len3(d);
+    let alpha = pixel_cone(ray);
     let t_begin = tile_start[tile];
     let t_end = tile_start[tile + 1u];
     let limb = cone_near_ball(d, alpha, P.sphere.xyz, P.sphere.w, false);
@@ -957,52 +1020,182 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     return out;
 }
 
-// What the dots change at pixel offset o: the grey seen there minus the grey of the bare sphere
-// or background.
-fn spath_delta(ray: Ray, o: vec2<f32>, t_begin: u32, t_end: u32) -> f32 {
+// What the fine pass integrates at pixel offset o (the pixel's gathered dots): beads, the grey
+// seen (a bead hides the sphere's outline behind it); painted caps, what the caps change from the
+// bare sphere or background (the outline is added in closed form: no band between a cap's rim
+// and the outline for the scan lines to resolve).
+fn spath_at(ray: Ray, o: vec2<f32>) -> f32 {
     let d = vec3<f32>(ray.xu + ray.dxu_dq * o, 1.0);
+    let seen = spath_sample_near(d);
     let bare = select(P.grey.w, P.grey.y, hit_sphere(d, P.sphere.xyz, P.sphere.w) > 0.0);
-    return spath_sample(d, t_begin, t_end) - bare;
+    return select(seen, seen - bare, P.tiles.z == 1u);
 }
 
 // Samples per scan line of the S-path's fine pass (ends included) and bisection steps per change.
 const LINE_SAMPLES: u32 = 17u;
 const LINE_BISECTIONS: u32 = 10u;
+// Adaptive integration across the scan lines: an interval whose Simpson estimate changes by more
+// than LINE_TOLERANCE (grey levels x pixel area) when halved is halved, at most LINE_DEPTH times.
+const LINE_TOLERANCE: f32 = 0.02;
+const LINE_DEPTH: u32 = 6u;
+// At most this many scan lines per pixel: with 17 + 4 x 8 + 2 x 10 samples and 10 bisection
+// steps per change, a few hundred loop iterations each, below llvmpipe's 65 535 (see
+// gather_near; 160 lines ran past it on a bead view).
+const LINE_BUDGET: u32 = 96u;
 
-// S-path, fine: the sphere's outline in closed form (as in the tiles without dots), plus what
-// the dots change, integrated along `samples` scan lines: each line is sampled at LINE_SAMPLES
-// points and every change between two samples is located by bisection, so each line's integral
-// is exact up to features narrower than 1/16 px (a regular grid of points misplaces every edge by
-// up to half a sample row: several grey levels at 16 x 16).
-fn spath_fine(ray: Ray, tile: u32) -> f32 {
-    let t_begin = tile_start[tile];
-    let t_end = tile_start[tile + 1u];
-    let n = P.size.w;
+// One bisection step of a change of spath_at along line y: (a, b) holds it, g0 is the value at a.
+fn bisect(ray: Ray, y: f32, ab: vec2<f32>, g0: f32) -> vec2<f32> {
+    let m = 0.5 * (ab.x + ab.y);
+    let same = spath_at(ray, vec2<f32>(m, y)) == g0;
+    return select(vec2<f32>(ab.x, m), vec2<f32>(m, ab.y), same);
+}
+
+// Where along the scan line at offset y (x in [-0.5, 0.5]) the rays pass through the balls of
+// the gathered dots (radius + 5 %, which holds a bead and a cap): per slot (start, end), start > end
+// when the line misses it. The ray d(x) = p + x c is in ball (b, r) where (b.d)^2 > (|b|^2 - r^2)
+// |d|^2: a quadratic in x. Only a guide for where to sample (f32 loses digits in it); the
+// crossings themselves are bisected on exact rays.
+fn dot_chords(ray: Ray, y: f32) -> array<vec2<f32>, 4> {
+    var out = array<vec2<f32>, 4>(vec2<f32>(1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, -1.0));
+    for (var s = 0u; s < min(near_count, NEAR_SLOTS); s = s + 1u) {
+        let b = near_dots[s];
+        out[s] = clamp(ball_chord(ray, y, b.xyz, 1.05 * b.w), vec2<f32>(-0.5), vec2<f32>(0.5));
+    }
+    return out;
+}
+
+// The chord (start, end; start > end: none) of line y whose rays pass through the ball (b, r)
+// (see dot_chords), not clipped to the pixel.
+fn ball_chord(ray: Ray, y: f32, b: vec3<f32>, r: f32) -> vec2<f32> {
+    let p = vec3<f32>(ray.xu + ray.dxu_dq[1] * y, 1.0);
+    let c = vec3<f32>(ray.dxu_dq[0], 0.0);
+    let k = dot3(b, b) - r * r;
+    let b0 = dot3(b, p);
+    let b1 = dot3(b, c);
+    let qa = b1 * b1 - k * dot3(c, c);
+    let qb = 2.0 * (b0 * b1 - k * dot3(p, c));
+    let qc = b0 * b0 - k * dot3(p, p);
+    let disc = qb * qb - 4.0 * qa * qc;
+    let sq = sqrt(max(disc, 0.0));
+    let u0 = (-qb + sq) / (2.0 * qa);
+    let u1 = (-qb - sq) / (2.0 * qa);
+    let out = select(vec2<f32>(min(u0, u1), max(u0, u1)), vec2<f32>(-1e6, 1e6), qa >= 0.0);
+    return select(out, vec2<f32>(1.0, -1.0), qa < 0.0 && disc <= 0.0);
+}
+
+// Samples per dot chord on a scan line (interior points, evenly spread), and per crossing of
+// the sphere's outline (geometric).
+const CHORD_SAMPLES: u32 = 8u;
+const LIMB_SAMPLES: u32 = 10u;
+
+// spath_at along the scan line at offset y, integrated over x in [-0.5, 0.5]: sampled at
+// LINE_SAMPLES points plus CHORD_SAMPLES within each gathered dot's chord (dot_chords: a cap
+// seen edge-on, or a bead's sliver behind the sphere's outline, can be narrower than the
+// 1/16 px spacing: up to 1.8 grey levels missed, measured), merged in order; every change between
+// two consecutive samples is located by bisection, so the integral is exact up to features
+// narrower than the spacing.
+fn spath_line(ray: Ray, y: f32) -> f32 {
     let step = 1.0 / f32(LINE_SAMPLES - 1u);
+    let ch = dot_chords(ray, y);
+    let lo = vec4<f32>(ch[0].x, ch[1].x, ch[2].x, ch[3].x);
+    let len = vec4<f32>(ch[0].y, ch[1].y, ch[2].y, ch[3].y) - lo;
+    var idx = select(vec4<u32>(0u), vec4<u32>(CHORD_SAMPLES), len <= vec4<f32>(0.0));
+    // Painted caps: from where the line crosses the sphere's outline (within the pixel or not),
+    // samples 2^-9 .. 1 px inside it (those in the pixel), where a cap's image is compressed most
+    // (a bead hides the outline behind it).
+    let limb = ball_chord(ray, y, P.sphere.xyz, P.sphere.w);
+    let caps = P.tiles.z == 1u;
+    let crosses = limb.x < limb.y;
+    var il = select(vec2<u32>(LIMB_SAMPLES), vec2<u32>(0u), vec2<bool>(caps && crosses && limb.x < 0.5, caps && crosses && limb.y > -0.5));
+    var iu = 0u;
     var acc = 0.0;
-    for (var j = 0u; j < n; j = j + 1u) {
-        let y = (f32(j) + 0.5) / f32(n) - 0.5;
-        var x0 = -0.5;
-        var g0 = spath_delta(ray, vec2<f32>(x0, y), t_begin, t_end);
-        for (var k = 1u; k < LINE_SAMPLES; k = k + 1u) {
-            let x1 = -0.5 + f32(k) * step;
-            let g1 = spath_delta(ray, vec2<f32>(x1, y), t_begin, t_end);
-            var a = x0;
-            var b = x1;
-            let steps = select(0u, LINE_BISECTIONS, g1 != g0);
-            for (var s = 0u; s < steps; s = s + 1u) {
-                let m = 0.5 * (a + b);
-                let same = spath_delta(ray, vec2<f32>(m, y), t_begin, t_end) == g0;
-                a = select(a, m, same);
-                b = select(m, b, same);
-            }
-            let c = 0.5 * (a + b);
-            acc = acc + g0 * (c - x0) + g1 * (x1 - c);
-            x0 = x1;
-            g0 = g1;
+    var x0 = -0.5;
+    var g0 = 0.0;
+    var first = true;
+    loop {
+        // The next sample: the least of the uniform stream's and the four chords' heads.
+        let cand = select(lo + len * (vec4<f32>(idx) + 0.5) / f32(CHORD_SAMPLES), vec4<f32>(2.0), idx >= vec4<u32>(CHORD_SAMPLES));
+        let m = min(min(cand.x, cand.y), min(cand.z, cand.w));
+        let xu = select(-0.5 + f32(iu) * step, 2.0, iu >= LINE_SAMPLES);
+        let lc = clamp(vec2<f32>(limb.x + exp2(-9.0 + f32(il.x)), limb.y - exp2(0.0 - f32(il.y))), vec2<f32>(-0.5), vec2<f32>(0.5));
+        let lcand = select(lc, vec2<f32>(2.0), il >= vec2<u32>(LIMB_SAMPLES));
+        let x1 = min(min(m, xu), min(lcand.x, lcand.y));
+        if x1 > 1.0 { break; }
+        iu = iu + select(0u, 1u, xu == x1);
+        idx = idx + select(vec4<u32>(0u), vec4<u32>(1u), cand == vec4<f32>(x1));
+        il = il + select(vec2<u32>(0u), vec2<u32>(1u), lcand == vec2<f32>(x1));
+        let g1 = spath_at(ray, vec2<f32>(x1, y));
+        var ab = vec2<f32>(x0, x1);
+        let steps = select(0u, LINE_BISECTIONS, !first && g1 != g0);
+        for (var i = 0u; i < steps; i = i + 1u) {
+            ab = bisect(ray, y, ab, g0);
+        }
+        let c = 0.5 * (ab.x + ab.y);
+        acc = acc + select(g0 * (c - x0) + g1 * (x1 - c), 0.0, first);
+        first = false;
+        x0 = x1;
+        g0 = g1;
+    }
+    return acc;
+}
+
+// S-path, fine: the integral over y of the exact scan-line integrals (spath_line), by adaptive
+// Simpson over samples / 2 base intervals (lines 1/samples px apart to start with), plus for
+// painted caps the sphere's outline in closed form (as in the tiles without dots). The line
+// integral is only piecewise smooth in y (it jumps where an edge runs along the lines and has
+// square-root ends where a rim is tangent to them): a fixed set of lines is off there by up to
+// half a line spacing times the contrast (2-3 grey levels at 16 lines, measured).
+fn spath_fine(ray: Ray, tile: u32) -> f32 {
+    gather_near(ray, tile_start[tile], tile_start[tile + 1u]);
+    let n = max(P.size.w / 2u, 1u);
+    let h = 1.0 / f32(n);
+    var acc = 0.0;
+    // Pending intervals, depth first: (y0, h, l0, lm) and (l1, depth). One flat loop takes the
+    // base intervals in turn and refines each; every pass evaluates two scan lines (one call
+    // site: llvmpipe compiles each inlined copy of spath_line, seconds apiece).
+    var st_a: array<vec4<f32>, 8>;
+    var st_b: array<vec2<f32>, 8>;
+    var l0 = spath_line(ray, -0.5);
+    var lines = 1u;
+    var j = 0u;
+    var top = 0u;
+    loop {
+        let base = top == 0u;
+        if base && j >= n { break; }
+        let y0 = -0.5 + f32(j) * h;
+        let sa = select(st_a[max(top, 1u) - 1u], vec4<f32>(y0, h, l0, 0.0), base);
+        let half = 0.5 * sa.y;
+        // Base: the interval's far end and middle; refinement: its quarter points.
+        let ya = select(sa.x + 0.5 * half, y0 + h, base);
+        let yb = select(sa.x + 1.5 * half, y0 + half, base);
+        var l = vec2<f32>(0.0);
+        for (var q = 0u; q < 2u; q = q + 1u) {
+            l[q] = spath_line(ray, select(ya, yb, q == 1u));
+        }
+        lines = lines + 2u;
+        if base {
+            st_a[0] = vec4<f32>(y0, h, l0, l.y);
+            st_b[0] = vec2<f32>(l.x, 0.0);
+            l0 = l.x;
+            j = j + 1u;
+            top = 1u;
+            continue;
+        }
+        top = top - 1u;
+        let sb = st_b[top];
+        let whole = sa.y * (sa.z + 4.0 * sa.w + sb.x) / 6.0;
+        let halves = half * (sa.z + 4.0 * l.x + 2.0 * sa.w + 4.0 * l.y + sb.x) / 6.0;
+        if abs(halves - whole) <= LINE_TOLERANCE || sb.y >= f32(LINE_DEPTH) || lines + 2u * (n - j) >= LINE_BUDGET {
+            acc = acc + halves;
+        } else {
+            st_a[top] = vec4<f32>(sa.x + half, half, sa.w, l.y);
+            st_b[top] = vec2<f32>(sb.x, sb.y + 1.0);
+            st_a[top + 1u] = vec4<f32>(sa.x, half, sa.z, l.x);
+            st_b[top + 1u] = vec2<f32>(sa.w, sb.y + 1.0);
+            top = top + 2u;
         }
     }
-    return spath_coarse_limb(ray).value + acc / f32(n);
+    return acc + select(0.0, spath_coarse_limb(ray).value, P.tiles.z == 1u);
 }
 
 // ---------------------------------------------------------------- entry points
