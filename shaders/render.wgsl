@@ -709,7 +709,7 @@ fn spath_sample(d: vec3<f32>, t_begin: u32, t_end: u32) -> f32 {
 const NEAR_SLOTS: u32 = 4u;
 // A dot no ray meets: behind the camera, radius 0.
 const NO_DOT: vec4<f32> = vec4<f32>(0.0, 0.0, -1.0, 0.0);
-var<private> near_dots: array<vec4<f32>, 4>;
+var<private> near_dots: array<vec4<f32>, NEAR_SLOTS>;
 var<private> near_count: u32;
 var<private> near_begin: u32;
 var<private> near_end: u32;
@@ -720,7 +720,7 @@ fn gather_near(ray: Ray, t_begin: u32, t_end: u32) {
     near_count = 0u;
     near_begin = t_begin;
     near_end = t_end;
-    near_dots = array<vec4<f32>, 4>(NO_DOT, NO_DOT, NO_DOT, NO_DOT);
+    near_dots = array<vec4<f32>, NEAR_SLOTS>(NO_DOT, NO_DOT, NO_DOT, NO_DOT);
     for (var k = t_begin; k < t_end; k = k + 1u) {
         let b = dots[tile_items[k]];
         if cone_near_ball(d, alpha, b.xyz, b.w, true) {

@@ -26,9 +26,10 @@ use crate::target::{Target, TargetError};
 /// Settings of the image formation after the geometry: anti-aliasing, blur, noise, bit depth.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderSettings {
-    /// Sub-samples per axis for pixels that need brute-force supersampling: the S-path's dots where
-    /// no single smooth boundary crosses the pixel, and planar targets whose squares or dots are
-    /// about a pixel or smaller. Chessboard and dot-grid edges use exact closed-form coverage.
+    /// Sub-samples per axis for pixels that need brute-force supersampling: planar targets whose
+    /// squares or dots are about a pixel or smaller; for the S-path's dots where no single smooth
+    /// boundary crosses the pixel, the first spacing (1 / samples px) of the adaptive integration
+    /// across scan lines. Chessboard and dot-grid edges use exact closed-form coverage.
     pub samples: u32,
     /// Standard deviation of additive Gaussian noise, grey levels (0 = none).
     pub noise_sigma: f64,

@@ -6,11 +6,11 @@
 //! every change of grey between two samples is located by bisection, so each line's integral is
 //! exact up to features narrower than the sample spacing (1/128 px by default: a painted cap seen
 //! edge-on next to the sphere's outline is a sliver narrower than 1/64 px, 0.7 grey levels
-//! missed at 65 samples, measured). Across the lines
-//! the integral is adaptive Simpson (Lyness 1969, "Notes on the adaptive Simpson quadrature
-//! routine", J. ACM 16) from `min_rows` lines: an interval is halved until its two estimates
-//! agree within its share of `tolerance` grey levels, down to a spacing of 1/`max_rows` px (the
-//! pixel is then counted as unconverged). The line integral jumps where an edge runs along the
+//! missed at 65 samples, measured). Across the lines the integral is adaptive Simpson (Lyness
+//! 1969, "Notes on the adaptive Simpson quadrature routine", J. ACM 16) from `min_rows` lines: an
+//! interval is halved until its two estimates agree within its share of `tolerance` grey levels,
+//! down to a spacing of 1/`max_rows` px (where they still differ by more than the whole
+//! `tolerance`, the pixel is counted as unconverged). The line integral jumps where an edge runs along the
 //! lines and has square-root ends where a curved rim is tangent to them, so a fixed row count
 //! that "agrees with twice as many" can still be off by half a row times the contrast (0.43 grey
 //! levels at 256 rows on the sphere's horizontal outline, measured before this rule).
@@ -170,7 +170,7 @@ struct Span {
     ends: [f64; 3],
 }
 
-/// Adaptive Simpson over `span` (recursion depth at most log2(h / min_h): 7 by default).
+/// Adaptive Simpson over `span` (recursion depth at most log2(h / min_h) + 1: 9 by default).
 fn adaptive_simpson(line: &dyn Fn(f64) -> f64, span: Span, tol: f64, tol_pixel: f64, min_h: f64, ok: &mut bool) -> f64 {
     let Span { v0, h, ends: [a, m, b] } = span;
     let half = 0.5 * h;
