@@ -100,14 +100,14 @@ pub const DEFAULT_SCENES: [(&str, &str); 2] =
 /// Open the GPU on the chosen backend and build a renderer, logging the adapter.
 pub fn open_renderer(backend: &str) -> anyhow::Result<synthcam::render::Renderer> {
     use anyhow::Context;
-    use synthcam::render::{BackendChoice, GpuContext, Renderer};
+    use synthcam::render::{BackendChoice, Renderer};
     let choice = match backend {
         "auto" => BackendChoice::Auto,
         "vulkan" => BackendChoice::Vulkan,
         "gl" => BackendChoice::Gl,
         other => anyhow::bail!("unknown backend `{other}` (auto, vulkan, gl)"),
     };
-    let ctx = GpuContext::with_backend(choice).context("opening the GPU")?;
-    eprintln!("adapter: {}", ctx.describe());
-    Ok(Renderer::new(ctx))
+    let renderer = Renderer::with_backend(choice).context("opening the GPU")?;
+    eprintln!("adapter: {}", renderer.context().describe());
+    Ok(renderer)
 }

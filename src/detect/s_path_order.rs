@@ -192,7 +192,7 @@ pub fn anonymous_chains(dots: &[Dot], params: &SPathOrderParams, min_len: usize)
         grow_chain(dots, &mut used, &mut backward, tolerance, limit, growth);
         let mut chain: Vec<(i64, usize)> = backward.iter().rev().map(|&(i, j)| (-i, j)).collect();
         if growth == ChainGrowth::Strays {
-            reindex_steps(dots, &mut chain, i64::MAX);
+            reindex_steps(dots, &mut chain, points);
         }
         if chain.len() >= min_len {
             chains.push(chain);
@@ -246,7 +246,7 @@ pub fn start_dot_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i
     let mut chain = vec![(0, start), (1, second)];
     grow_chain(dots, &mut used, &mut chain, params.tolerance, params.points as i64, params.growth);
     if params.growth == ChainGrowth::Strays {
-        reindex_steps(dots, &mut chain, params.points as i64);
+        reindex_steps(dots, &mut chain, params.points);
     }
     Ok(chain)
 }

@@ -245,74 +245,89 @@ fn any_in(lines: &[f64], lo: f64, hi: f64) -> bool {
 /// -1. Flat tiles skip all per-pixel work on the GPU. Conservative: a tile is flat only when the
 /// region bounded by its outline's image holds no discontinuity of the target.
 fn classify_tiles(scene: &Scene, grid: &TileCornerRays, tiles_x: u32, tiles_y: u32, tile_start: &[u32]) -> Vec<f32> {
-    let target_from_cam = scene.cam_from_target.inverse();
-    let mut out = vec![-1.0f32; (tiles_x * tiles_y) as usize];
-    let sphere_px = match &scene.target {
-        Target::SPath(s) => {
-            let c = scene.cam_from_target * s.path.sphere_center_m;
-            let f = scene.camera.intrinsics.fx.min(scene.camera.intrinsics.fy);
-            f * s.path.sphere_radius_m / c.coords.norm()
-        }
-        _ => 0.0,
-    };
-    for ty in 0..tiles_y {
-        for tx in 0..tiles_x {
-            let idx = (ty * tiles_x + tx) as usize;
-            let Some(rays) = grid.tile(tx, ty) else { continue };
-            let flat = match &scene.target {
-                Target::Chessboard(b) => plane_bbox(&target_from_cam, &rays).and_then(|bb| {
-                    let s = b.square_m;
-                    let m = b.margin_m;
-                    let mut xl: Vec<f64> = (0..=b.squares[0]).map(|j| f64::from(j) * s).collect();
-                    let mut yl: Vec<f64> = (0..=b.squares[1]).map(|i| f64::from(i) * s).collect();
-                    xl.extend([-m, f64::from(b.squares[0]) * s + m]);
-                    yl.extend([-m, f64::from(b.squares[1]) * s + m]);
-                    (!any_in(&xl, bb[0], bb[2]) && !any_in(&yl, bb[1], bb[3])).then(|| b.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
-                }),
-                Target::DotGrid(g) => plane_bbox(&target_from_cam, &rays).and_then(|bb| {
-                    let outer = 0.5 * g.edge_m + g.margin_m;
-                    if any_in(&[-outer, outer], bb[0], bb[2]) || any_in(&[-outer, outer], bb[1], bb[3]) {
-                        return None;
-                    }
-                    let r = g.dot_radius_m;
-                    let near = g.dot_centres_m().iter().any(|c| {
-                        let dx = (bb[0] - c.x).max(c.x - bb[2]).max(0.0);
-                        let dy = (bb[1] - c.y).max(c.y - bb[3]).max(0.0);
-                        dx * dx + dy * dy <= r * r
-                    });
-                    (!near).then(|| g.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
-                }),
-                Target::SPath(s) => {
-                    if tile_start[idx + 1] > tile_start[idx] {
-                        None
-                    } else {
-                        let c = scene.cam_from_target * s.path.sphere_center_m;
-                        let r = s.path.sphere_radius_m;
-                        // Two pixels of angle at the sphere's distance.
-                        let margin = 2.0 * c.coords.norm() / scene.camera.intrinsics.fx.min(scene.camera.intrinsics.fy);
-                        let dist = |d: &Vector3<f64>| {
-                            let n = d.normalize();
-                            (c.coords - n * n.dot(&c.coords)).norm()
-                        };
-                        // The sphere's outline is convex and, when it is over 100 px in radius, cannot
-                        // reach more than 16^2 / 800 px between two tile corners: corners all inside
-                        // (or all outside) by 2 px make the tile flat.
-                        if c.z <= r || sphere_px < 100.0 {
-                            None
-                        } else if rays.iter().all(|d| dist(d) < r - margin) {
-                            Some(s.light)
-                        } else if rays.iter().all(|d| dist(d) > r + margin && d.dot(&c.coords) > 0.0) {
-                            Some(s.background)
-                        } else {
-                            None
-                        }
-                    }
+    let flat = FlatTest::new(scene);
+    (0..tiles_x * tiles_y)
+        .into_par_iter()
+        .map(|t| {
+            let (tx, ty) = (t % tiles_x, t / tiles_x);
+            let has_dots = tile_start[t as usize + 1] > tile_start[t as usize];
+            grid.tile(tx, ty).and_then(|rays| flat.value(scene, &rays, has_dots)).map_or(-1.0, |v| v as f32)
+        })
+        .collect()
+}
+
+/// What [`classify_tiles`] tests each tile against, computed once per frame.
+struct FlatTest {
+    target_from_cam: Isometry3<f64>,
+    /// Chessboard: the board's lines (squares and margin) along x and y, metres.
+    lines_m: [Vec<f64>; 2],
+    /// S-path: the sphere's centre in the camera frame and its radius in pixels.
+    sphere: Option<(Vector3<f64>, f64)>,
+}
+
+impl FlatTest {
+    fn new(scene: &Scene) -> Self {
+        let lines_m = match &scene.target {
+            Target::Chessboard(b) => {
+                let along = |n: u32| (0..=n).map(|j| f64::from(j) * b.square_m).chain([-b.margin_m, f64::from(n) * b.square_m + b.margin_m]).collect();
+                [along(b.squares[0]), along(b.squares[1])]
+            }
+            _ => Default::default(),
+        };
+        let sphere = match &scene.target {
+            Target::SPath(s) => {
+                let c = (scene.cam_from_target * s.path.sphere_center_m).coords;
+                let f = scene.camera.intrinsics.fx.min(scene.camera.intrinsics.fy);
+                Some((c, f * s.path.sphere_radius_m / c.norm()))
+            }
+            _ => None,
+        };
+        Self { target_from_cam: scene.cam_from_target.inverse(), lines_m, sphere }
+    }
+
+    /// The grey level of the tile seen along the corner `rays` when it is one flat region;
+    /// `has_dots`: S-path dots reach the tile.
+    fn value(&self, scene: &Scene, rays: &[Vector3<f64>; 4], has_dots: bool) -> Option<f64> {
+        match &scene.target {
+            Target::Chessboard(b) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
+                let [xl, yl] = &self.lines_m;
+                (!any_in(xl, bb[0], bb[2]) && !any_in(yl, bb[1], bb[3])).then(|| b.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
+            }),
+            Target::DotGrid(g) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
+                let outer = 0.5 * g.edge_m + g.margin_m;
+                if any_in(&[-outer, outer], bb[0], bb[2]) || any_in(&[-outer, outer], bb[1], bb[3]) {
+                    return None;
                 }
-            };
-            if let Some(v) = flat {
-                out[idx] = v as f32;
+                let r = g.dot_radius_m;
+                let near = g.dot_centres_m().iter().any(|c| {
+                    let dx = (bb[0] - c.x).max(c.x - bb[2]).max(0.0);
+                    let dy = (bb[1] - c.y).max(c.y - bb[3]).max(0.0);
+                    dx * dx + dy * dy <= r * r
+                });
+                (!near).then(|| g.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
+            }),
+            Target::SPath(s) => {
+                let (c, sphere_px) = self.sphere?;
+                let r = s.path.sphere_radius_m;
+                // Two pixels of angle at the sphere's distance.
+                let margin = 2.0 * c.norm() / scene.camera.intrinsics.fx.min(scene.camera.intrinsics.fy);
+                let dist = |d: &Vector3<f64>| {
+                    let n = d.normalize();
+                    (c - n * n.dot(&c)).norm()
+                };
+                // The sphere's outline is convex and, when it is over 100 px in radius, cannot
+                // reach more than 16^2 / 800 px between two tile corners: corners all inside
+                // (or all outside) by 2 px make the tile flat.
+                if has_dots || c.z <= r || sphere_px < 100.0 {
+                    None
+                } else if rays.iter().all(|d| dist(d) < r - margin) {
+                    Some(s.light)
+                } else if rays.iter().all(|d| dist(d) > r + margin && d.dot(&c) > 0.0) {
+                    Some(s.background)
+                } else {
+                    None
+                }
             }
         }
     }
-    out
 }

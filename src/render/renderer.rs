@@ -8,10 +8,12 @@
 
 use std::sync::{Arc, Mutex, OnceLock};
 
-use super::context::GpuContext;
-use super::gpu_scene::{gpu_scene, GpuScene, TileCornerRays, LENS_VARIANTS, TILE_PX};
+use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
+use super::context::{BackendChoice, GpuContext};
+use super::gpu_scene::{gpu_scene, lens_variant, GpuScene, TileCornerRays, LENS_VARIANTS, TILE_PX};
 use super::{GreyImage, RenderError};
 use crate::scene::Scene;
+use crate::target::Target;
 
 const SHADER: &str = include_str!("../../shaders/render.wgsl");
 /// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
@@ -24,39 +26,6 @@ const ENTRY_POINTS: [[&str; 2]; 4] = [
 ];
 /// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
 const MAX_GROUPS_X: u64 = 65535;
-
-/// A storage buffer reused between frames, grown when too small.
-#[derive(Debug, Default)]
-struct Slot {
-    buffer: Option<wgpu::Buffer>,
-}
-
-impl Slot {
-    fn get(&mut self, device: &wgpu::Device, label: &str, size: u64, usage: wgpu::BufferUsages) -> &wgpu::Buffer {
-        let size = size.max(16).next_multiple_of(16);
-        if self.buffer.as_ref().is_none_or(|b| b.size() < size) {
-            self.buffer = Some(device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false }));
-        }
-        self.buffer.get_or_insert_with(|| unreachable_buffer(device))
-    }
-}
-
-fn unreachable_buffer(device: &wgpu::Device) -> wgpu::Buffer {
-    device.create_buffer(&wgpu::BufferDescriptor { label: None, size: 16, usage: wgpu::BufferUsages::STORAGE, mapped_at_creation: false })
-}
-
-/// Buffers kept between frames.
-#[derive(Debug, Default)]
-struct Buffers {
-    dots: Slot,
-    tile_start: Slot,
-    tile_items: Slot,
-    work: Slot,
-    vals: Slot,
-    hard: Slot,
-    staging_vals: Slot,
-    staging_hard: Slot,
-}
 
 /// A GPU renderer bound to one device. Safe to share between threads (frames are serialised).
 ///
@@ -90,17 +59,25 @@ fn grid(groups: u64) -> (u32, u32) {
     (groups.min(MAX_GROUPS_X) as u32, groups.div_ceil(MAX_GROUPS_X) as u32)
 }
 
-const STORAGE_DST: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
-const STORAGE_SRC: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_SRC);
-const READBACK: wgpu::BufferUsages = wgpu::BufferUsages::MAP_READ.union(wgpu::BufferUsages::COPY_DST);
-
 impl Renderer {
     /// A renderer on the default headless adapter (Vulkan, then GL: [`GpuContext::new_headless`]).
     ///
     /// # Errors
     /// No adapter or device.
     pub fn headless() -> Result<Self, RenderError> {
-        Ok(Self::new(GpuContext::new_headless()?))
+        Self::with_backend(BackendChoice::Auto)
+    }
+
+    /// A renderer on a device of the chosen backend ([`GpuContext::with_backend`]). The shader
+    /// is parsed on another thread while the device opens (on lavapipe, loading LLVM takes some
+    /// 30 ms and parsing the WGSL 10 ms).
+    ///
+    /// # Errors
+    /// No adapter or device.
+    pub fn with_backend(choice: BackendChoice) -> Result<Self, RenderError> {
+        let parsing = std::thread::spawn(|| wgpu::naga::front::wgsl::parse_str(SHADER).ok());
+        let ctx = GpuContext::with_backend(choice)?;
+        Ok(Self::with_parsed(ctx, parsing.join().ok().flatten()))
     }
 
     /// Render `scene` and label it: the image and its truth ([`crate::scene::truth_labels`]).
@@ -113,8 +90,17 @@ impl Renderer {
 
     /// Compile the shader on `ctx`; each pipeline is built on first use.
     pub fn new(ctx: GpuContext) -> Self {
+        Self::with_parsed(ctx, None)
+    }
+
+    /// [`Renderer::new`] with the shader already parsed (`None`: wgpu parses it).
+    fn with_parsed(ctx: GpuContext, parsed: Option<wgpu::naga::Module>) -> Self {
         let device = &ctx.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("render.wgsl"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+        let source = match parsed {
+            Some(m) => wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(m)),
+            None => wgpu::ShaderSource::Wgsl(SHADER.into()),
+        };
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("render.wgsl"), source });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("synthcam"),
             entries: &[
@@ -255,6 +241,34 @@ impl Renderer {
     /// Invalid scene, degenerate view, or a device failure.
     pub fn render_linear(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
         scene.validate()?;
+        std::thread::scope(|scope| {
+            self.compile_ahead(scope, scene);
+            self.render_valid(scene)
+        })
+    }
+
+    /// Start building, on threads of `scope`, the pipelines `scene` needs that are not built
+    /// yet: on lavapipe each takes tens of milliseconds of shader compilation (27 and 41 ms for
+    /// the chessboard's coarse and fine passes), which then overlap each other and the CPU's
+    /// layout of the scene instead of following one another.
+    fn compile_ahead<'s>(&'s self, scope: &'s std::thread::Scope<'s, '_>, scene: &Scene) {
+        let variant = lens_variant(&scene.camera.lens);
+        let passes: &[(usize, bool)] = match scene.target {
+            Target::Chessboard(_) => &[(0, false), (0, true)],
+            Target::DotGrid(_) => &[(1, false), (1, true)],
+            Target::SPath(_) => &[(2, false), (3, false), (2, true)],
+        };
+        for &(kind, fine) in passes {
+            if self.pipelines[kind][usize::from(fine)][variant].get().is_none() {
+                scope.spawn(move || {
+                    self.pipeline(kind, fine, variant);
+                });
+            }
+        }
+    }
+
+    /// [`Renderer::render_linear`] of a validated scene.
+    fn render_valid(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
         let grid_rays = self.corner_rays(scene)?;
         let gs: GpuScene = gpu_scene(scene, &grid_rays)?;
         let (w, h) = (scene.camera.size.width, scene.camera.size.height);

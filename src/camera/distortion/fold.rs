@@ -27,6 +27,24 @@ impl Distortion {
     /// first bracket finds the first root exactly (to ~1e-15 in `s`).
     /// Non-finite coefficients give `Some(0.0)` (nothing is invertible).
     pub fn max_monotonic_radius(&self) -> Option<f64> {
+        // Remembered per thread for the last coefficients seen: every `undistort` needs it, and
+        // the corner rays of one 1280 x 1024 frame undistort 21 000 times (22 ms of bisections).
+        thread_local! {
+            static LAST: std::cell::Cell<Option<([u64; 14], Option<f64>)>> = const { std::cell::Cell::new(None) };
+        }
+        let key = self.coefficients().map(f64::to_bits);
+        LAST.with(|last| match last.get() {
+            Some((k, fold)) if k == key => fold,
+            _ => {
+                let fold = self.find_max_monotonic_radius();
+                last.set(Some((key, fold)));
+                fold
+            }
+        })
+    }
+
+    /// [`Distortion::max_monotonic_radius`], computed.
+    fn find_max_monotonic_radius(&self) -> Option<f64> {
         if !self.coefficients().iter().all(|c| c.is_finite()) {
             return Some(0.0);
         }

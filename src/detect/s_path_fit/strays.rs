@@ -93,14 +93,17 @@ pub(super) fn label_start_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPa
 /// The labelling of chains grown from any dot: a chain from the start dot too short to place the
 /// path still rules out the labellings it contradicts (the S is nearly point-symmetric: the
 /// reversed labelling of a long chain fits almost as well, 3.9 against 3.2 px on 5 mm strays)
-/// and joins the seed; without one, the two longest chains label each other ([`label_pair`]).
+/// and joins the seed; without one (or where it contradicts them all), the two longest chains
+/// label each other ([`label_pair`]).
 /// Each side's open steps are then decided with the other beside it.
 pub(super) fn label_chains(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPathOrderParams) -> Option<Labels> {
     let need = order.needed(dots.len());
     let anchor = relaxed_start_seed(dots, path, order, params).unwrap_or_default();
     let labelled = chains.iter().find_map(|c| label_chain(c, dots, path, params, c.len() + anchor.len() >= need, &anchor));
-    let labelled = labelled.or_else(|| match (anchor.is_empty(), chains) {
-        (true, [first, second, ..]) => label_pair(first, second, dots, path, need, STRAY_RMS_STEPS * median_step_px(first, dots)),
+    // A start chain miscounted where its dots stray contradicts every labelling: the pair then
+    // labels without it (its entries that agree still join below).
+    let labelled = labelled.or_else(|| match chains {
+        [first, second, ..] => label_pair(first, second, dots, path, need, STRAY_RMS_STEPS * median_step_px(first, dots)),
         _ => None,
     })?;
     let anchor = resolve_labels(dots, path, anchor, &labelled);

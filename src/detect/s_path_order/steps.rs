@@ -84,9 +84,9 @@ fn steps(dots: &[Dot], chain: &[(i64, usize)]) -> (Vec<f64>, Vec<i64>) {
 /// only the steps behind it: where foreshortening lengthens the projected steps quickly (the path
 /// coming round from the sphere's outline), a stray dot's single step looks like two. Centred,
 /// the local length has no such lag: a step of under 1.5 local lengths is one index (strays that
-/// leave this open are listed by [`ambiguous_steps`]). The first entry keeps its index; entries
-/// pushed to `index_limit` or beyond are dropped.
-pub(super) fn reindex_steps(dots: &[Dot], chain: &mut Vec<(i64, usize)>, index_limit: i64) {
+/// leave this open are listed by [`ambiguous_steps`]). A chain spans at most `points - 1`
+/// indices ([`fit_span`]). The first entry keeps its index.
+pub(super) fn reindex_steps(dots: &[Dot], chain: &mut [(i64, usize)], points: usize) {
     if chain.len() < 3 {
         return;
     }
@@ -98,12 +98,26 @@ pub(super) fn reindex_steps(dots: &[Dot], chain: &mut Vec<(i64, usize)>, index_l
         }
         inc = next;
     }
+    fit_span(&len, &mut inc, points as i64 - 1);
     let mut index = chain[0].0;
     for (entry, d) in chain.iter_mut().skip(1).zip(&inc) {
         index += d;
         entry.0 = index;
     }
-    chain.retain(|&(i, _)| i < index_limit);
+}
+
+/// Bring the increments `inc` of steps of lengths `len` down to a span of at most `max_span`
+/// indices: the path has no more, so the chain counted some single steps as bridged. The bridged
+/// step shortest against its local length ([`centred_ratios`]) counts one index less, one at a
+/// time. Where dots stray, foreshortening can make every other step look like two: a 101-dot
+/// chain spanning 119 indices of the 101-point course path, which no labelling fits.
+pub(super) fn fit_span(len: &[f64], inc: &mut [i64], max_span: i64) {
+    while inc.iter().sum::<i64>() > max_span {
+        let ratios = centred_ratios(len, inc);
+        let bridged = (0..inc.len()).filter(|&k| inc[k] > 1);
+        let Some(k) = bridged.min_by(|&a, &b| ratios[a].unwrap_or(0.0).total_cmp(&ratios[b].unwrap_or(0.0))) else { return };
+        inc[k] -= 1;
+    }
 }
 
 /// Centred length ratios ([`centred_ratios`]) that leave a step's increment open: a stray dot's

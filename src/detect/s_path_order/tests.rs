@@ -66,3 +66,28 @@ fn no_start_dot_is_an_error() {
     assert!(matches!(order_s_path(&dots, &SPathOrderParams::default()), Err(DetectError::NotFound { .. })));
     assert!(order_s_path(&dots[..2], &SPathOrderParams::default()).is_err());
 }
+
+#[test]
+fn a_chain_spans_no_more_indices_than_the_path_has() {
+    use super::steps::fit_span;
+    // 40 steps, every other one counted as bridged (foreshortened strays): 60 indices for a
+    // 41-point path. All are single steps.
+    let len: Vec<f64> = (0..40).map(|k| if k % 2 == 0 { 10.0 } else { 15.0 }).collect();
+    let mut inc: Vec<i64> = (0..40).map(|k| if k % 2 == 0 { 1 } else { 2 }).collect();
+    fit_span(&len, &mut inc, 40);
+    assert_eq!(inc, vec![1; 40]);
+    // One real gap (a step twice as long) among bridged steps too many: the gap stays bridged.
+    let mut len = vec![10.0; 40];
+    len[20] = 20.0;
+    len[5] = 12.0;
+    len[30] = 11.0;
+    let mut inc = vec![1i64; 40];
+    (inc[5], inc[20], inc[30]) = (2, 2, 2);
+    fit_span(&len, &mut inc, 41);
+    assert_eq!(inc.iter().sum::<i64>(), 41);
+    assert_eq!(inc[20], 2);
+    // A chain within the path's span is left alone.
+    let mut same = inc.clone();
+    fit_span(&len, &mut same, 100);
+    assert_eq!(same, inc);
+}
