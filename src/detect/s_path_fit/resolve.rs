@@ -2,7 +2,7 @@
 
 use super::{fit_rms, with_anchor, Labels};
 use crate::detect::dots::Dot;
-use crate::detect::s_path_order::ambiguous_steps;
+use crate::detect::s_path_order::{ambiguous_steps, MAX_SKIP};
 use crate::target::SPath;
 
 /// How much better (RMS factor) the other increment of an open step must fit: a wrong increment
@@ -47,14 +47,7 @@ pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usi
         if k + 1 >= chain.len() {
             break;
         }
-        let flip = if chain[k + 1].0 - chain[k].0 == 1 { 1 } else { -1 };
-        // The other increment, with the part after the step moved, or the part before it (a
-        // chain that is not the start dot's is placed along the path by its own fit).
-        let (mut tail, mut head) = (chain.clone(), chain.clone());
-        tail[k + 1..].iter_mut().for_each(|e| e.0 += flip);
-        head[..=k].iter_mut().for_each(|e| e.0 -= flip);
-        let moves_head = chain[0].0 != 0 && head[0].0 >= 0;
-        let alts = [Some(tail), moves_head.then_some(head)].into_iter().flatten().map(|c| (rms(&c), c));
+        let alts = alternatives(&chain, k).into_iter().map(|c| (rms(&c), c));
         let Some((other, alt)) = alts.min_by(|a, b| a.0.total_cmp(&b.0)) else { continue };
         log::trace!("s-path step {k} (index {}): RMS {now:.3} px, with the other increment {other:.3} px", chain[k].0);
         if other < RESOLVE_GAIN * now {
@@ -63,6 +56,40 @@ pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usi
     }
     chain.retain(|&(i, _)| (0..n).contains(&i));
     chain
+}
+
+/// The chain with the increment of step `k` (from entry `k` to `k + 1`) one more or one less,
+/// as its length leaves open: with the entries after the step moved up to the next gap no bridge
+/// explains (longer than [`MAX_SKIP`]), or those before it back to the last such gap (a chain
+/// that is not the start dot's, or a stretch of labels after such a gap, is placed along the
+/// path by its own fit). Across such a gap the increment may grow or shrink.
+fn alternatives(chain: &[(i64, usize)], k: usize) -> Vec<Vec<(i64, usize)>> {
+    let unbridged = |m: usize| chain[m + 1].0 - chain[m].0 > MAX_SKIP as i64;
+    let flips: &[i64] = match chain[k + 1].0 - chain[k].0 {
+        1 => &[1],
+        2 => &[-1],
+        _ => &[-1, 1],
+    };
+    let start = (0..k).rev().find(|&m| unbridged(m)).map_or(0, |m| m + 1);
+    let end = (k + 1..chain.len() - 1).find(|&m| unbridged(m)).map_or(chain.len(), |m| m + 1);
+    let mut out = Vec::new();
+    for &flip in flips {
+        let mut tail = chain.to_vec();
+        tail[k + 1..end].iter_mut().for_each(|e| e.0 += flip);
+        if end == chain.len() || tail[end - 1].0 < chain[end].0 {
+            out.push(tail);
+        }
+        let mut head = chain.to_vec();
+        head[start..=k].iter_mut().for_each(|e| e.0 -= flip);
+        let fits = match start {
+            0 => chain[0].0 != 0 && head[0].0 >= 0,
+            _ => head[start].0 > chain[start - 1].0,
+        };
+        if fits {
+            out.push(head);
+        }
+    }
+    out
 }
 
 /// A chain's entries (path indices from 0) as labels.

@@ -93,7 +93,6 @@ fn jittered(dev_m: f64, seed: u64) -> (SPath, Vec<Dot>, Vec<Point2<f64>>) {
 #[test]
 fn dots_straying_from_the_nominal_path_keep_their_indices() {
     // 2 mm (about 1.7 px here, 8 % of the dot spacing): every seed fully and rightly indexed.
-    // (At 5 mm most views are not found: see the README; none is mis-indexed.)
     for seed in 0..10 {
         let (path, dots, image) = jittered(0.002, seed);
         let out = index_s_path(&dots, &path, &SPathFitParams::default()).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
@@ -145,4 +144,30 @@ fn clutter_is_not_a_path() {
     };
     let scatter: Vec<Dot> = (0..80).map(|_| dot(Point2::new(1280.0 * next(), 1024.0 * next()), 30.0)).collect();
     assert!(index_s_path(&scatter, &path, &SPathFitParams::default()).is_err());
+}
+
+#[test]
+fn a_stretch_after_a_gap_is_not_placed_one_index_off() {
+    // 5 mm strays, no start dot, a few dots missing (too thin to detect near the outline): a
+    // chain that bridged a stray step wrongly just after the gap shifts only the stretch
+    // between the gap and that step. Any labelling found must index every dot rightly.
+    let (mut found, mut wrong) = (0, Vec::new());
+    for seed in 0..20 {
+        let (path, dots, image) = jittered(0.005, seed);
+        for gap in [(26, 31), (60, 64)] {
+            let kept: Vec<(usize, Dot)> =
+                dots.iter().copied().enumerate().filter(|(i, _)| !(gap.0..gap.1).contains(i)).map(|(i, d)| (i, Dot { area_px: 30.0, ..d })).collect();
+            let plain: Vec<Dot> = kept.iter().map(|k| k.1).collect();
+            if let Ok(out) = index_s_path(&plain, &path, &SPathFitParams::default()) {
+                found += 1;
+                let off = out.iter().filter(|d| (d.centre_px - image[d.index]).norm() > 1e-9).count();
+                if off > 0 {
+                    wrong.push((seed, gap, off));
+                }
+            }
+        }
+    }
+    // Before the stretches were moved apart from each other, 2 of the 36 found were mis-indexed.
+    assert!(wrong.is_empty(), "mis-indexed (seed, gap, dots): {wrong:?}; {found} of 40 found");
+    assert!(found >= 30, "{found} of 40 found");
 }
