@@ -690,7 +690,11 @@ fn spath_grey(ts: f32, s: Seen) -> f32 {
 
 // Grey level seen along d (camera frame) with the dots k in [t_begin, t_end) of the tile list.
 fn spath_sample(d: vec3<f32>, t_begin: u32, t_end: u32) -> f32 {
-    let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
+    return spath_grey_among(d, hit_sphere(d, P.sphere.xyz, P.sphere.w), t_begin, t_end);
+}
+
+// spath_sample with the ray's sphere hit ts already known.
+fn spath_grey_among(d: vec3<f32>, ts: f32, t_begin: u32, t_end: u32) -> f32 {
     let h = d / len3(d) * ts;
     var s = Seen(1e30, false);
     for (var k = t_begin; k < t_end; k = k + 1u) {
@@ -730,10 +734,10 @@ fn gather_near(ray: Ray, t_begin: u32, t_end: u32) {
     }
 }
 
-// spath_sample over the gathered dots (the whole tile when more than NEAR_SLOTS were near).
-fn spath_sample_near(d: vec3<f32>) -> f32 {
-    if near_count > NEAR_SLOTS { return spath_sample(d, near_begin, near_end); }
-    let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
+// spath_grey_among over the gathered dots (the whole tile when more than NEAR_SLOTS were near),
+// for a ray whose sphere hit ts is known.
+fn spath_sample_near(d: vec3<f32>, ts: f32) -> f32 {
+    if near_count > NEAR_SLOTS { return spath_grey_among(d, ts, near_begin, near_end); }
     let h = d / len3(d) * ts;
     var s = Seen(1e30, false);
     s = see_dot(s, d, h, near_dots[0]);
@@ -1026,8 +1030,9 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
 // and the outline for the scan lines to resolve).
 fn spath_at(ray: Ray, o: vec2<f32>) -> f32 {
     let d = vec3<f32>(ray.xu + ray.dxu_dq * o, 1.0);
-    let seen = spath_sample_near(d);
-    let bare = select(P.grey.w, P.grey.y, hit_sphere(d, P.sphere.xyz, P.sphere.w) > 0.0);
+    let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
+    let seen = spath_sample_near(d, ts);
+    let bare = select(P.grey.w, P.grey.y, ts > 0.0);
     return select(seen, seen - bare, P.tiles.z == 1u);
 }
 

@@ -50,6 +50,21 @@ fn v3(m: &Matrix3<f64>, row: usize) -> [f32; 4] {
     [m[(row, 0)] as f32, m[(row, 1)] as f32, m[(row, 2)] as f32, 0.0]
 }
 
+/// The S-path's pass kind ([`pass_kind`]).
+pub const SPATH_KIND: usize = 2;
+/// The pass kind of the S-path's tiles that no dot reaches (the sphere's outline only).
+pub const SPATH_LIMB_KIND: usize = 3;
+
+/// The pass kind of a target (the shader's `P.size.z`, a row of the renderer's entry points):
+/// chessboard 0, dot grid 1, S-path [`SPATH_KIND`].
+pub fn pass_kind(target: &Target) -> usize {
+    match target {
+        Target::Chessboard(_) => 0,
+        Target::DotGrid(_) => 1,
+        Target::SPath(_) => SPATH_KIND,
+    }
+}
+
 /// Build the GPU inputs of `scene`; `grid` must belong to `scene.camera`.
 ///
 /// # Errors
@@ -61,7 +76,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     let tiles_x = w.div_ceil(TILE_PX);
     let tiles_y = h.div_ceil(TILE_PX);
     let mut p = Params {
-        size: [w, h, 0, scene.render.samples],
+        size: [w, h, pass_kind(&scene.target) as u32, scene.render.samples],
         tiles: [tiles_x, tiles_y, 0, 0],
         intr: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
         ..Default::default()
@@ -128,12 +143,10 @@ fn planar_params(p: &mut Params, scene: &Scene) -> Result<(), RenderError> {
     p.h2 = v3(&hm, 2);
     match &scene.target {
         Target::Chessboard(b) => {
-            p.size[2] = 0;
             p.board = [b.squares[0] as f32, b.squares[1] as f32, b.square_m as f32, b.margin_m as f32];
             p.grey = [b.dark as f32, b.light as f32, b.margin as f32, b.background as f32];
         }
         Target::DotGrid(g) => {
-            p.size[2] = 1;
             p.board = [g.n as f32, g.edge_m as f32, g.dot_radius_m as f32, g.margin_m as f32];
             p.grey = [g.dark as f32, g.light as f32, g.light as f32, g.background as f32];
         }
@@ -146,7 +159,6 @@ fn planar_params(p: &mut Params, scene: &Scene) -> Result<(), RenderError> {
 /// reaches it (`tile_start` offsets into `tile_items`).
 fn s_path_params(p: &mut Params, scene: &Scene, s: &SPathDots, (tiles_x, tiles_y): (u32, u32)) -> (Vec<[f32; 4]>, Vec<u32>, Vec<u32>) {
     let (w, h) = (scene.camera.size.width, scene.camera.size.height);
-    p.size[2] = 2;
     p.tiles[2] = match s.style {
         DotStyle::Bead => 0,
         DotStyle::Disc => 1,

@@ -10,10 +10,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
 use super::context::{BackendChoice, GpuContext};
-use super::gpu_scene::{gpu_scene, lens_variant, GpuScene, TileCornerRays, LENS_VARIANTS, TILE_PX};
+use super::gpu_scene::{gpu_scene, lens_variant, pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX};
 use super::{GreyImage, RenderError};
 use crate::scene::Scene;
-use crate::target::Target;
 
 const SHADER: &str = include_str!("../../shaders/render.wgsl");
 /// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
@@ -253,12 +252,9 @@ impl Renderer {
     /// layout of the scene instead of following one another.
     fn compile_ahead<'s>(&'s self, scope: &'s std::thread::Scope<'s, '_>, scene: &Scene) {
         let variant = lens_variant(&scene.camera.lens);
-        let passes: &[(usize, bool)] = match scene.target {
-            Target::Chessboard(_) => &[(0, false), (0, true)],
-            Target::DotGrid(_) => &[(1, false), (1, true)],
-            Target::SPath(_) => &[(2, false), (3, false), (2, true)],
-        };
-        for &(kind, fine) in passes {
+        let kind = pass_kind(&scene.target);
+        let limb = (kind == SPATH_KIND).then_some((SPATH_LIMB_KIND, false));
+        for (kind, fine) in [(kind, false), (kind, true)].into_iter().chain(limb) {
             if self.pipelines[kind][usize::from(fine)][variant].get().is_none() {
                 scope.spawn(move || {
                     self.pipeline(kind, fine, variant);
@@ -274,7 +270,7 @@ impl Renderer {
         let (w, h) = (scene.camera.size.width, scene.camera.size.height);
         let (tiles_x, _) = (gs.params.tiles[0], gs.params.tiles[1]);
         let mut img = vec![0.0f32; w as usize * h as usize];
-        let kind = gs.params.size[2].min(2) as usize;
+        let kind = pass_kind(&scene.target);
         // Work lists per pass kind: S-path tiles without dots get the cheaper limb-only pass.
         let mut work: [Vec<u32>; 4] = Default::default();
         for (t, v) in gs.tile_flat.iter().enumerate() {
@@ -286,7 +282,7 @@ impl Renderer {
                 }
             } else {
                 let has_dots = gs.tile_start[t + 1] > gs.tile_start[t];
-                let k = if kind == 2 && !has_dots { 3 } else { kind };
+                let k = if kind == SPATH_KIND && !has_dots { SPATH_LIMB_KIND } else { kind };
                 work[k].push(tx | (ty << 16));
             }
         }
