@@ -73,19 +73,15 @@ fn alternatives(chain: &[(i64, usize)], k: usize) -> Vec<Vec<(i64, usize)>> {
     let start = (0..k).rev().find(|&m| unbridged(m)).map_or(0, |m| m + 1);
     let end = (k + 1..chain.len() - 1).find(|&m| unbridged(m)).map_or(chain.len(), |m| m + 1);
     let mut out = Vec::new();
+    // A shift by one leaves an unbridged gap (3 or more) positive: the moved stretch stays in
+    // order; only a head reaching the path's start may not move (nor the start dot's).
     for &flip in flips {
         let mut tail = chain.to_vec();
         tail[k + 1..end].iter_mut().for_each(|e| e.0 += flip);
-        if end == chain.len() || tail[end - 1].0 < chain[end].0 {
-            out.push(tail);
-        }
+        out.push(tail);
         let mut head = chain.to_vec();
         head[start..=k].iter_mut().for_each(|e| e.0 -= flip);
-        let fits = match start {
-            0 => chain[0].0 != 0 && head[0].0 >= 0,
-            _ => head[start].0 > chain[start - 1].0,
-        };
-        if fits {
+        if start > 0 || (chain[0].0 != 0 && head[0].0 >= 0) {
             out.push(head);
         }
     }
