@@ -53,6 +53,9 @@ struct ImageResult {
     /// S-path: RMS of `path_residuals_px`.
     #[serde(skip_serializing_if = "Option::is_none")]
     path_residual_rms_px: Option<f64>,
+    /// S-path: indices of dots placed but not reported (touching a neighbour: no measurement).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    unmeasured_indices: Option<Vec<usize>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     time_ms: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -106,6 +109,7 @@ impl ImageResult {
             path_residuals_px: None,
             path_deviation_mm: None,
             path_residual_rms_px: None,
+            unmeasured_indices: None,
             time_ms: None,
             note: None,
             error: Some(e.to_string()),
@@ -125,6 +129,7 @@ impl ImageResult {
             path_deviation_mm: residuals.map(|r| r.iter().map(|p| 1e3 * p.deviation_m).collect()),
             path_residual_rms_px: residuals.map(|r| (r.iter().map(|p| p.residual_px.norm_squared()).sum::<f64>() / r.len().max(1) as f64).sqrt()),
             indices: det.indices,
+            unmeasured_indices: det.unmeasured,
             time_ms: Some(time_ms),
             note: det.note,
             error: None,

@@ -18,7 +18,11 @@
 //!    coverage-weighted centroid of the blob (`centroid_px` of the truth labels). Weights are
 //!    clamped to [-min_weight, 1]: not at 0, so that surround noise cancels instead of biasing.
 //!    Pixels more than one pixel from any clearly dark one (weight > 0.1) are left out: they
-//!    hold only noise, at a long lever arm.
+//!    hold only noise, at a long lever arm; so are clearly dark pixels not joined to the core
+//!    through clearly dark pixels (a neighbouring sliver's head beyond the region's rim).
+//!    Clearly dark pixels that two grown cores claim equally go to the one dot next to them;
+//!    dots whose clearly dark pixels touch are marked [`Dot::touching`] (two slivers meeting end
+//!    to end: where one ends is not in the image).
 //! 4. Where a dot meets a two-level edge (the sphere's outline) the surround is an edge model
 //!    (`EdgeSurround`), measured on the lines across the edge that no dot touches and bridged
 //!    by the whole image's outline conic ([`Outline`]); the weights then depend on whether the
@@ -36,6 +40,7 @@ use super::filters::{extreme_filter, median_by};
 use super::outline::Outline;
 use super::{DetectError, ImageF32};
 use blob::{bbox, blob_region, closed_window, components, dark_level, darker_than_rim, edge_weights, merge_fragments, split_large};
+use centroid::{settle_touching, ties, weighted_centroid, Measured};
 
 /// Parameters of [`find_dots`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,6 +78,10 @@ pub struct Dot {
     pub core_px: usize,
     /// Surround minus dot level, grey levels.
     pub contrast: f64,
+    /// Its dark pixels touch another dot's (two slivers seen edge-on meeting end to end): where
+    /// one ends is not in the image, so the centre is only good for ordering, not as a
+    /// measurement (off by up to 2 px on independent renders).
+    pub touching: bool,
 }
 
 /// Weight of a pixel that surely belongs to a blob (some 10 noise sigmas at sigma 1 grey level).
@@ -111,7 +120,8 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     let (cores, keep) = find_cores(img, params);
     let owner = owner_map(&cores, &keep, w, h, params.grow_px);
     let mut outline: Option<Option<Outline>> = None;
-    Ok(keep.iter().filter_map(|&k| measure(img, params, &owner, &cores[k], k as u32 + 1, &mut outline)).collect())
+    let measured: Vec<Measured> = keep.iter().filter_map(|&k| measure(img, params, &owner, &cores[k], k as u32 + 1, &mut outline)).collect();
+    Ok(settle_touching(measured, w))
 }
 
 /// Steps 1 and 2 (module docs): the cores, and which of them are dots (size, darker than the rim).
@@ -185,7 +195,7 @@ fn owner_map(cores: &[Vec<(usize, usize)>], keep: &[usize], w: usize, h: usize, 
 
 /// Steps 3 and 4 (module docs) for one core (`id` its label in `owner`): the surround, the
 /// weights and the centre; `None` for a blob cut by the border, too faint, or without weight.
-fn measure(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, usize)], id: u32, outline: &mut Option<Option<Outline>>) -> Option<Dot> {
+fn measure(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, usize)], id: u32, outline: &mut Option<Option<Outline>>) -> Option<Measured> {
     let (w, h) = (img.width, img.height);
     let [x0, y0, x1, y1] = bbox(core);
     let pad = params.grow_px + 1;
@@ -250,8 +260,9 @@ fn measure(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, us
     if let Some(e) = &edge {
         edge_weights(img, e, &region, &mut weights, d, top);
     }
-    let (centre_px, area_px) = weighted_centroid(&region, &weights)?;
-    Some(Dot { centre_px, area_px, core_px: core.len(), contrast: s_core - d })
+    let (centre_px, area_px, dark) = weighted_centroid(&region, &weights, core)?;
+    let ties = ties(&dark, owner, (w, h), &|x, y| darkness(x, y).min(top));
+    Some(Measured { dot: Dot { centre_px, area_px, core_px: core.len(), contrast: s_core - d, touching: false }, dark, ties, thin })
 }
 
 /// The two-level edge model of the dot's window, if an edge (the sphere's outline) crosses it:
@@ -307,29 +318,8 @@ fn window_edge(
     }
 }
 
-/// The weighted centroid over the pixels within one pixel of a clearly dark one, and the weight
-/// sum (the blob's area).
-fn weighted_centroid(region: &[(usize, usize)], weights: &[f64]) -> Option<(Point2<f64>, f64)> {
-    // Pixels farther than one pixel from any clearly dark one (weight above
-    // SIGNIFICANT_WEIGHT) carry nothing of the blob (the box filter spreads a boundary over
-    // one pixel), only noise at their lever arm: left out.
-    let mut sorted: Vec<(usize, usize)> = region.iter().zip(weights).filter(|(_, w)| **w > SIGNIFICANT_WEIGHT).map(|(p, _)| *p).collect();
-    sorted.sort_unstable();
-    let near_dark =
-        |x: usize, y: usize| (y.saturating_sub(1)..=y + 1).any(|yy| (x.saturating_sub(1)..=x + 1).any(|xx| sorted.binary_search(&(xx, yy)).is_ok()));
-    let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
-    for (&(x, y), &wgt) in region.iter().zip(weights) {
-        if !near_dark(x, y) {
-            continue;
-        }
-        sw += wgt;
-        su += wgt * x as f64;
-        sv += wgt * y as f64;
-    }
-    (sw > 0.0).then(|| (Point2::new(su / sw, sv / sw), sw))
-}
-
 mod blob;
+mod centroid;
 
 #[cfg(test)]
 mod tests;

@@ -91,3 +91,60 @@ fn a_thin_sliver_broken_by_the_threshold_is_one_dot() {
         }
     }
 }
+
+/// Dark ellipses (level 20 on 225) 12 px long, `(cx, cy, half_width_px)` each, their long axes
+/// along `deg` from the rows, area-sampled.
+fn slivers(w: usize, h: usize, deg: f64, at: &[(f64, f64, f64)]) -> ImageF32 {
+    let (c, s) = (f64::cos(f64::to_radians(deg)), f64::sin(f64::to_radians(deg)));
+    area_sampled(w, h, 16, |u, v| {
+        let inside = at.iter().any(|&(cx, cy, hw)| {
+            let (a, b) = ((u - cx) * c + (v - cy) * s, -(u - cx) * s + (v - cy) * c);
+            (a / 6.0).powi(2) + (b / hw).powi(2) < 1.0
+        });
+        if inside {
+            20.0
+        } else {
+            225.0
+        }
+    })
+}
+
+#[test]
+fn a_faint_sliver_beyond_the_rim_does_not_pull_its_neighbour() {
+    // Two slivers in a line, 1.5 px of clean surround between their ends; the second so thin
+    // (0.6 px) that no pixel of it is dark enough for a core of its own. Its head lies one
+    // pixel beyond the first's rim: counted with the first, it pulled it by 0.1 px (a cap 84
+    // degrees from its normal on the S-path sphere, 0.16 px).
+    for deg in [-60.0, -35.0, 20.0, 55.0, 120.0] {
+        let (c, s) = (f64::cos(f64::to_radians(deg)), f64::sin(f64::to_radians(deg)));
+        let (cx, cy) = (24.3, 23.6);
+        let img = slivers(50, 50, deg, &[(cx, cy, 0.8), (cx + 13.5 * c, cy + 13.5 * s, 0.3)]);
+        let dots = find_dots(&img, &DotParams::default()).unwrap();
+        let first = dots.iter().find(|d| (d.centre_px - Point2::new(cx, cy)).norm() < 1.0).unwrap_or_else(|| panic!("{deg} deg: {dots:?}"));
+        let e = (first.centre_px - Point2::new(cx, cy)).norm();
+        assert!(e < 0.03 && !first.touching, "{deg} deg: off by {e} px, {first:?}");
+    }
+}
+
+#[test]
+fn slivers_meeting_end_to_end_are_marked_touching() {
+    // Ends overlapping by half a pixel: the image does not say where one ends. Apart by 4 px:
+    // two clean measurements.
+    for (gap_px, touching) in [(-0.5, true), (0.0, true), (4.0, false)] {
+        for deg in [-35.0, 20.0, 55.0] {
+            let (c, s) = (f64::cos(f64::to_radians(deg)), f64::sin(f64::to_radians(deg)));
+            let d = 12.0 + gap_px;
+            let (cx, cy) = (22.3, 21.6);
+            let img = slivers(50, 50, deg, &[(cx, cy, 0.7), (cx + d * c, cy + d * s, 0.7)]);
+            let dots = find_dots(&img, &DotParams::default()).unwrap();
+            assert!(!dots.is_empty(), "gap {gap_px}, {deg} deg");
+            assert!(dots.iter().all(|d| d.touching == touching), "gap {gap_px}, {deg} deg: {dots:?}");
+            if !touching {
+                assert_eq!(dots.len(), 2);
+                for q in [Point2::new(cx, cy), Point2::new(cx + d * c, cy + d * s)] {
+                    assert!(dots.iter().any(|p| (p.centre_px - q).norm() < 0.05), "gap {gap_px}, {deg} deg: {q} not in {dots:?}");
+                }
+            }
+        }
+    }
+}

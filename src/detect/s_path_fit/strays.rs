@@ -107,5 +107,17 @@ pub(super) fn label_chains(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SP
         _ => None,
     })?;
     let anchor = resolve_labels(dots, path, anchor, &labelled);
-    Some(with_anchor(resolve_labels(dots, path, labelled, &anchor), &anchor))
+    let labels = resolve_labels(dots, path, labelled, &anchor);
+    let prefix = agreeing_prefix(anchor, &labels);
+    Some(with_anchor(labels, &prefix))
+}
+
+/// The entries of `anchor` (a start chain's labels) in path order up to the first that
+/// contradicts `labels`: beyond a step the start chain miscounted, every entry is one index off,
+/// also where `labels` do not reach to contradict it.
+pub(super) fn agreeing_prefix(mut anchor: Labels, labels: &[(usize, usize)]) -> Labels {
+    anchor.sort_unstable();
+    let n = anchor.iter().take_while(|a| compatible(&[**a], labels)).count();
+    anchor.truncate(n);
+    anchor
 }

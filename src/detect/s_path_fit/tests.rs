@@ -21,7 +21,7 @@ fn projected() -> (SPath, Vec<Option<Point2<f64>>>) {
 }
 
 fn dot(p: Point2<f64>, area: f64) -> Dot {
-    Dot { centre_px: p, area_px: area, core_px: 4, contrast: 200.0 }
+    Dot { centre_px: p, area_px: area, core_px: 4, contrast: 200.0, touching: false }
 }
 
 #[test]
@@ -170,4 +170,15 @@ fn a_stretch_after_a_gap_is_not_placed_one_index_off() {
     // Before the stretches were moved apart from each other, 2 of the 36 found were mis-indexed.
     assert!(wrong.is_empty(), "mis-indexed (seed, gap, dots): {wrong:?}; {found} of 40 found");
     assert!(found >= 30, "{found} of 40 found");
+}
+
+#[test]
+fn a_start_chain_joins_only_up_to_its_first_contradiction() {
+    // The start chain (dots 10..14 at indices 0..4) miscounted after index 1: dot 12 is at
+    // index 3 by the other labels, so its entries from index 2 on are one index off; dot 14's
+    // index 4 is contradicted by nothing, yet it must not join.
+    let anchor = vec![(3, 13), (0, 10), (2, 12), (1, 11), (4, 14)];
+    let labels = vec![(3, 12), (5, 20), (6, 21)];
+    assert_eq!(strays::agreeing_prefix(anchor, &labels), vec![(0, 10), (1, 11)]);
+    assert_eq!(strays::agreeing_prefix(vec![(1, 11), (0, 10)], &labels), vec![(0, 10), (1, 11)]);
 }

@@ -115,7 +115,7 @@ pub(super) fn fit_span(len: &[f64], inc: &mut [i64], max_span: i64) {
     while inc.iter().sum::<i64>() > max_span {
         let ratios = centred_ratios(len, inc);
         let bridged = (0..inc.len()).filter(|&k| inc[k] > 1);
-        let Some(k) = bridged.min_by(|&a, &b| ratios[a].unwrap_or(0.0).total_cmp(&ratios[b].unwrap_or(0.0))) else { return };
+        let Some(k) = bridged.min_by(|&a, &b| ratios[a].unwrap_or(f64::INFINITY).total_cmp(&ratios[b].unwrap_or(f64::INFINITY))) else { return };
         inc[k] -= 1;
     }
 }
