@@ -40,7 +40,7 @@ use super::filters::{extreme_filter, median_by};
 use super::outline::Outline;
 use super::{DetectError, ImageF32};
 use blob::{bbox, blob_region, closed_window, components, dark_level, darker_than_rim, edge_weights, merge_fragments, split_large};
-use centroid::{settle_touching, ties, weighted_centroid, Measured};
+use centroid::{settle_touching, ties, weighted_centroid, Centroid, Measured};
 
 /// Parameters of [`find_dots`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,6 +74,9 @@ pub struct Dot {
     pub centre_px: Point2<f64>,
     /// Sum of the darkness weights: the blob's area in pixels^2.
     pub area_px: f64,
+    /// Standard deviation of the darkness along the blob's major axis, pixels (a disc of radius
+    /// r: r / 2; two blobs measured as one stand out by it against their neighbours).
+    pub spread_px: f64,
     /// Pixels in the core.
     pub core_px: usize,
     /// Surround minus dot level, grey levels.
@@ -260,9 +263,9 @@ fn measure(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, us
     if let Some(e) = &edge {
         edge_weights(img, e, &region, &mut weights, d, top);
     }
-    let (centre_px, area_px, dark) = weighted_centroid(&region, &weights, core)?;
+    let Centroid { centre_px, area_px, spread_px, dark } = weighted_centroid(&region, &weights, core)?;
     let ties = ties(&dark, owner, (w, h), &|x, y| darkness(x, y).min(top));
-    Some(Measured { dot: Dot { centre_px, area_px, core_px: core.len(), contrast: s_core - d, touching: false }, dark, ties, thin })
+    Some(Measured { dot: Dot { centre_px, area_px, spread_px, core_px: core.len(), contrast: s_core - d, touching: false }, dark, ties, thin })
 }
 
 /// The two-level edge model of the dot's window, if an edge (the sphere's outline) crosses it:

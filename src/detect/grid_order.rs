@@ -70,7 +70,7 @@ mod tests {
                 // A perspective view of the grid: x' = H (ix, iy, 1).
                 let h = Matrix3::new(40.0, 3.0, 100.0, -2.0, 30.0, 50.0, 0.01, 0.02, 1.0);
                 let q = h * Vector3::new(ix as f64, iy as f64, 1.0);
-                dots.push(Dot { centre_px: Point2::new(q.x / q.z, q.y / q.z), area_px: 10.0, core_px: 4, contrast: 100.0, touching: false });
+                dots.push(Dot { centre_px: Point2::new(q.x / q.z, q.y / q.z), area_px: 10.0, spread_px: 1.5, core_px: 4, contrast: 100.0, touching: false });
             }
         }
         dots.reverse();

@@ -39,12 +39,14 @@ use super::s_path_order::{anonymous_chains, indexed, start_chain, start_dot_chai
 use super::DetectError;
 use dlt::Dlt;
 pub use residuals::{path_residuals, PathResidual};
+pub use unmeasured::{unmeasured, MERGED_SPREAD, START_RADIUS_RATIO};
 
 mod checks;
 mod dlt;
 mod residuals;
 mod resolve;
 mod strays;
+mod unmeasured;
 use crate::target::SPath;
 use checks::{drop_merged, drop_outliers};
 use resolve::{chain_labels, resolve_steps};

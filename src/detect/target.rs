@@ -6,10 +6,9 @@ use std::str::FromStr;
 use nalgebra::Point2;
 
 use super::chessboard::{find_chessboard, find_chessboard_u8, ChessboardCorners, ChessboardParams};
-use super::dots::{find_dots, Dot, DotParams};
+use super::dots::{find_dots, DotParams};
 use super::grid_order::order_grid;
-use super::s_path_fit::{index_s_path, path_residuals, PathResidual, SPathFitParams};
-use super::s_path_order::IndexedDot;
+use super::s_path_fit::{index_s_path, path_residuals, unmeasured, PathResidual, SPathFitParams};
 use super::{DetectError, ImageF32, ImageU8};
 use crate::target::s_path::{build_s_path, course_planar_s};
 use crate::target::{course_s_path, SPath};
@@ -87,7 +86,7 @@ pub struct Detection {
     /// ([`super::s_path_fit::path_residuals`]).
     pub path_residuals: Option<Vec<PathResidual>>,
     /// S-path: the path indices of dots that helped to order the rest but are not reported,
-    /// their centres not being measurements (`Dot::touching`: two slivers meeting end to end).
+    /// their centres not being measurements (`Dot::touching`: two slivers meeting end to end; two caps seen as one blob).
     pub unmeasured: Option<Vec<usize>>,
     /// Why it was not found, when it was not.
     pub note: Option<String>,
@@ -114,7 +113,7 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
             };
             match index_s_path(&dots, &path, &SPathFitParams::default()) {
                 Ok(ordered) => {
-                    let (ordered, unmeasured) = without_touching(ordered, &dots);
+                    let (ordered, unmeasured) = unmeasured(ordered, &dots);
                     Ok(Detection {
                         found: true,
                         points_px: ordered.iter().map(|d| d.centre_px).collect(),
@@ -129,14 +128,6 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
             }
         }
     }
-}
-
-/// The placed dots less those whose centres are not measurements (`Dot::touching`: they
-/// helped to order the rest), and the indices of those.
-fn without_touching(ordered: Vec<IndexedDot>, dots: &[Dot]) -> (Vec<IndexedDot>, Vec<usize>) {
-    let touching: Vec<Point2<f64>> = dots.iter().filter(|d| d.touching).map(|d| d.centre_px).collect();
-    let (out, kept): (Vec<IndexedDot>, Vec<IndexedDot>) = ordered.into_iter().partition(|o| touching.contains(&o.centre_px));
-    (kept, out.iter().map(|o| o.index).collect())
 }
 
 /// The course's S on its sphere, resampled to `points` points (cached for the course's 101).

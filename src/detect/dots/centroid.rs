@@ -7,7 +7,19 @@ use super::{Dot, SIGNIFICANT_WEIGHT};
 /// Pixel positions (x, y).
 pub(super) type Pixels = Vec<(usize, usize)>;
 
-pub(super) fn weighted_centroid(region: &[(usize, usize)], weights: &[f64], core: &[(usize, usize)]) -> Option<(Point2<f64>, f64, Pixels)> {
+/// A blob's weighted centroid, area (the weight sum) and spread, and the clearly dark pixels
+/// they were computed from.
+pub(super) struct Centroid {
+    pub centre_px: Point2<f64>,
+    pub area_px: f64,
+    /// Standard deviation of the weights along the blob's major axis, pixels.
+    pub spread_px: f64,
+    pub dark: Pixels,
+}
+
+/// The weighted centroid over the pixels within one pixel of a clearly dark one joined to the
+/// `core`; `None` without weight.
+pub(super) fn weighted_centroid(region: &[(usize, usize)], weights: &[f64], core: &[(usize, usize)]) -> Option<Centroid> {
     // Pixels farther than one pixel from any clearly dark one (weight above
     // SIGNIFICANT_WEIGHT) carry nothing of the blob (the box filter spreads a boundary over
     // one pixel), only noise at their lever arm: left out. Clearly dark pixels count only when
@@ -19,16 +31,17 @@ pub(super) fn weighted_centroid(region: &[(usize, usize)], weights: &[f64], core
     let sorted = joined_to_core(&dark, core);
     let near_dark =
         |x: usize, y: usize| (y.saturating_sub(1)..=y + 1).any(|yy| (x.saturating_sub(1)..=x + 1).any(|xx| sorted.binary_search(&(xx, yy)).is_ok()));
-    let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
-    for (&(x, y), &wgt) in region.iter().zip(weights) {
-        if !near_dark(x, y) {
-            continue;
-        }
-        sw += wgt;
-        su += wgt * x as f64;
-        sv += wgt * y as f64;
+    let used: Vec<((f64, f64), f64)> =
+        region.iter().zip(weights).filter(|(p, _)| near_dark(p.0, p.1)).map(|(&(x, y), &wgt)| ((x as f64, y as f64), wgt)).collect();
+    let sw: f64 = used.iter().map(|u| u.1).sum();
+    if !(sw > 0.0) {
+        return None;
     }
-    (sw > 0.0).then(|| (Point2::new(su / sw, sv / sw), sw, sorted))
+    let (cu, cv) = (used.iter().map(|u| u.1 * u.0 .0).sum::<f64>() / sw, used.iter().map(|u| u.1 * u.0 .1).sum::<f64>() / sw);
+    let moment = |f: &dyn Fn(f64, f64) -> f64| used.iter().map(|&((x, y), wgt)| wgt * f(x - cu, y - cv)).sum::<f64>() / sw;
+    let (a, b, c) = (moment(&|x, _| x * x), moment(&|x, y| x * y), moment(&|_, y| y * y));
+    let major = 0.5 * (a + c) + (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    Some(Centroid { centre_px: Point2::new(cu, cv), area_px: sw, spread_px: major.max(0.0).sqrt(), dark: sorted })
 }
 
 /// The pixels of `dark` (sorted) 8-connected through `dark` to a core pixel, sorted; all of

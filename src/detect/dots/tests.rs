@@ -148,3 +148,14 @@ fn slivers_meeting_end_to_end_are_marked_touching() {
         }
     }
 }
+
+#[test]
+fn the_spread_of_a_disc_is_half_its_radius() {
+    // A uniform disc of radius r has variance r^2 / 4 along any axis; the area sampling adds a
+    // pixel's 1/12.
+    for (cx, cy, r) in [(20.0, 20.0, 5.0), (20.3, 19.7, 3.0), (19.55, 20.45, 8.0)] {
+        let dots = find_dots(&disc(40, 40, cx, cy, r), &DotParams::default()).unwrap();
+        let expected = (r * r / 4.0 + 1.0 / 12.0).sqrt();
+        assert!((dots[0].spread_px / expected - 1.0).abs() < 0.01, "r {r}: {} vs {expected}", dots[0].spread_px);
+    }
+}

@@ -21,7 +21,7 @@ fn projected() -> (SPath, Vec<Option<Point2<f64>>>) {
 }
 
 fn dot(p: Point2<f64>, area: f64) -> Dot {
-    Dot { centre_px: p, area_px: area, core_px: 4, contrast: 200.0, touching: false }
+    Dot { centre_px: p, area_px: area, spread_px: 0.5 * (area / std::f64::consts::PI).sqrt(), core_px: 4, contrast: 200.0, touching: false }
 }
 
 #[test]
@@ -181,4 +181,27 @@ fn a_start_chain_joins_only_up_to_its_first_contradiction() {
     let labels = vec![(3, 12), (5, 20), (6, 21)];
     assert_eq!(strays::agreeing_prefix(anchor, &labels), vec![(0, 10), (1, 11)]);
     assert_eq!(strays::agreeing_prefix(vec![(1, 11), (0, 10)], &labels), vec![(0, 10), (1, 11)]);
+}
+
+#[test]
+fn a_blob_holding_two_dots_is_placed_but_not_reported() {
+    // Dots along a line, spread 2 px (the start dot 10/6 of that); dots 0 and 1 seen as one blob
+    // (index 1 unplaced, spread 1.4 times the start dot's): listed as unmeasured. The same
+    // spread with its neighbour placed, or a single start dot, is reported.
+    let at = |i: usize, spread: f64| Dot { spread_px: spread, ..dot(Point2::new(100.0 + 20.0 * i as f64, 50.0), 30.0) };
+    let run = |skip: &[usize], start_spread: f64| {
+        let dots: Vec<Dot> = (0..12).map(|i| at(i, if i == 0 { start_spread } else { 2.0 })).collect();
+        let ordered: Vec<IndexedDot> = (0..12).filter(|i| !skip.contains(i)).map(|i| IndexedDot { index: i, centre_px: dots[i].centre_px }).collect();
+        unmeasured(ordered, &dots)
+    };
+    let merged = 1.4 * START_RADIUS_RATIO * 2.0;
+    let (kept, out) = run(&[1], merged);
+    assert_eq!((kept.len(), out), (10, vec![0]));
+    assert_eq!(run(&[], merged).1, Vec::<usize>::new());
+    assert_eq!(run(&[1], START_RADIUS_RATIO * 2.0).1, Vec::<usize>::new());
+    // A blob of two 6 mm dots in the middle of the path.
+    let mut dots: Vec<Dot> = (0..12).map(|i| at(i, 2.0)).collect();
+    dots[6].spread_px = 2.0 * 1.5;
+    let ordered: Vec<IndexedDot> = (0..12).filter(|&i| i != 7).map(|i| IndexedDot { index: i, centre_px: dots[i].centre_px }).collect();
+    assert_eq!(unmeasured(ordered, &dots).1, vec![6]);
 }

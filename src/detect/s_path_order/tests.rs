@@ -2,7 +2,7 @@
 use super::*;
 
 fn dot(x: f64, y: f64, area: f64) -> Dot {
-    Dot { centre_px: Point2::new(x, y), area_px: area, core_px: 4, contrast: 200.0, touching: false }
+    Dot { centre_px: Point2::new(x, y), area_px: area, spread_px: 0.5 * (area / std::f64::consts::PI).sqrt(), core_px: 4, contrast: 200.0, touching: false }
 }
 
 #[test]
