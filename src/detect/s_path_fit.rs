@@ -26,6 +26,9 @@
 //!    the spacing: 5 mm on the course's target), with each chain's open index increments decided
 //!    by the path's shape (`resolve`), a short start chain ruling out the labellings of the other
 //!    chains that contradict it, or the two longest chains labelling each other (`strays`).
+//! 5. *Stepped over*: an unplaced dot between the dots of two consecutive indices takes the
+//!    index, the stretch after it moving up by one (`skipped`). Blobs that are no measurement
+//!    ([`unmeasured`]) are left to the caller.
 //!
 //! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera.
 //!
@@ -45,6 +48,7 @@ mod checks;
 mod dlt;
 mod residuals;
 mod resolve;
+mod skipped;
 mod strays;
 mod unmeasured;
 use crate::target::SPath;
@@ -354,7 +358,7 @@ pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Resu
         Some(l) if l.len() == dots.len() => Some(l),
         strict => more_placed(strict, place_labels(dots, path, params, &SPathOrderParams { growth: ChainGrowth::Strays, ..order })),
     };
-    let Some(labels) = labels else {
+    let Some(labels) = labels.map(|l| skipped::insert_skipped(dots, l, path.len())) else {
         return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
     };
     if labels.len() < need {

@@ -205,3 +205,24 @@ fn a_blob_holding_two_dots_is_placed_but_not_reported() {
     let ordered: Vec<IndexedDot> = (0..12).filter(|&i| i != 7).map(|i| IndexedDot { index: i, centre_px: dots[i].centre_px }).collect();
     assert_eq!(unmeasured(ordered, &dots).1, vec![6]);
 }
+
+#[test]
+fn a_dot_stepped_over_takes_its_index_and_moves_the_stretch_up() {
+    // Dots 10 px apart on a line; the labelling stepped from dot 2 to dot 4 as one step, so dots
+    // 4..6 sit at indices 3..5 and dot 3 is unplaced between dots 2 and 4.
+    let dots: Vec<Dot> = (0..7).map(|i| dot(Point2::new(100.0 + 10.0 * i as f64, 50.0 + 0.3 * i as f64), 30.0)).collect();
+    let low = vec![(0, 0), (1, 1), (2, 2), (3, 4), (4, 5), (5, 6)];
+    let right: Labels = (0..7).map(|i| (i, i)).collect();
+    assert_eq!(skipped::insert_skipped(&dots, low.clone(), 101), right);
+    // No index left for the stretch to move into: unchanged.
+    assert_eq!(skipped::insert_skipped(&dots, low.clone(), 6), low);
+    // A dot off to the side, or too small, is not between them.
+    let mut aside = dots.clone();
+    aside[3].centre_px.y += 6.0;
+    assert_eq!(skipped::insert_skipped(&aside, low.clone(), 101), low);
+    let mut tiny = dots.clone();
+    tiny[3].area_px = 5.0;
+    assert_eq!(skipped::insert_skipped(&tiny, low.clone(), 101), low);
+    // The right labels stay.
+    assert_eq!(skipped::insert_skipped(&dots, right.clone(), 101), right);
+}
