@@ -105,23 +105,17 @@ pub(super) struct Measured {
 }
 
 /// The dots, each tie pixel that only it is next to added to it, and `touching` set where its
-/// clearly dark pixels (with its ties) touch (8-neighbours or shared) another dot's, one of them thin: where two
-/// slivers seen edge-on meet end to end, the image does not say where one ends (the join is as
-/// dark as either), so neither centre is known (0.35 and 1.8 px off on a pair 84-86 degrees from
-/// their normals). A tie pixel left out pulled a sliver by 0.09 px.
+/// clearly dark pixels (with its ties) touch (8-neighbours or shared) another dot's, one of the
+/// two thin: where two slivers seen edge-on meet end to end, the image does not say where one
+/// ends (the join is as dark as either), so neither centre is known (0.35 and 1.8 px off on a
+/// pair 84-86 degrees from their normals). A tie pixel left out pulled a sliver by 0.09 px.
 pub(super) fn settle_touching(measured: Vec<Measured>, w: usize) -> Vec<Dot> {
     let key = |(x, y): (usize, usize)| y * w + x;
     let sets: Vec<Vec<usize>> = measured.iter().map(|m| m.dark.iter().copied().chain(m.ties.iter().map(|t| t.0)).map(key).collect()).collect();
-    let mut at: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
+    // The last dot to hold each pixel; a pixel two dots share is next to itself, so the
+    // neighbourhood test below finds shared pixels too.
+    let at: std::collections::HashMap<usize, usize> = sets.iter().enumerate().flat_map(|(k, set)| set.iter().map(move |&i| (i, k))).collect();
     let mut touching = vec![false; measured.len()];
-    for (k, set) in sets.iter().enumerate() {
-        for &i in set {
-            if let Some(o) = at.insert(i, k).filter(|&o| o != k && (measured[o].thin || measured[k].thin)) {
-                touching[k] = true;
-                touching[o] = true;
-            }
-        }
-    }
     for (k, set) in sets.iter().enumerate() {
         let near = |i: usize| {
             let (x, y) = (i % w, i / w);
