@@ -29,8 +29,7 @@ pub(super) fn weighted_centroid(region: &[(usize, usize)], weights: &[f64], core
     let mut dark: Vec<(usize, usize)> = region.iter().zip(weights).filter(|(_, w)| **w > SIGNIFICANT_WEIGHT).map(|(p, _)| *p).collect();
     dark.sort_unstable();
     let sorted = joined_to_core(&dark, core);
-    let near_dark =
-        |x: usize, y: usize| (y.saturating_sub(1)..=y + 1).any(|yy| (x.saturating_sub(1)..=x + 1).any(|xx| sorted.binary_search(&(xx, yy)).is_ok()));
+    let near_dark = |x: usize, y: usize| around(x, y).any(|p| sorted.binary_search(&p).is_ok());
     let used: Vec<((f64, f64), f64)> =
         region.iter().zip(weights).filter(|(p, _)| near_dark(p.0, p.1)).map(|(&(x, y), &wgt)| ((x as f64, y as f64), wgt)).collect();
     let sw: f64 = used.iter().map(|u| u.1).sum();
@@ -42,6 +41,11 @@ pub(super) fn weighted_centroid(region: &[(usize, usize)], weights: &[f64], core
     let (a, b, c) = (moment(&|x, _| x * x), moment(&|x, y| x * y), moment(&|_, y| y * y));
     let major = 0.5 * (a + c) + (0.25 * (a - c) * (a - c) + b * b).sqrt();
     Some(Centroid { centre_px: Point2::new(cu, cv), area_px: sw, spread_px: major.max(0.0).sqrt(), dark: sorted })
+}
+
+/// The 3 x 3 pixels around (x, y), itself included, clipped at 0 (callers bound the far edges).
+fn around(x: usize, y: usize) -> impl Iterator<Item = (usize, usize)> {
+    (y.saturating_sub(1)..=y + 1).flat_map(move |yy| (x.saturating_sub(1)..=x + 1).map(move |xx| (xx, yy)))
 }
 
 /// The pixels of `dark` (sorted) 8-connected through `dark` to a core pixel, sorted; all of
@@ -57,14 +61,10 @@ pub(super) fn joined_to_core(dark: &[(usize, usize)], core: &[(usize, usize)]) -
     }
     while let Some(i) = stack.pop() {
         let (x, y) = dark[i];
-        for yy in y.saturating_sub(1)..=y + 1 {
-            for xx in x.saturating_sub(1)..=x + 1 {
-                if let Ok(j) = dark.binary_search(&(xx, yy)) {
-                    if !reached[j] {
-                        reached[j] = true;
-                        stack.push(j);
-                    }
-                }
+        for j in around(x, y).filter_map(|p| dark.binary_search(&p).ok()) {
+            if !reached[j] {
+                reached[j] = true;
+                stack.push(j);
             }
         }
     }
@@ -75,13 +75,10 @@ pub(super) fn joined_to_core(dark: &[(usize, usize)], core: &[(usize, usize)]) -
 /// (`owner` `u32::MAX`), with their `weight`s, sorted: the blob's own where no other blob is next
 /// to them, else they join it to another ([`settle_touching`]).
 pub(super) fn ties(dark: &[(usize, usize)], owner: &[u32], (w, h): (usize, usize), weight: &dyn Fn(usize, usize) -> f64) -> Vec<((usize, usize), f64)> {
-    let near = |&(x, y): &(usize, usize)| {
-        (y.saturating_sub(1)..=(y + 1).min(h - 1)).flat_map(move |yy| (x.saturating_sub(1)..=(x + 1).min(w - 1)).map(move |xx| (xx, yy)))
-    };
     let mut out: Vec<((usize, usize), f64)> = dark
         .iter()
-        .flat_map(near)
-        .filter(|&(x, y)| owner[y * w + x] == u32::MAX)
+        .flat_map(|&(x, y)| around(x, y))
+        .filter(|&(x, y)| x < w && y < h && owner[y * w + x] == u32::MAX)
         .map(|(x, y)| ((x, y), weight(x, y)))
         .filter(|&(_, v)| v > SIGNIFICANT_WEIGHT)
         .collect();
@@ -117,10 +114,7 @@ pub(super) fn settle_touching(measured: Vec<Measured>, w: usize) -> Vec<Dot> {
     let at: std::collections::HashMap<usize, usize> = sets.iter().enumerate().flat_map(|(k, set)| set.iter().map(move |&i| (i, k))).collect();
     let mut touching = vec![false; measured.len()];
     for (k, set) in sets.iter().enumerate() {
-        let near = |i: usize| {
-            let (x, y) = (i % w, i / w);
-            (y.saturating_sub(1)..=y + 1).flat_map(move |yy| (x.saturating_sub(1)..=(x + 1).min(w - 1)).map(move |xx| yy * w + xx))
-        };
+        let near = |i: usize| around(i % w, i / w).filter(|&(x, _)| x < w).map(key);
         for &i in set {
             for o in near(i).filter_map(|j| at.get(&j).copied()).filter(|&o| o != k && (measured[o].thin || measured[k].thin)) {
                 touching[k] = true;
