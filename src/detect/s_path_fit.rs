@@ -24,8 +24,9 @@
 //! 4. *Strays*: where the strict chains leave dots unplaced, all of this runs again on chains
 //!    grown for dots that stray from the nominal path ([`ChainGrowth::Strays`], up to a fifth of
 //!    the spacing: 5 mm on the course's target), with each chain's open index increments decided
-//!    by the path's shape (`resolve`), a short start chain ruling out the labellings of the other
-//!    chains that contradict it, or the two longest chains labelling each other (`strays`).
+//!    by the path's shape for every placement along the path before the placements are ranked
+//!    (`label`, `resolve`), a short start chain ruling out the labellings of the other chains
+//!    that contradict its first steps, or the two longest chains labelling each other (`strays`).
 //! 5. *Stepped over*: an unplaced dot between the dots of two consecutive indices takes the
 //!    index, the stretch after it moving up by one (`skipped`). Blobs that are no measurement
 //!    ([`unmeasured`]) are left to the caller.
@@ -46,6 +47,7 @@ pub use unmeasured::{unmeasured, MERGED_SPREAD, START_RADIUS_RATIO};
 
 mod checks;
 mod dlt;
+mod label;
 mod residuals;
 mod resolve;
 mod skipped;
@@ -53,8 +55,8 @@ mod strays;
 mod unmeasured;
 use crate::target::SPath;
 use checks::{drop_merged, drop_outliers};
-use resolve::{chain_labels, resolve_steps};
-use strays::{compatible, median_step_px, with_anchor, STRAY_RMS_STEPS};
+use label::{label_chain, labellings};
+use resolve::{chain_labels, resolve_steps, Head};
 
 /// Parameters of [`index_s_path`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -85,56 +87,6 @@ type Labels = Vec<(usize, usize)>;
 /// The path points and dot centres of labelled pairs.
 fn correspondences(labels: &[(usize, usize)], dots: &[Dot], path: &SPath) -> (Vec<Point3<f64>>, Vec<Point2<f64>>) {
     (labels.iter().map(|&(i, _)| path.points_m[i]).collect(), labels.iter().map(|&(_, j)| dots[j].centre_px).collect())
-}
-
-/// Every labelling of an unlabelled chain ((relative index, dot) pairs), at every index offset
-/// and in both directions, with its DLT reprojection RMS (px): best first.
-fn labellings(chain: &[(i64, usize)], dots: &[Dot], path: &SPath) -> Vec<(f64, Labels)> {
-    let n = path.len() as i64;
-    let image: Vec<Point2<f64>> = chain.iter().map(|&(_, j)| dots[j].centre_px).collect();
-    let (lo, hi) = chain.iter().fold((i64::MAX, i64::MIN), |(a, b), &(i, _)| (a.min(i), b.max(i)));
-    let mut fits: Vec<(f64, Labels)> = Vec::new();
-    for dir in [1i64, -1] {
-        // Absolute index = offset + dir * relative, all in 0..n.
-        let (omin, omax) = if dir == 1 { (-lo, n - 1 - hi) } else { (hi, n - 1 + lo) };
-        for offset in omin..=omax {
-            let labels: Labels = chain.iter().map(|&(i, j)| ((offset + dir * i) as usize, j)).collect();
-            let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
-            if let Some(dlt) = Dlt::fit(&world, &image) {
-                fits.push((dlt.rms(&world, &image), labels));
-            }
-        }
-    }
-    fits.sort_by(|a, b| a.0.total_cmp(&b.0));
-    fits
-}
-
-/// The runner-up labelling's RMS over the best's that a chain holding most of the dots (as many
-/// as a path needs) must exceed, in place of [`SPathFitParams::ambiguity_ratio`]: clutter never
-/// chains most of the dots, and on a target whose dots stray from the nominal path the strays
-/// set both RMS values (2.7 against 4.2 px for a 97-dot chain of 5 mm strays).
-const DOMINANT_AMBIGUITY_RATIO: f64 = 1.25;
-
-/// The labelling of a whole chain, when it is clearly the best among those compatible with
-/// `anchor` (labels known otherwise, e.g. a short chain from the start dot; may be empty);
-/// `dominant`: the chain holds as many dots as a path needs ([`DOMINANT_AMBIGUITY_RATIO`]).
-fn label_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams, dominant: bool, anchor: &[(usize, usize)]) -> Option<Labels> {
-    let mut fits = labellings(chain, dots, path);
-    fits.retain(|f| compatible(&f.1, anchor));
-    if !anchor.is_empty() {
-        // Ranked by the fit of the labelling and the anchor together: a labelling shifted along
-        // the smooth path fits the chain alone almost as well, but not the anchor beside it.
-        fits = fits.into_iter().filter_map(|(_, l)| Some((fit_rms(dots, path, &with_anchor(l.clone(), anchor))?, l))).collect();
-        fits.sort_by(|a, b| a.0.total_cmp(&b.0));
-    }
-    let best = fits.first()?.0;
-    let runner_up = fits.get(1).map_or(f64::INFINITY, |f| f.0);
-    log::debug!("s-path chain of {} dots: best RMS {best:.3} px, runner-up {runner_up:.3} px", chain.len());
-    let (ratio, max_rms) = match dominant {
-        true => (DOMINANT_AMBIGUITY_RATIO, params.max_seed_rms_px.max(STRAY_RMS_STEPS * median_step_px(chain, dots))),
-        false => (params.ambiguity_ratio, params.max_seed_rms_px),
-    };
-    (best <= max_rms && runner_up > ratio * best.max(0.05)).then(|| fits.swap_remove(0).1)
 }
 
 /// Dots per window of [`search_windows`].
@@ -171,11 +123,15 @@ fn search_windows(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, para
     let (_, best_rms, best) = grown.first()?;
     // Unambiguous: every labelling that disagrees with the best on most of its dots fits worse
     // by the ambiguity ratio (an arc of clutter fits many stretches of the S about equally).
-    let index_of: std::collections::HashMap<usize, usize> = best.iter().map(|&(i, j)| (j, i)).collect();
-    let agrees = |g: &Labels| 2 * g.iter().filter(|&&(i, j)| index_of.get(&j) == Some(&i)).count() >= g.len();
-    let rival = grown.iter().skip(1).filter(|g| !agrees(&g.2)).map(|g| g.1).fold(f64::INFINITY, f64::min);
+    let rival = grown.iter().skip(1).filter(|g| !mostly_agree(best, &g.2)).map(|g| g.1).fold(f64::INFINITY, f64::min);
     log::debug!("s-path window search: best {} dots at RMS {best_rms:.3} px, rival RMS {rival:.3} px", best.len());
     (rival > params.ambiguity_ratio * best_rms.max(0.05)).then(|| grown.swap_remove(0).2)
+}
+
+/// Does labelling `other` give most of its dots the index `best` gives them?
+fn mostly_agree(best: &[(usize, usize)], other: &[(usize, usize)]) -> bool {
+    let index_of: std::collections::HashMap<usize, usize> = best.iter().map(|&(i, j)| (j, i)).collect();
+    2 * other.iter().filter(|&&(i, j)| index_of.get(&j) == Some(&i)).count() >= other.len()
 }
 
 /// Reprojection RMS of the DLT fitted to labelled dots.
@@ -316,7 +272,7 @@ const RELAXED_START: f64 = 0.8;
 fn relaxed_start_seed(dots: &[Dot], path: &SPath, order: &SPathOrderParams, params: &SPathFitParams) -> Option<Labels> {
     let relaxed = SPathOrderParams { start_area_ratio: RELAXED_START * order.start_area_ratio, ..*order };
     let chain = start_dot_chain(dots, &relaxed).ok().filter(|c| c.len() >= params.min_seed)?;
-    let chain = if order.growth == ChainGrowth::Strays { resolve_steps(dots, path, chain, &[]) } else { chain };
+    let chain = if order.growth == ChainGrowth::Strays { resolve_steps(dots, path, chain, &[], Head::StartDot) } else { chain };
     log::debug!("s-path relaxed start chain: {} dots", chain.len());
     Some(chain_labels(&chain))
 }
@@ -358,7 +314,7 @@ pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Resu
         Some(l) if l.len() == dots.len() => Some(l),
         strict => more_placed(strict, place_labels(dots, path, params, &SPathOrderParams { growth: ChainGrowth::Strays, ..order })),
     };
-    let Some(labels) = labels.map(|l| skipped::insert_skipped(dots, l, path.len())) else {
+    let Some(labels) = labels.map(|l| skipped::join_split(dots, skipped::insert_skipped(dots, l, path.len()))) else {
         return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
     };
     if labels.len() < need {
@@ -384,7 +340,7 @@ fn place_labels(dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPa
     let chains = anonymous_chains(dots, order, params.min_seed);
     let by_chain = match strays {
         true => strays::label_chains(&chains, dots, path, params, order),
-        false => chains.iter().find_map(|c| label_chain(c, dots, path, params, false, &[])),
+        false => chains.iter().find_map(|c| label_chain(c, dots, path, params, false, &[], false)),
     };
     let by_shape = by_chain.or_else(|| search_windows(&chains, dots, path, params)).map(place);
     match by_shape {

@@ -1,6 +1,7 @@
 //! Index increments a chain's step lengths leave open, decided by the path's shape.
 
-use super::{fit_rms, with_anchor, Labels};
+use super::strays::with_anchor;
+use super::{fit_rms, Labels};
 use crate::detect::dots::Dot;
 use crate::detect::s_path_order::{ambiguous_steps, MAX_SKIP};
 use crate::target::SPath;
@@ -14,6 +15,16 @@ const RESOLVE_GAIN: f64 = 0.85;
 /// anything: 5 mm strays fit at 2 to 5 px, a chain one index off beyond a step at 10 to 20.
 const DECIDABLE_RMS_PX: f64 = 100.0;
 
+/// What a chain's entry at path index 0 is: the start dot (recognised, so its index is known and
+/// it may not move) or a dot a labelling merely placed there (it may move up like any other).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Head {
+    /// The chain starts at the start dot.
+    StartDot,
+    /// The chain's placement along the path is a hypothesis.
+    Placed,
+}
+
 /// Decide the steps of a chain (path indices from 0) whose index increment its lengths leave
 /// open ([`ambiguous_steps`]: a stray dot, a missing one, or the projected steps lengthening
 /// abruptly where the path turns across the line of sight) by the shape of the path: the
@@ -25,7 +36,8 @@ const DECIDABLE_RMS_PX: f64 = 100.0;
 ///
 /// `beside`: labels fitted together with the chain's (those compatible with it), e.g. a
 /// labelled stretch elsewhere on the path that fixes where the chain lies along it (may be empty).
-pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usize)>, beside: &[(usize, usize)]) -> Vec<(i64, usize)> {
+/// `head`: whether an entry at index 0 is the start dot ([`Head`]).
+pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usize)>, beside: &[(usize, usize)], head: Head) -> Vec<(i64, usize)> {
     let n = path.len() as i64;
     let rms = |c: &[(i64, usize)]| {
         let labels: Labels = c.iter().filter(|&&(i, _)| (0..n).contains(&i)).map(|&(i, j)| (i as usize, j)).collect();
@@ -47,7 +59,7 @@ pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usi
         if k + 1 >= chain.len() {
             break;
         }
-        let alts = alternatives(&chain, k).into_iter().map(|c| (rms(&c), c));
+        let alts = alternatives(&chain, k, head).into_iter().map(|c| (rms(&c), c));
         let Some((other, alt)) = alts.min_by(|a, b| a.0.total_cmp(&b.0)) else { continue };
         log::trace!("s-path step {k} (index {}): RMS {now:.3} px, with the other increment {other:.3} px", chain[k].0);
         if other < RESOLVE_GAIN * now {
@@ -62,8 +74,11 @@ pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usi
 /// as its length leaves open: with the entries after the step moved up to the next gap no bridge
 /// explains (longer than [`MAX_SKIP`]), or those before it back to the last such gap (a chain
 /// that is not the start dot's, or a stretch of labels after such a gap, is placed along the
-/// path by its own fit). Across such a gap the increment may grow or shrink.
-fn alternatives(chain: &[(i64, usize)], k: usize) -> Vec<Vec<(i64, usize)>> {
+/// path by its own fit). Across such a gap the increment may grow or shrink. A head at index 0
+/// moves only where it is not the start dot (`head`): a labelling of a chain missing its start
+/// dot can place the chain's first dot at index 0 and count a later step as two (one 5 mm
+/// stray view: 31 dots one index low, 3.4 px RMS against 2.2 with the head moved up).
+fn alternatives(chain: &[(i64, usize)], k: usize, head: Head) -> Vec<Vec<(i64, usize)>> {
     let unbridged = |m: usize| chain[m + 1].0 - chain[m].0 > MAX_SKIP as i64;
     let flips: &[i64] = match chain[k + 1].0 - chain[k].0 {
         1 => &[1],
@@ -72,6 +87,7 @@ fn alternatives(chain: &[(i64, usize)], k: usize) -> Vec<Vec<(i64, usize)>> {
     };
     let start = (0..k).rev().find(|&m| unbridged(m)).map_or(0, |m| m + 1);
     let end = (k + 1..chain.len() - 1).find(|&m| unbridged(m)).map_or(chain.len(), |m| m + 1);
+    let head_free = head == Head::Placed || chain[0].0 != 0;
     let mut out = Vec::new();
     // A shift by one leaves an unbridged gap (3 or more) positive: the moved stretch stays in
     // order; only a head reaching the path's start may not move (nor the start dot's).
@@ -79,10 +95,10 @@ fn alternatives(chain: &[(i64, usize)], k: usize) -> Vec<Vec<(i64, usize)>> {
         let mut tail = chain.to_vec();
         tail[k + 1..end].iter_mut().for_each(|e| e.0 += flip);
         out.push(tail);
-        let mut head = chain.to_vec();
-        head[start..=k].iter_mut().for_each(|e| e.0 -= flip);
-        if start > 0 || (chain[0].0 != 0 && head[0].0 >= 0) {
-            out.push(head);
+        let mut moved = chain.to_vec();
+        moved[start..=k].iter_mut().for_each(|e| e.0 -= flip);
+        if start > 0 || (head_free && moved[0].0 >= 0) {
+            out.push(moved);
         }
     }
     out
@@ -94,8 +110,8 @@ pub(super) fn chain_labels(chain: &[(i64, usize)]) -> Labels {
 }
 
 /// [`resolve_steps`] on a labelling.
-pub(super) fn resolve_labels(dots: &[Dot], path: &SPath, mut labels: Labels, beside: &[(usize, usize)]) -> Labels {
+pub(super) fn resolve_labels(dots: &[Dot], path: &SPath, mut labels: Labels, beside: &[(usize, usize)], head: Head) -> Labels {
     labels.sort_unstable();
     let chain = labels.iter().map(|&(i, j)| (i as i64, j)).collect();
-    chain_labels(&resolve_steps(dots, path, chain, beside))
+    chain_labels(&resolve_steps(dots, path, chain, beside, head))
 }

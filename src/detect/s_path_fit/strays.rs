@@ -2,8 +2,9 @@
 //! ([`ChainGrowth::Strays`](crate::detect::s_path_order::ChainGrowth::Strays)): labellings checked
 //! against each other, prefixes that fit.
 
-use super::resolve::{chain_labels, resolve_labels};
-use super::{fit_rms, label_chain, labellings, relaxed_start_seed, Labels, SPathFitParams, DOMINANT_AMBIGUITY_RATIO};
+use super::label::{label_chain, labellings, ranked_labellings, DOMINANT_AMBIGUITY_RATIO};
+use super::resolve::{chain_labels, resolve_labels, Head};
+use super::{extend_locally, fit_rms, grow, mostly_agree, relaxed_start_seed, Labels, SPathFitParams};
 use crate::detect::dots::Dot;
 use crate::detect::filters::median_by;
 use crate::detect::s_path_order::SPathOrderParams;
@@ -56,17 +57,25 @@ pub(super) fn with_anchor(mut labels: Labels, anchor: &[(usize, usize)]) -> Labe
 const PAIR_CANDIDATES: usize = 4;
 
 /// The labelling of two chains together, where neither labels alone: each of the first chain's
-/// best [`PAIR_CANDIDATES`] labellings with the second chain's labelling compatible with it that
+/// best [`PAIR_CANDIDATES`] labellings (open steps decided, [`ranked_labellings`]) with the second chain's labelling compatible with it that
 /// fits best with it; the pair that fits best wins if the runner-up pair fits worse by
 /// [`DOMINANT_AMBIGUITY_RATIO`] and the two hold as many dots as a path needs (`need`). A long
 /// chain shifted by one index along the smooth path fits almost as well as the right one (3.15
 /// against 2.66 px on 5 mm strays), but not beside a second stretch of the path.
-fn label_pair(first: &[(i64, usize)], second: &[(i64, usize)], dots: &[Dot], path: &SPath, need: usize, max_rms_px: f64) -> Option<Labels> {
+fn label_pair(
+    first: &[(i64, usize)],
+    second: &[(i64, usize)],
+    dots: &[Dot],
+    path: &SPath,
+    params: &SPathFitParams,
+    need: usize,
+    max_rms_px: f64,
+) -> Option<Labels> {
     if first.len() + second.len() < need {
         return None;
     }
     let seconds = labellings(second, dots, path);
-    let mut pairs: Vec<(f64, Labels)> = labellings(first, dots, path)
+    let mut pairs: Vec<(f64, Labels)> = ranked_labellings(first, dots, path, params, &[], true)
         .into_iter()
         .take(PAIR_CANDIDATES)
         .filter_map(|(_, a)| {
@@ -86,30 +95,59 @@ fn label_pair(first: &[(i64, usize)], second: &[(i64, usize)], dots: &[Dot], pat
 /// the first step seen through strong distortion, can leave the count one off from there on),
 /// its open steps decided ([`resolve_labels`]), cut to its [`fitting_prefix`].
 pub(super) fn label_start_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams, need: usize) -> Labels {
-    let shaped = label_chain(chain, dots, path, params, chain.len() >= need, &[]).unwrap_or_else(|| chain_labels(chain));
-    fitting_prefix(dots, path, resolve_labels(dots, path, shaped, &[]), STRAY_RMS_STEPS * median_step_px(chain, dots), params.min_seed)
+    let shaped = label_chain(chain, dots, path, params, chain.len() >= need, &[], false).unwrap_or_else(|| chain_labels(chain));
+    fitting_prefix(dots, path, resolve_labels(dots, path, shaped, &[], Head::StartDot), STRAY_RMS_STEPS * median_step_px(chain, dots), params.min_seed)
 }
 
 /// The labelling of chains grown from any dot: a chain from the start dot too short to place the
 /// path still rules out the labellings it contradicts (the S is nearly point-symmetric: the
 /// reversed labelling of a long chain fits almost as well, 3.9 against 3.2 px on 5 mm strays)
 /// and joins the seed; without one (or where it contradicts them all), the two longest chains
-/// label each other ([`label_pair`]).
-/// Each side's open steps are then decided with the other beside it.
+/// label each other ([`label_pair`]), or the longest chain's placements are told apart by how far
+/// each grows ([`by_growth`]). Each side's open steps are then decided with the other beside it.
 pub(super) fn label_chains(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPathOrderParams) -> Option<Labels> {
     let need = order.needed(dots.len());
     let anchor = relaxed_start_seed(dots, path, order, params).unwrap_or_default();
-    let labelled = chains.iter().find_map(|c| label_chain(c, dots, path, params, c.len() + anchor.len() >= need, &anchor));
+    let labelled = chains.iter().find_map(|c| label_chain(c, dots, path, params, c.len() + anchor.len() >= need, &anchor, true));
     // A start chain miscounted where its dots stray contradicts every labelling: the pair then
     // labels without it (its entries that agree still join below).
     let labelled = labelled.or_else(|| match chains {
-        [first, second, ..] => label_pair(first, second, dots, path, need, STRAY_RMS_STEPS * median_step_px(first, dots)),
+        [first, second, ..] => label_pair(first, second, dots, path, params, need, STRAY_RMS_STEPS * median_step_px(first, dots)),
         _ => None,
-    })?;
-    let anchor = resolve_labels(dots, path, anchor, &labelled);
-    let labels = resolve_labels(dots, path, labelled, &anchor);
+    });
+    let labelled = labelled.or_else(|| chains.first().filter(|c| c.len() >= need).and_then(|c| by_growth(c, dots, path, params)))?;
+    let anchor = resolve_labels(dots, path, anchor, &labelled, Head::StartDot);
+    let labels = resolve_labels(dots, path, labelled, &anchor, if anchor.is_empty() { Head::Placed } else { Head::StartDot });
     let prefix = agreeing_prefix(anchor, &labels);
     Some(with_anchor(labels, &prefix))
+}
+
+/// Placements of the longest chain grown over all dots by [`by_growth`].
+const GROWN_CANDIDATES: usize = 3;
+/// Dots more than any disagreeing rival the placement [`by_growth`] picks must place.
+const GROWTH_MARGIN: usize = 5;
+
+/// The placement of a chain holding as many dots as a path needs, among its best
+/// [`GROWN_CANDIDATES`] ([`ranked_labellings`]), that grows over the other dots (projection and
+/// local extension, as the labelling is placed) to [`GROWTH_MARGIN`] more dots than any rival
+/// that disagrees with it on most of its dots, and fits within the strays' RMS. Where the start
+/// dot is out of view the nearly point-symmetric S reversed fits a 70-dot chain of 5 mm strays
+/// almost as well (2.79 against 2.49 px), but the path it predicts beyond the chain finds no
+/// dots (70 placed against 77).
+fn by_growth(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Option<Labels> {
+    let mut grown: Vec<(usize, f64, Labels)> = ranked_labellings(chain, dots, path, params, &[], true)
+        .into_iter()
+        .take(GROWN_CANDIDATES)
+        .filter_map(|(_, l)| {
+            let g = extend_locally(dots, path, grow(dots, path, l, params), params);
+            Some((g.len(), fit_rms(dots, path, &g)?, g))
+        })
+        .collect();
+    grown.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
+    let (placed, rms) = grown.first().map(|g| (g.0, g.1))?;
+    let rival = grown.iter().skip(1).filter(|g| !mostly_agree(&grown[0].2, &g.2)).map(|g| g.0).max().unwrap_or(0);
+    log::debug!("s-path chain of {} dots by growth: {placed} placed at RMS {rms:.3} px, rival {rival}", chain.len());
+    (placed >= rival + GROWTH_MARGIN && rms <= STRAY_RMS_STEPS * median_step_px(chain, dots)).then(|| grown.swap_remove(0).2)
 }
 
 /// The entries of `anchor` (a start chain's labels) in path order up to the first that
