@@ -108,14 +108,16 @@ pub(super) fn label_start_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPa
 pub(super) fn label_chains(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPathOrderParams) -> Option<Labels> {
     let need = order.needed(dots.len());
     let anchor = relaxed_start_seed(dots, path, order, params).unwrap_or_default();
-    let labelled = chains.iter().find_map(|c| label_chain(c, dots, path, params, c.len() + anchor.len() >= need, &anchor, true));
+    let labelled = chains.iter().find_map(|c| {
+        label_chain(c, dots, path, params, c.len() + anchor.len() >= need, &anchor, true).or_else(|| by_growth(c, dots, path, params, &anchor, need))
+    });
     // A start chain miscounted where its dots stray contradicts every labelling: the pair then
     // labels without it (its entries that agree still join below).
     let labelled = labelled.or_else(|| match chains {
         [first, second, ..] => label_pair(first, second, dots, path, params, need, STRAY_RMS_STEPS * median_step_px(first, dots)),
         _ => None,
     });
-    let labelled = labelled.or_else(|| chains.first().filter(|c| c.len() >= need).and_then(|c| by_growth(c, dots, path, params)))?;
+    let labelled = labelled.or_else(|| chains.first().and_then(|c| by_growth(c, dots, path, params, &[], need)))?;
     let anchor = resolve_labels(dots, path, anchor, &labelled, Head::StartDot);
     let labels = resolve_labels(dots, path, labelled, &anchor, if anchor.is_empty() { Head::Placed } else { Head::StartDot });
     let prefix = agreeing_prefix(anchor, &labels);
@@ -124,30 +126,41 @@ pub(super) fn label_chains(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SP
 
 /// Placements of the longest chain grown over all dots by [`by_growth`].
 const GROWN_CANDIDATES: usize = 3;
-/// Dots more than any disagreeing rival the placement [`by_growth`] picks must place.
+/// Dots fewer than the most placed at which a placement no longer contends in [`by_growth`].
 const GROWTH_MARGIN: usize = 5;
 
-/// The placement of a chain holding as many dots as a path needs, among its best
-/// [`GROWN_CANDIDATES`] ([`ranked_labellings`]), that grows over the other dots (projection and
-/// local extension, as the labelling is placed) to [`GROWTH_MARGIN`] more dots than any rival
-/// that disagrees with it on most of its dots, and fits within the strays' RMS. Where the start
-/// dot is out of view the nearly point-symmetric S reversed fits a 70-dot chain of 5 mm strays
-/// almost as well (2.79 against 2.49 px), but the path it predicts beyond the chain finds no
-/// dots (70 placed against 77).
-fn by_growth(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Option<Labels> {
-    let mut grown: Vec<(usize, f64, Labels)> = ranked_labellings(chain, dots, path, params, &[], true)
+/// The placement of a chain holding at least half the dots a path needs (`need`), among its best
+/// [`GROWN_CANDIDATES`] ([`ranked_labellings`] with `anchor`, whose agreeing entries join it),
+/// grown over the other dots (projection and local extension, as the labelling is placed): those
+/// placing fewer than [`GROWTH_MARGIN`] dots less than the most contend, and the one that fits
+/// best wins if it places as many as a path needs, fits within the strays' RMS, and every
+/// contender disagreeing with it on most of its dots fits worse by [`DOMINANT_AMBIGUITY_RATIO`]
+/// (grown over the whole path, a placement one index off fits 1.4 to 1.7 times worse on 5 mm
+/// strays). Where the start dot is out of view the nearly point-symmetric S reversed fits a
+/// 70-dot chain almost as well (2.79 against 2.49 px), but the path it predicts beyond the chain
+/// finds no dots (70 placed against 77): it does not contend.
+fn by_growth(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams, anchor: &[(usize, usize)], need: usize) -> Option<Labels> {
+    if 2 * chain.len() < need {
+        return None;
+    }
+    let mut grown: Vec<(usize, f64, Labels)> = ranked_labellings(chain, dots, path, params, anchor, true)
         .into_iter()
         .take(GROWN_CANDIDATES)
         .filter_map(|(_, l)| {
-            let g = extend_locally(dots, path, grow(dots, path, l, params), params);
+            let prefix = agreeing_prefix(anchor.to_vec(), &l);
+            let g = extend_locally(dots, path, grow(dots, path, with_anchor(l, &prefix), params), params);
             Some((g.len(), fit_rms(dots, path, &g)?, g))
         })
         .collect();
-    grown.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
+    // Contenders place nearly as many as the most; among them the best fit wins.
+    let most = grown.iter().map(|g| g.0).max()?;
+    grown.retain(|g| g.0 + GROWTH_MARGIN > most);
+    grown.sort_by(|a, b| a.1.total_cmp(&b.1));
     let (placed, rms) = grown.first().map(|g| (g.0, g.1))?;
-    let rival = grown.iter().skip(1).filter(|g| !mostly_agree(&grown[0].2, &g.2)).map(|g| g.0).max().unwrap_or(0);
-    log::debug!("s-path chain of {} dots by growth: {placed} placed at RMS {rms:.3} px, rival {rival}", chain.len());
-    (placed >= rival + GROWTH_MARGIN && rms <= STRAY_RMS_STEPS * median_step_px(chain, dots)).then(|| grown.swap_remove(0).2)
+    let rival = grown.iter().skip(1).filter(|g| !mostly_agree(&grown[0].2, &g.2)).map(|g| g.1).fold(f64::INFINITY, f64::min);
+    log::debug!("s-path chain of {} dots by growth: {placed} placed at RMS {rms:.3} px, rival contender RMS {rival:.3} px", chain.len());
+    let fits = rms <= STRAY_RMS_STEPS * median_step_px(chain, dots);
+    (placed >= need && rival > DOMINANT_AMBIGUITY_RATIO * rms && fits).then(|| grown.swap_remove(0).2)
 }
 
 /// The entries of `anchor` (a start chain's labels) in path order up to the first that
