@@ -39,7 +39,7 @@ use super::edge_surround::EdgeSurround;
 use super::filters::{extreme_filter, median_by};
 use super::outline::Outline;
 use super::{DetectError, ImageF32};
-use blob::{bbox, blob_region, closed_window, components, dark_level, darker_than_rim, edge_weights, merge_fragments, split_large};
+use blob::{bbox, blob_region, closed_window, components, dark_level, darker_than_rim, edge_weights, is_thin, merge_fragments, paint_level, split_large};
 use centroid::{settle_touching, ties, weighted_centroid, Centroid, Measured};
 
 /// Parameters of [`find_dots`].
@@ -123,7 +123,8 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     let (cores, keep) = find_cores(img, params);
     let owner = owner_map(&cores, &keep, w, h, params.grow_px);
     let mut outline: Option<Option<Outline>> = None;
-    let measured: Vec<Measured> = keep.iter().filter_map(|&k| measure(img, params, &owner, &cores[k], k as u32 + 1, &mut outline)).collect();
+    let paint = paint_level(img, &cores, &keep);
+    let measured: Vec<Measured> = keep.iter().filter_map(|&k| measure(img, params, (&owner, paint), &cores[k], k as u32 + 1, &mut outline)).collect();
     Ok(settle_touching(measured, w))
 }
 
@@ -198,7 +199,15 @@ fn owner_map(cores: &[Vec<(usize, usize)>], keep: &[usize], w: usize, h: usize, 
 
 /// Steps 3 and 4 (module docs) for one core (`id` its label in `owner`): the surround, the
 /// weights and the centre; `None` for a blob cut by the border, too faint, or without weight.
-fn measure(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, usize)], id: u32, outline: &mut Option<Option<Outline>>) -> Option<Measured> {
+/// `paint`: the image's dot level ([`paint_level`]).
+fn measure(
+    img: &ImageF32,
+    params: &DotParams,
+    (owner, paint): (&[u32], Option<f64>),
+    core: &[(usize, usize)],
+    id: u32,
+    outline: &mut Option<Option<Outline>>,
+) -> Option<Measured> {
     let (w, h) = (img.width, img.height);
     let [x0, y0, x1, y1] = bbox(core);
     let pad = params.grow_px + 1;
@@ -220,7 +229,7 @@ fn measure(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, us
     // The free pixels around the grown core.
     let ring: Vec<(usize, usize)> = (by0..=by1).flat_map(|y| (bx0..=bx1).map(move |x| (x, y))).filter(|&(x, y)| owner[y * w + x] == 0).collect();
     // Only thin cores (about two pixels across at most: a sliver seen edge-on) are flooded.
-    let thin = core.len() <= 2 * (x1 - x0 + 1).max(y1 - y0 + 1);
+    let thin = is_thin(core);
     let reach = if thin { params.window_px / 3 } else { 0 };
     let darkness_over = |s: f64, x: usize, y: usize| (s - f64::from(img.data[y * w + x])) / (s - d).max(1e-6);
     let region_under = |surround: &dyn Fn(usize, usize) -> f64| {
@@ -261,7 +270,7 @@ fn measure(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, us
     let top = if thin { 2.0 } else { 1.0 };
     let mut weights: Vec<f64> = region.iter().map(|&(x, y)| darkness(x, y).clamp(-params.min_weight, top)).collect();
     if let Some(e) = &edge {
-        edge_weights(img, e, &region, &mut weights, d, top);
+        edge_weights(img, e, &region, &mut weights, d, top, paint);
     }
     let Centroid { centre_px, area_px, spread_px, dark } = weighted_centroid(&region, &weights, core)?;
     let ties = ties(&dark, owner, (w, h), &|x, y| darkness(x, y).min(top));
