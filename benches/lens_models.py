@@ -3,7 +3,7 @@
 OpenCV on the same corners, and compare both with the truth.
 
 Usage (from the repository root, after `cargo build --release`):
-    python3 benches/lens_models.py [--models opencv5,fisheye,...] [--count 20] [--repeat 5]
+    python3 benches/lens_models.py [--models opencv5,fisheye,...] [--count 20] [--repeat 5] [--cross-validate 5]
 
 Per model: a dataset spec (1280 x 1024, noise sigma 2) is written and rendered with
 `synthcam dataset`; `synthcam detect` finds the 11 x 8 inner corners (recall and corner error
@@ -90,7 +90,7 @@ def opencv(model, objp, corners, size, repeat):
     return out, statistics.median(times)
 
 
-def one(model, count, repeat, bin_, d):
+def one(model, count, repeat, bin_, d, folds=0):
     text, cam = spec(model, count)
     sp, ds, dj, cj = (os.path.join(d, n) for n in ("spec.toml", "ds", "det.json", "cal.json"))
     open(sp, "w").write(text)
@@ -119,6 +119,12 @@ def one(model, count, repeat, bin_, d):
     print(f"synthcam: fx fy cx cy - truth = {', '.join(f'{v:+.4f}' for v in e)} px; rms {r['rms_px']:.5f} px, SSE {sc_sse:.7f} px^2; median {statistics.median(st):.2f} ms")
     lens = r.get("dist") or [r["xi"], r["alpha"]]
     print(f"synthcam lens: {', '.join(f'{v:.5f}' for v in lens)}")
+    if folds:
+        run([bin_, "calibrate", dj, "--target", f"chessboard:{COLS}x{ROWS}", "--square", str(SQUARE), "--model", model, "--cross-validate", str(folds), "--json", cj])
+        c = json.load(open(cj))["cross_validation"]
+        spread = ", ".join(f"{k} {v:.3f}" for k, v in c["intrinsics_spread"].items() if k in ("fx", "fy", "cx", "cy"))
+        print(f"cross-validation, {folds} folds: held-out RMS {c['held_out_rms_px']:.5f} px (fit {c['fit_rms_px']:.5f}); "
+              f"projection difference RMS {c['projection_diff_rms_px']:.4f} / max {c['projection_diff_max_px']:.4f} px; spread over folds {spread}")
     if model == "double-sphere":
         print("OpenCV: no Double Sphere model")
         return
@@ -137,10 +143,11 @@ def main():
     ap.add_argument("--count", type=int, default=20)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--synthcam", default="target/release/synthcam")
+    ap.add_argument("--cross-validate", type=int, default=0, metavar="K", help="also cross-validate each calibration over K folds")
     a = ap.parse_args()
     for m in a.models.split(","):
         with tempfile.TemporaryDirectory() as d:
-            one(m, a.count, a.repeat, a.synthcam, d)
+            one(m, a.count, a.repeat, a.synthcam, d, a.cross_validate)
     return 0
 
 

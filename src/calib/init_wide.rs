@@ -34,7 +34,7 @@ fn base_camera(size: ImageSize, kind: LensKind, f: f64) -> CameraModel {
 }
 
 /// One view's pose under `cam`, and its sum of squared reprojection errors.
-fn view_pose(cam: &CameraModel, view: &View) -> Option<(Isometry3<f64>, f64)> {
+pub(super) fn view_pose(cam: &CameraModel, view: &View) -> Option<(Isometry3<f64>, f64)> {
     let (mut src, mut dst) = (Vec::new(), Vec::new());
     for (x, q) in view {
         let Ok(ray) = cam.unproject(q) else { continue };

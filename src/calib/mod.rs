@@ -6,11 +6,13 @@
 //! OpenCV `calibrateCamera` (same model and objective: its results are the outside reference in
 //! the tests).
 
+pub mod cross;
 pub mod init_wide;
 pub mod model;
 pub mod refine;
 pub mod zhang;
 
+pub use cross::{cross_validate, CrossValidation, Fold};
 pub use model::{CalibModel, CALIB_MODELS};
 
 use nalgebra::{Point2, Point3, Vector2, Vector3, Vector6};
@@ -47,6 +49,12 @@ pub enum CalibError {
         view: usize,
         /// Point index.
         index: usize,
+    },
+    /// An option out of its range.
+    #[error("bad option: {reason}")]
+    BadOption {
+        /// Why.
+        reason: String,
     },
     /// The data cannot determine the parameters.
     #[error("degenerate data: {reason}")]
@@ -161,6 +169,26 @@ fn initial_zhang(views: &[View], params: &CalibParams) -> Result<(refine::Intrin
     Ok((a0, poses))
 }
 
+/// Each view's residuals under `camera` at its pose (rvec, t), and the RMS over all points, px.
+fn view_results(camera: &CameraModel, views: &[View], poses: &[Vector6<f64>]) -> (Vec<ViewResult>, f64) {
+    let (mut total, mut count) = (0.0, 0usize);
+    let results = views
+        .iter()
+        .zip(poses)
+        .map(|(v, pose)| {
+            let w = Vector3::new(pose[0], pose[1], pose[2]);
+            let t = Vector3::new(pose[3], pose[4], pose[5]);
+            let rot = crate::math::so3::rotation_from_rvec(&w);
+            let res: Vec<Vector2<f64>> = v.iter().map(|(x, q)| camera.project_unchecked(&Point3::from(rot * x.coords + t)) - q).collect();
+            let ss: f64 = res.iter().map(|e| e.norm_squared()).sum();
+            total += ss;
+            count += res.len();
+            ViewResult { rvec: w, tvec: t, rms_px: (ss / res.len() as f64).sqrt(), max_px: res.iter().map(|e| e.norm()).fold(0.0, f64::max), residuals_px: res }
+        })
+        .collect();
+    (results, (total / count.max(1) as f64).sqrt())
+}
+
 /// Calibrate from views of a planar target, with the lens model of `params.model`.
 ///
 /// # Errors
@@ -187,23 +215,8 @@ pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Resul
     for (j, &f) in free.iter().enumerate() {
         std[f] = r.covariance[(j, j)].sqrt();
     }
-    let mut total = 0.0;
-    let mut count = 0usize;
-    let view_results = views
-        .iter()
-        .zip(&r.state.poses)
-        .map(|(v, pose)| {
-            let w = Vector3::new(pose[0], pose[1], pose[2]);
-            let t = Vector3::new(pose[3], pose[4], pose[5]);
-            let rot = crate::math::so3::rotation_from_rvec(&w);
-            let res: Vec<Vector2<f64>> = v.iter().map(|(x, q)| camera.project_unchecked(&Point3::from(rot * x.coords + t)) - q).collect();
-            let ss: f64 = res.iter().map(|e| e.norm_squared()).sum();
-            total += ss;
-            count += res.len();
-            ViewResult { rvec: w, tvec: t, rms_px: (ss / res.len() as f64).sqrt(), max_px: res.iter().map(|e| e.norm()).fold(0.0, f64::max), residuals_px: res }
-        })
-        .collect();
-    Ok(CalibResult { camera, rms_px: (total / count.max(1) as f64).sqrt(), views: view_results, std, iterations: r.iterations, converged: r.converged })
+    let (view_results, rms_px) = view_results(&camera, views, &r.state.poses);
+    Ok(CalibResult { camera, rms_px, views: view_results, std, iterations: r.iterations, converged: r.converged })
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ use rand_chacha::ChaCha8Rng;
 use super::*;
 use crate::camera::{Distortion, Intrinsics, Lens};
 
-fn board(cols: usize, rows: usize, square: f64) -> Vec<Point3<f64>> {
+pub(super) fn board(cols: usize, rows: usize, square: f64) -> Vec<Point3<f64>> {
     (0..rows).flat_map(|r| (0..cols).map(move |c| Point3::new(c as f64 * square, r as f64 * square, 0.0))).collect()
 }
 
@@ -17,7 +17,7 @@ fn synthetic(cam: &CameraModel, n_views: usize, seed: u64) -> Vec<View> {
 
 /// Views with the board centre up to `spread_m` off the axis (0.3 m at 0.35-0.6 m: up to 40
 /// degrees, what a wide-angle model needs to be observable).
-fn synthetic_spread(cam: &CameraModel, n_views: usize, seed: u64, spread_m: f64) -> Vec<View> {
+pub(super) fn synthetic_spread(cam: &CameraModel, n_views: usize, seed: u64, spread_m: f64) -> Vec<View> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let pts = board(8, 6, 0.03);
     let mut views = Vec::new();

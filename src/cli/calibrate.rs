@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use nalgebra::{Point2, Point3};
 use serde::Serialize;
-use synthcam::calib::{calibrate, CalibModel, CalibParams, View};
+use synthcam::calib::{calibrate, cross_validate, CalibModel, CalibParams, CalibResult, View};
 use synthcam::camera::formats::{kalibr_yaml, mrcal_cameramodel, opencv_yaml, ros_yaml};
 use synthcam::camera::{intrinsic_names, ImageSize, Lens};
 use synthcam::dataset::{load_grey, write_atomic};
@@ -50,6 +50,11 @@ pub struct CalibrateArgs {
     /// Plot per-view errors and residual vectors to this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Cross-validate over K folds of the views (K >= 2; view i in fold i mod K): each fold
+    /// calibrated on the rest, its held-out views' RMS and its projection's difference from the
+    /// full calibration in the JSON's `cross_validation`.
+    #[arg(long, value_name = "K")]
+    pub cross_validate: Option<usize>,
 }
 
 #[derive(Debug, Serialize)]
@@ -83,6 +88,72 @@ struct Output {
     converged: bool,
     /// Time of the calibration itself (after detection or loading), milliseconds.
     time_ms: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cross_validation: Option<CrossOut>,
+}
+
+/// One fold of `--cross-validate`.
+#[derive(Debug, Serialize)]
+struct FoldOut {
+    held_out: Vec<String>,
+    fit_rms_px: f64,
+    held_out_rms_px: f64,
+    projection_diff_max_px: f64,
+}
+
+/// `--cross-validate` ([`synthcam::calib::cross_validate`]).
+#[derive(Debug, Serialize)]
+struct CrossOut {
+    folds: usize,
+    fit_rms_px: f64,
+    held_out_rms_px: f64,
+    projection_diff_rms_px: f64,
+    projection_diff_max_px: f64,
+    /// Sample standard deviation of each estimated intrinsic over the folds' cameras.
+    intrinsics_spread: serde_json::Value,
+    per_fold: Vec<FoldOut>,
+}
+
+/// The finite `values` by their `names`, as a JSON object.
+fn named(names: &[&str], values: &[f64]) -> serde_json::Value {
+    serde_json::Value::Object(names.iter().zip(values).filter(|(_, v)| v.is_finite()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect())
+}
+
+/// `--cross-validate K` of the calibration `r` of `views` (the inputs `found`), printed and for
+/// the JSON; `None` without the option.
+fn cross_out(
+    args: &CalibrateArgs,
+    views: &[View],
+    size: ImageSize,
+    params: &CalibParams,
+    r: &CalibResult,
+    found: &[Found],
+) -> anyhow::Result<Option<CrossOut>> {
+    let Some(folds) = args.cross_validate else { return Ok(None) };
+    let cv = cross_validate(views, size, params, r, folds).context("cross-validating")?;
+    println!(
+        "cross-validation, {folds} folds: held-out RMS {:.4} px (fit {:.4}); projection difference from the full calibration RMS {:.3} / max {:.3} px",
+        cv.held_out_rms_px, r.rms_px, cv.projection_diff_rms_px, cv.projection_diff_max_px
+    );
+    let per_fold = cv
+        .folds
+        .iter()
+        .map(|f| FoldOut {
+            held_out: f.held_out.iter().map(|&i| found[i].0.clone()).collect(),
+            fit_rms_px: f.fit_rms_px,
+            held_out_rms_px: f.held_out_rms_px,
+            projection_diff_max_px: f.projection_diff_max_px,
+        })
+        .collect();
+    Ok(Some(CrossOut {
+        folds,
+        fit_rms_px: r.rms_px,
+        held_out_rms_px: cv.held_out_rms_px,
+        projection_diff_rms_px: cv.projection_diff_rms_px,
+        projection_diff_max_px: cv.projection_diff_max_px,
+        intrinsics_spread: named(&intrinsic_names(r.camera.lens.kind()), &cv.intrinsics_spread),
+        per_fold,
+    }))
 }
 
 /// (file, width, height, points) of one image in which the board was found.
@@ -183,14 +254,13 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     let views: Vec<View> = found.iter().map(|(_, _, _, pts)| board.iter().copied().zip(pts.iter().copied()).collect()).collect();
     let size = ImageSize { width: w as u32, height: h as u32 };
     let t0 = std::time::Instant::now();
-    let r = calibrate(&views, size, &CalibParams { estimate_skew: args.skew, model: args.model, ..Default::default() }).context("calibrating")?;
+    let params = CalibParams { estimate_skew: args.skew, model: args.model, ..Default::default() };
+    let r = calibrate(&views, size, &params).context("calibrating")?;
     let time_ms = t0.elapsed().as_secs_f64() * 1e3;
     // Files the chosen formats cannot hold fail before anything is written.
     let files = export_files(args, &r.camera, r.rms_px)?;
     let k = r.camera.intrinsics;
-    let names = intrinsic_names(r.camera.lens.kind());
-    let std: serde_json::Map<String, serde_json::Value> =
-        names.iter().zip(r.std).filter(|(_, v)| v.is_finite()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect();
+    let std = named(&intrinsic_names(r.camera.lens.kind()), &r.std);
     let n_lens = args.model.n_lens_params();
     let (dist, xi, alpha) = match r.camera.lens {
         Lens::DoubleSphere(d) => (None, Some(d.xi), Some(d.alpha)),
@@ -211,7 +281,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         dist,
         xi,
         alpha,
-        std: serde_json::Value::Object(std),
+        std,
         views: found
             .iter()
             .zip(&r.views)
@@ -222,6 +292,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         iterations: r.iterations,
         converged: r.converged,
         time_ms,
+        cross_validation: cross_out(args, &views, size, &params, &r, &found)?,
     };
     if let Some(p) = &args.json {
         write_atomic(p, &serde_json::to_vec_pretty(&out)?)?;

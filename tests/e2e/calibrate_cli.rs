@@ -192,6 +192,35 @@ fn fisheye_renders_calibrate_with_their_model_and_export_for_other_tools() {
         assert_eq!(v.len(), 13, "{v:?}");
         assert!((v[0] - fx).abs() < 1e-9 && (v[9] - r["dist"][0].as_f64().expect("k1")).abs() < 1e-12, "{v:?}");
     }
+    // Cross-validation (5 folds of 2 views): the fisheye model holds out near its fit, the
+    // 5-coefficient pinhole model does not; 1 fold is a bad option, and nothing is written.
+    let cv = |model: &str, folds: &str| {
+        let out = dir.join(format!("cv-{model}-{folds}.json"));
+        let o = Command::new(bin())
+            .arg("calibrate")
+            .arg(p("det.json"))
+            .args(["--target", "chessboard:8x6", "--square", "0.04", "--model", model, "--cross-validate", folds, "--json"])
+            .arg(&out)
+            .output()
+            .expect("run");
+        (o, out)
+    };
+    let held_out = |model: &str| {
+        let (o, out) = cv(model, "5");
+        assert!(o.status.success(), "{model}: {}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(out).expect("json")).expect("parse");
+        let c = &v["cross_validation"];
+        assert_eq!(c["folds"], 5);
+        assert!(c["per_fold"].as_array().is_some_and(|f| f.len() == 5 && f.iter().all(|f| f["held_out"].as_array().map(Vec::len) == Some(2))), "{c}");
+        (c["held_out_rms_px"].as_f64().expect("held out"), v["rms_px"].as_f64().expect("rms"))
+    };
+    let (fisheye, fit) = held_out("fisheye");
+    let (pinhole, pinhole_fit) = held_out("opencv5");
+    eprintln!("cross-validation, 10 fisheye renders: fisheye held-out {fisheye:.4} px (fit {fit:.4}), opencv5 {pinhole:.4} (fit {pinhole_fit:.4})");
+    assert!(fisheye < 1.5 * fit && pinhole > 2.0 * fisheye, "fisheye {fisheye} (fit {fit}), opencv5 {pinhole}");
+    let (o, out) = cv("fisheye", "1");
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("bad option"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!out.exists());
     // mrcal has no fisheye model: an error naming it, and no output at all.
     let json2 = dir.join("cal2.json").to_string_lossy().into_owned();
     let o = cal(&["--json", &json2, "--mrcal", &dir.join("m.cameramodel").to_string_lossy()]);
