@@ -8,7 +8,7 @@ use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::spec::{BoardRanges, DatasetPlan, PoseMode, SpecError};
+use super::spec::{BoardRanges, DatasetPlan, PoseMode, SpecError, TiltFrom};
 use crate::robot::{base_from_tool, Joints};
 use crate::scene::Scene;
 
@@ -71,7 +71,14 @@ fn board_pose(rng: &mut ChaCha8Rng, b: &BoardRanges, centre: &Vector3<f64>) -> I
     let (ox, oy) = (uniform(rng, b.offset_x_m), uniform(rng, b.offset_y_m));
     let axis = Unit::new_normalize(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0));
     let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), roll) * UnitQuaternion::from_axis_angle(&axis, tilt);
-    Isometry3::from_parts(Translation3::from(Vector3::new(ox, oy, d) - rot * centre), rot)
+    let at = Vector3::new(ox, oy, d);
+    // Tilted from the line of sight: the axis-relative rotation turned onto the direction of the
+    // target centre (the shortest rotation from +z to it).
+    let rot = match b.tilt_from {
+        TiltFrom::Axis => rot,
+        TiltFrom::Sight => UnitQuaternion::rotation_between(&Vector3::z(), &at).unwrap_or_else(UnitQuaternion::identity) * rot,
+    };
+    Isometry3::from_parts(Translation3::from(at - rot * centre), rot)
 }
 
 /// One pose draw (and the joints in robot mode).
@@ -196,6 +203,31 @@ mod tests {
             assert!(tilt >= b.tilt_deg[0] - 1e-6 && tilt <= b.tilt_deg[1] + 1e-6, "{tilt}");
             assert!(meets_constraint(&plan, &pts, &v.cam_from_target));
         }
+    }
+
+    #[test]
+    fn boards_tilted_from_the_line_of_sight_face_the_camera() {
+        // The fisheye spec out to the field's edge: centres up to 80 degrees off-axis, each
+        // board's normal within its tilt range of the line of sight (measured from the axis it
+        // would be up to 125 degrees).
+        let plan = parse_dataset_spec(include_str!("../../assets/specs/fisheye_edge_1280.toml")).unwrap();
+        let PoseMode::Board(b) = plan.mode else { panic!("board") };
+        assert_eq!(b.tilt_from, TiltFrom::Sight);
+        let centre = target_centre(&plan);
+        let mut widest: f64 = 0.0;
+        for k in 0..30 {
+            let v = sample_view(&plan, k).unwrap();
+            let c = (v.cam_from_target * Point3::from(centre)).coords.normalize();
+            let normal = v.cam_from_target.rotation * Vector3::z();
+            let tilt = normal.dot(&c).clamp(-1.0, 1.0).acos().to_degrees();
+            assert!(tilt <= b.tilt_deg[1] + 1e-6, "view {k}: {tilt} degrees from the line of sight");
+            widest = widest.max(c.z.acos().to_degrees());
+        }
+        assert!(widest > 70.0, "{widest}");
+        // Anything else is an error naming the choices.
+        let bad = include_str!("../../assets/specs/fisheye_edge_1280.toml").replace("tilt_from = \"sight\"", "tilt_from = \"normal\"");
+        let e = parse_dataset_spec(&bad).unwrap_err().to_string();
+        assert!(e.contains("unknown variant `normal`, expected `axis` or `sight`"), "{e}");
     }
 
     #[test]

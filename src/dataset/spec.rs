@@ -105,6 +105,10 @@ pub enum PosesSpec {
         offset_x_m: Option<Vec<f64>>,
         /// Offset of the target centre along camera y, metres (default [0, 0]).
         offset_y_m: Option<Vec<f64>>,
+        /// What `tilt_deg` is measured from: `"axis"` (the optical axis, default) or `"sight"`
+        /// (the line of sight to the target centre: the board faces the camera wherever it is in
+        /// the field of view, as one holds a board at the edge of a fisheye's view).
+        tilt_from: Option<TiltFrom>,
         /// Re-draw until every feature point projects inside the image (default true).
         full_target_visible: Option<bool>,
         /// Margin of the visibility constraint, pixels (default 0).
@@ -140,6 +144,17 @@ pub enum PosesSpec {
     },
 }
 
+/// What a board's tilt is measured from ([`PosesSpec::Board`]'s `tilt_from`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TiltFrom {
+    /// The optical axis.
+    #[default]
+    Axis,
+    /// The line of sight from the camera to the target centre.
+    Sight,
+}
+
 /// Validated board-mode ranges (see [`PosesSpec::Board`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoardRanges {
@@ -153,6 +168,8 @@ pub struct BoardRanges {
     pub offset_x_m: [f64; 2],
     /// Offset along camera y, metres.
     pub offset_y_m: [f64; 2],
+    /// What the tilt is measured from.
+    pub tilt_from: TiltFrom,
 }
 
 /// How poses are drawn, validated.
@@ -230,7 +247,7 @@ impl PosesSpec {
     /// The validated mode, whether the visibility constraint applies, and its margin.
     fn to_mode(&self, target: &Target) -> Result<(PoseMode, bool, f64), SpecError> {
         match self {
-            PosesSpec::Board { distance_m, tilt_deg, roll_deg, offset_x_m, offset_y_m, full_target_visible, margin_px } => {
+            PosesSpec::Board { distance_m, tilt_deg, roll_deg, offset_x_m, offset_y_m, tilt_from, full_target_visible, margin_px } => {
                 if !target.is_planar() {
                     return Err(invalid("poses.mode", "\"board\" needs a planar target (chessboard or dot-grid); use \"robot\" for the s-path"));
                 }
@@ -244,6 +261,7 @@ impl PosesSpec {
                     roll_deg: check_range("poses.roll_deg", roll_deg.as_ref(), -360.0, 360.0)?,
                     offset_x_m: check_range("poses.offset_x_m", offset_x_m.as_ref(), f64::MIN, f64::MAX)?,
                     offset_y_m: check_range("poses.offset_y_m", offset_y_m.as_ref(), f64::MIN, f64::MAX)?,
+                    tilt_from: tilt_from.unwrap_or_default(),
                 };
                 Ok((PoseMode::Board(ranges), full_target_visible.unwrap_or(true), check_margin("poses.margin_px", *margin_px)?))
             }
