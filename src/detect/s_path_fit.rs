@@ -29,7 +29,7 @@
 //!    that contradict its first steps, or the two longest chains labelling each other (`strays`).
 //! 5. *Stepped over*: an unplaced dot between the dots of two consecutive indices takes the
 //!    index, the stretch after it moving up by one (`skipped`). Blobs that are no measurement
-//!    ([`unmeasured`]) are left to the caller.
+//!    ([`unmeasured()`]) are left to the caller.
 //!
 //! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera.
 //!

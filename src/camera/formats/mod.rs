@@ -2,7 +2,7 @@
 //! `cv::fisheye::calibrate` results are saved), ROS `camera_info` YAML
 //! (`camera_calibration_parsers`), Kalibr camchain YAML and mrcal `.cameramodel`. Each writer
 //! refuses, with [`CameraFileError::Unsupported`], a camera its format cannot hold (no silent
-//! truncation); [`read`] reads every file written here back.
+//! truncation); [`read()`] reads every file written here back.
 //!
 //! | format | OpenCV models | fisheye | Double Sphere | skew |
 //! |---|---|---|---|---|
