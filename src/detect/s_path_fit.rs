@@ -119,13 +119,20 @@ fn search_windows(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, para
     }
     let most = grown.iter().map(|g| g.0).max()?;
     grown.retain(|g| g.0 * 5 >= most * 4 && g.1 <= params.max_seed_rms_px);
-    grown.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let (_, best_rms, best) = grown.first()?;
     // Unambiguous: every labelling that disagrees with the best on most of its dots fits worse
     // by the ambiguity ratio (an arc of clutter fits many stretches of the S about equally).
-    let rival = grown.iter().skip(1).filter(|g| !mostly_agree(best, &g.2)).map(|g| g.1).fold(f64::INFINITY, f64::min);
+    let (_, best_rms, best, rival) = best_and_rival(grown)?;
     log::debug!("s-path window search: best {} dots at RMS {best_rms:.3} px, rival RMS {rival:.3} px", best.len());
-    (rival > params.ambiguity_ratio * best_rms.max(0.05)).then(|| grown.swap_remove(0).2)
+    (rival > params.ambiguity_ratio * best_rms.max(0.05)).then_some(best)
+}
+
+/// Grown labellings (dots placed, RMS px, labels): the one that fits best, and the lowest RMS
+/// of those that disagree with it on most of their dots (infinite when none does).
+fn best_and_rival(mut grown: Vec<(usize, f64, Labels)>) -> Option<(usize, f64, Labels, f64)> {
+    grown.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (placed, rms, best) = grown.first()?.clone();
+    let rival = grown.iter().skip(1).filter(|g| !mostly_agree(&best, &g.2)).map(|g| g.1).fold(f64::INFINITY, f64::min);
+    Some((placed, rms, best, rival))
 }
 
 /// Does labelling `other` give most of its dots the index `best` gives them?

@@ -4,7 +4,7 @@
 
 use super::label::{label_chain, labellings, ranked_labellings, DOMINANT_AMBIGUITY_RATIO};
 use super::resolve::{chain_labels, resolve_labels, Head};
-use super::{extend_locally, fit_rms, grow, mostly_agree, relaxed_start_seed, Labels, SPathFitParams};
+use super::{best_and_rival, extend_locally, fit_rms, grow, relaxed_start_seed, Labels, SPathFitParams};
 use crate::detect::dots::Dot;
 use crate::detect::filters::median_by;
 use crate::detect::s_path_order::SPathOrderParams;
@@ -155,12 +155,10 @@ fn by_growth(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathF
     // Contenders place nearly as many as the most; among them the best fit wins.
     let most = grown.iter().map(|g| g.0).max()?;
     grown.retain(|g| g.0 + GROWTH_MARGIN > most);
-    grown.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let (placed, rms) = grown.first().map(|g| (g.0, g.1))?;
-    let rival = grown.iter().skip(1).filter(|g| !mostly_agree(&grown[0].2, &g.2)).map(|g| g.1).fold(f64::INFINITY, f64::min);
+    let (placed, rms, best, rival) = best_and_rival(grown)?;
     log::debug!("s-path chain of {} dots by growth: {placed} placed at RMS {rms:.3} px, rival contender RMS {rival:.3} px", chain.len());
     let fits = rms <= STRAY_RMS_STEPS * median_step_px(chain, dots);
-    (placed >= need && rival > DOMINANT_AMBIGUITY_RATIO * rms && fits).then(|| grown.swap_remove(0).2)
+    (placed >= need && rival > DOMINANT_AMBIGUITY_RATIO * rms && fits).then_some(best)
 }
 
 /// The entries of `anchor` (a start chain's labels) in path order up to the first that
