@@ -20,7 +20,7 @@ use nalgebra::{Point2, Point3, Vector6};
 
 use super::refine::{pose_vector, refine, vector_of, State, View};
 use super::{calibrate, view_results, CalibError, CalibParams, CalibResult, IntrinsicStd};
-use crate::camera::{CameraModel, ImageSize, Intrinsics, N_INTRINSICS};
+use crate::camera::{CameraModel, ImageSize, N_INTRINSICS};
 
 /// One fold of [`cross_validate`].
 #[derive(Debug, Clone, PartialEq)]
@@ -97,20 +97,19 @@ pub fn cross_validate(views: &[View], size: ImageSize, params: &CalibParams, ful
 
 /// The poses of `views` under a fixed `camera`: each from the homography between the board and
 /// the unprojected rays near the axis ([`super::init_wide::view_pose`]; where that fails, as
-/// under a lens model that cannot follow the lens, from the pinhole rays `K^-1 q`), then refined
+/// under a lens model that cannot follow the lens, from the board-to-pixel homography and K), then refined
 /// together with every intrinsic fixed.
 fn held_out_poses(camera: &CameraModel, views: &[View], size: ImageSize, max_iterations: usize) -> Result<Vec<Vector6<f64>>, CalibError> {
-    let unit = Intrinsics { fx: 1.0, fy: 1.0, cx: 0.0, cy: 0.0, skew: 0.0 };
     let mut poses = Vec::with_capacity(views.len());
     for (i, v) in views.iter().enumerate() {
         let pose = match super::init_wide::view_pose(camera, v) {
             Some((pose, _)) => pose,
             None => {
-                let (src, dst): (Vec<Point2<f64>>, Vec<Point2<f64>>) =
-                    v.iter().map(|(x, q)| (x.xy(), Point2::from(camera.intrinsics.pixel_to_normalized(q)))).unzip();
+                // Zhang's pose from the board-to-pixel homography and K, as the OpenCV models start.
+                let (src, dst): (Vec<Point2<f64>>, Vec<Point2<f64>>) = v.iter().map(|(x, q)| (x.xy(), *q)).unzip();
                 let h = crate::math::homography::homography(&src, &dst)
                     .ok_or_else(|| CalibError::Degenerate { reason: format!("held-out view {i}: no homography") })?;
-                super::zhang::pose_from_homography(&h, &unit)
+                super::zhang::pose_from_homography(&h, &camera.intrinsics)
             }
         };
         poses.push(pose_vector(&pose));

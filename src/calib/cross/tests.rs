@@ -7,7 +7,7 @@ use rand_distr::{Distribution, Normal};
 use super::*;
 use crate::calib::tests::board;
 use crate::calib::CalibModel;
-use crate::camera::{Fisheye, Lens};
+use crate::camera::{Fisheye, Intrinsics, Lens};
 
 /// `n` views of an 8 x 6 board (3 cm squares) 0.3-0.45 m away, its centre up to `max_deg` off
 /// the axis, tilted by up to 0.5 rad; only views wholly in the image.
