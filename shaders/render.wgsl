@@ -6,8 +6,9 @@
 // invocation per hard pixel.
 //
 // Per pixel: the pixel centre (OpenCV convention: pixel (x, y) is centred at (x, y)) is mapped to
-// normalised distorted coordinates with K^-1, the Brown-Conrady distortion is inverted with Newton's
-// method (the GPU twin of camera::Distortion::undistort), and the local Jacobian d(xu)/d(q) of that
+// normalised distorted coordinates with K^-1, the lens model is inverted (Newton's method, the GPU
+// twin of camera::Lens::undistort) to the pixel's ray d (camera frame: (xu, yu, 1), or a fisheye's
+// unit vector, which may point behind the camera plane), and the local Jacobian d(d)/d(q) of that
 // inverse gives every sub-sample of the pixel without another inversion. Shading is a box filter
 // over the pixel square:
 //   - chessboard: one line across the (locally affine) pixel footprint, the closed-form area of a
@@ -29,12 +30,12 @@ struct Params {
     intr: vec4<f32>,     // fx, fy, cx, cy
     intr2: vec4<f32>,    // skew, r2_max (undistorted r^2 beyond which the lens folds), has_distortion, 0
     dist0: vec4<f32>,    // OpenCV: k1, k2, p1, p2 | fisheye: k1..k4 | double sphere: xi, alpha
-    dist1: vec4<f32>,    // OpenCV: k3, k4, k5, k6 | fisheye: theta_max
+    dist1: vec4<f32>,    // OpenCV: k3, k4, k5, k6 | fisheye: theta_max, split radii 2x2, 4x4
     dist2: vec4<f32>,    // OpenCV: s1, s2, s3, s4
     tilt0: vec4<f32>,    // OpenCV tilt matrix rows (xyz; used when LENS_TILT)
     tilt1: vec4<f32>,
     tilt2: vec4<f32>,
-    h0: vec4<f32>,       // rows of H: (X, Y, W) = H (xu, yu, 1), target plane from normalised coords
+    h0: vec4<f32>,       // rows of H: (X, Y, W) = H d, target plane from the ray (W > 0: in front)
     h1: vec4<f32>,
     h2: vec4<f32>,
     board: vec4<f32>,    // chessboard: nx, ny, square, margin | dot grid: n, edge, radius, margin
@@ -70,9 +71,10 @@ fn len3(a: vec3<f32>) -> f32 { return sqrt(dot3(a, a)); }
 override LENS_MODEL: u32 = 0u;
 override LENS_TILT: bool = false;
 
-// Three models behind distort / distort_jac (LENS_MODEL; src/render/gpu_scene.rs LENS_VARIANTS):
-// 0 OpenCV (camera::Distortion: rational radial, tangential, thin prism, tilt), 1 OpenCV fisheye
-// (camera::Fisheye), 2 Double Sphere (camera::DoubleSphere). Rays are (xu, 1).
+// Three models (LENS_MODEL; src/render/gpu_scene.rs LENS_VARIANTS): 0 OpenCV (camera::Distortion:
+// rational radial, tangential, thin prism, tilt) and 2 Double Sphere (camera::DoubleSphere) behind
+// distort / distort_jac, with rays (xu, 1); 1 OpenCV fisheye (camera::Fisheye) in fisheye_ray, with
+// unit rays at any angle it reaches.
 
 fn opencv_untilted(p: vec2<f32>) -> vec2<f32> {
     let r2 = dot2(p, p);
@@ -113,11 +115,6 @@ fn ds_den(p: vec2<f32>) -> DsDen {
 }
 
 fn distort(p: vec2<f32>) -> vec2<f32> {
-    if (LENS_MODEL == 1u) {
-        let r = len2(p);
-        if (r < 1e-10) { return p; }
-        return p * (fisheye_theta_d(atan(r)).x / r);
-    }
     if (LENS_MODEL == 2u) {
         return p / ds_den(p).den;
     }
@@ -147,14 +144,6 @@ fn opencv_untilted_jac(p: vec2<f32>) -> mat2x2<f32> {
 
 // d(distort)/d(p), column-major: columns d/dx, d/dy.
 fn distort_jac(p: vec2<f32>) -> mat2x2<f32> {
-    if (LENS_MODEL == 1u) {
-        let r = len2(p);
-        if (r < 1e-10) { return mat2x2<f32>(vec2<f32>(1.0, 0.0), vec2<f32>(0.0, 1.0)); }
-        let td = fisheye_theta_d(atan(r));
-        let s = td.x / r;
-        let ds_r = (td.y / (1.0 + r * r) - s) / (r * r);
-        return mat2x2<f32>(vec2<f32>(s + ds_r * p.x * p.x, ds_r * p.x * p.y), vec2<f32>(ds_r * p.x * p.y, s + ds_r * p.y * p.y));
-    }
     if (LENS_MODEL == 2u) {
         let d = ds_den(p);
         let m = p / (d.den * d.den);
@@ -176,34 +165,116 @@ fn inverse2(m: mat2x2<f32>) -> mat2x2<f32> {
 }
 
 struct Ray {
-    xu: vec2<f32>,        // undistorted normalised coordinates of the pixel centre
-    dxu_dq: mat2x2<f32>,  // d(xu)/d(pixel)
+    d: vec3<f32>,         // the pixel centre's ray: (xu, yu, 1), or a fisheye's unit vector
+    dd_dq: mat2x3<f32>,   // d(d)/d(pixel): columns d/dqx, d/dqy
     ok: bool,             // false beyond the fold of the lens model
+    parts: u32,           // the fine pass splits the pixel into parts x parts sub-pixels (fine_split)
 };
 
-fn pixel_ray(q: vec2<f32>) -> Ray {
+// The ray (xu, 1) and its Jacobian from d(xu)/d(q).
+fn planar_ray(xu: vec2<f32>, j: mat2x2<f32>) -> Ray {
     var r: Ray;
+    r.d = vec3<f32>(xu, 1.0);
+    r.dd_dq = mat2x3<f32>(vec3<f32>(j[0], 0.0), vec3<f32>(j[1], 0.0));
+    r.ok = true;
+    r.parts = 1u;
+    return r;
+}
+
+// Fisheye: Newton on theta (theta_d is monotonic up to theta_max = dist1.x, which may pass 90
+// degrees: fields of view beyond 180), the unit ray (sin(theta) u, cos(theta)) with u = xd / |xd|,
+// and its Jacobian: d(d.xy)/d(xd) = s I + (cos(theta) theta' - s) u u^T with s = sin(theta) / |xd|,
+// d(d.z)/d(xd) = -sin(theta) theta' u^T, theta' = 1 / theta_d'(theta).
+fn fisheye_ray(xd: vec2<f32>, kinv: mat2x2<f32>) -> Ray {
+    let rd = len2(xd);
+    if (rd < 1e-10) { return planar_ray(xd, kinv); }
+    var th = min(rd, P.dist1.x);
+    for (var i = 0; i < 8; i = i + 1) {
+        let td = fisheye_theta_d(th);
+        th = clamp(th - (td.x - rd) / td.y, 0.0, P.dist1.x);
+    }
+    let td = fisheye_theta_d(th);
+    let u = xd / rd;
+    let st = sin(th);
+    let ct = cos(th);
+    let dth = 1.0 / td.y;
+    let s = st / rd;
+    let a = ct * dth - s;
+    let c0 = vec3<f32>(s + a * u.x * u.x, a * u.x * u.y, -st * dth * u.x);
+    let c1 = vec3<f32>(a * u.x * u.y, s + a * u.y * u.y, -st * dth * u.y);
+    var r: Ray;
+    r.d = vec3<f32>(u * st, ct);
+    r.dd_dq = mat2x3<f32>(c0, c1) * kinv;
+    r.ok = th < P.dist1.x && td.y > 0.0 && abs(td.x - rd) < 1e-4 * (1.0 + rd);
+    r.parts = select(select(1u, 2u, rd > P.dist1.y), 4u, rd > P.dist1.z);
+    return r;
+}
+
+// Sub-pixel k of the pixel at q split into parts x parts (row-major): its own exact ray, and the
+// Jacobian scaled so that the sub-pixel is the unit square of its offsets.
+fn sub_ray(q: vec2<f32>, parts: u32, k: u32) -> Ray {
+    let n = f32(parts);
+    let o = (vec2<f32>(f32(k % parts), f32(k / parts)) + 0.5) / n - 0.5;
+    var r = pixel_ray(q + o);
+    r.dd_dq = r.dd_dq * (1.0 / n);
+    return r;
+}
+
+// Rays near the pixel centre's. Only the fisheye's rays are general 3-vectors; the other models'
+// keep z = 1 and their offsets z = 0 as literals (LENS_MODEL is a pipeline constant, so each
+// pipeline compiles one side): arithmetic on a z the compiler knows is folded differently by
+// Mesa's SPIR-V and GLSL paths, and Vulkan and GL renders must stay bit-identical.
+fn wide() -> bool { return LENS_MODEL == 1u; }
+
+// d(xy)/d(q) of a ray (xu, 1).
+fn jac2(ray: Ray) -> mat2x2<f32> { return mat2x2<f32>(ray.dd_dq[0].xy, ray.dd_dq[1].xy); }
+
+// The pixel centre's ray.
+fn ray_d(ray: Ray) -> vec3<f32> {
+    if (wide()) { return ray.d; }
+    return vec3<f32>(ray.d.xy, 1.0);
+}
+
+// Column k of d(d)/d(q).
+fn ray_col(ray: Ray, k: u32) -> vec3<f32> {
+    let c = select(ray.dd_dq[0], ray.dd_dq[1], k == 1u);
+    if (wide()) { return c; }
+    return vec3<f32>(c.xy, 0.0);
+}
+
+// The ray through pixel offset o (distortion linearised over the pixel).
+fn ray_at(ray: Ray, o: vec2<f32>) -> vec3<f32> {
+    if (wide()) { return ray.d + ray.dd_dq * o; }
+    return vec3<f32>(ray.d.xy + jac2(ray) * o, 1.0);
+}
+
+// The change of the ray over the pixel offset t.
+fn ray_step(ray: Ray, t: vec2<f32>) -> vec3<f32> {
+    if (wide()) { return ray.dd_dq * t; }
+    return vec3<f32>(jac2(ray) * t, 0.0);
+}
+
+// The centre ray plus a change v (from ray_step or a column of dd_dq).
+fn ray_plus(ray: Ray, v: vec3<f32>) -> vec3<f32> {
+    if (wide()) { return ray.d + v; }
+    return vec3<f32>(ray.d.xy + v.xy, 1.0);
+}
+
+// dot(g, v) for v a change of the ray (z = 0 unless wide).
+fn dot_step(g: vec3<f32>, v: vec3<f32>) -> f32 {
+    if (wide()) { return dot3(g, v); }
+    return dot2(g.xy, v.xy);
+}
+
+fn pixel_ray(q: vec2<f32>) -> Ray {
     let yd = (q.y - P.intr.w) / P.intr.y;
     let xd = vec2<f32>((q.x - P.intr.z - P.intr2.x * yd) / P.intr.x, yd);
     let kinv = mat2x2<f32>(vec2<f32>(1.0 / P.intr.x, 0.0), vec2<f32>(-P.intr2.x / (P.intr.x * P.intr.y), 1.0 / P.intr.y));
-    if (P.intr2.z == 0.0) {
-        r.xu = xd;
-        r.dxu_dq = kinv;
-        r.ok = true;
-        return r;
-    }
+    if (P.intr2.z == 0.0) { return planar_ray(xd, kinv); }
+    if (LENS_MODEL == 1u) { return fisheye_ray(xd, kinv); }
     let rd2 = dot2(xd, xd);
     var xu = xd;
-    if (LENS_MODEL == 1u) {
-        // Fisheye: Newton on theta (theta_d is monotonic up to theta_max = dist1.x).
-        let rd = sqrt(rd2);
-        var th = min(rd, P.dist1.x);
-        for (var i = 0; i < 6; i = i + 1) {
-            let td = fisheye_theta_d(th);
-            th = clamp(th - (td.x - rd) / td.y, 0.0, P.dist1.x);
-        }
-        if (rd > 1e-10) { xu = xd * (tan(th) / rd); }
-    } else if (LENS_MODEL == 2u) {
+    if (LENS_MODEL == 2u) {
         // Double sphere: closed form (Usenko et al. 2018, eq. 45-47); z <= 0 fails the r2_max test.
         let xi = P.dist0.x; let al = P.dist0.y;
         let q = max(1.0 - (2.0 * al - 1.0) * rd2, 0.0);
@@ -228,10 +299,9 @@ fn pixel_ray(q: vec2<f32>) -> Ray {
     let j = distort_jac(xu);
     let det = j[0].x * j[1].y - j[1].x * j[0].y;
     let res = len2(distort(xu) - xd);
-    r.ok = det > 0.0 && dot2(xu, xu) < P.intr2.y && res < 1e-4 * (1.0 + sqrt(rd2));
     // d(xd)/d(q) = K^-1 (2x2 part)
-    r.xu = xu;
-    r.dxu_dq = inverse2(j) * kinv;
+    var r = planar_ray(xu, inverse2(j) * kinv);
+    r.ok = det > 0.0 && dot2(xu, xu) < P.intr2.y && res < 1e-4 * (1.0 + sqrt(rd2));
     return r;
 }
 
@@ -262,11 +332,18 @@ fn plane_value(b: vec2<f32>) -> f32 {
     return select(grid_value(b.x, b.y), chess_value(b.x, b.y), P.size.z == 0u);
 }
 
-// Target-plane point of normalised coordinates xu; z < 0 when the ray misses (plane behind).
-fn plane_point(xu: vec2<f32>) -> vec3<f32> {
-    let hw = P.h2.x * xu.x + P.h2.y * xu.y + P.h2.z;
-    let hx = P.h0.x * xu.x + P.h0.y * xu.y + P.h0.z;
-    let hy = P.h1.x * xu.x + P.h1.y * xu.y + P.h1.z;
+// Target-plane point of the ray d (any length and direction: H is linear); z < 0 when the ray
+// misses (plane behind).
+fn plane_point(d: vec3<f32>) -> vec3<f32> {
+    if (wide()) {
+        let hw = P.h2.x * d.x + P.h2.y * d.y + P.h2.z * d.z;
+        let hx = P.h0.x * d.x + P.h0.y * d.y + P.h0.z * d.z;
+        let hy = P.h1.x * d.x + P.h1.y * d.y + P.h1.z * d.z;
+        return vec3<f32>(hx / hw, hy / hw, hw);
+    }
+    let hw = P.h2.x * d.x + P.h2.y * d.y + P.h2.z;
+    let hx = P.h0.x * d.x + P.h0.y * d.y + P.h0.z;
+    let hy = P.h1.x * d.x + P.h1.y * d.y + P.h1.z;
     return vec3<f32>(hx / hw, hy / hw, hw);
 }
 
@@ -281,7 +358,7 @@ fn plane_supersample(ray: Ray, n: u32) -> f32 {
     for (var j = 0u; j < n; j = j + 1u) {
         for (var i = 0u; i < n; i = i + 1u) {
             let d = vec2<f32>((f32(i) + 0.5) * inv - 0.5, (f32(j) + 0.5) * inv - 0.5);
-            let pp = plane_point(ray.xu + ray.dxu_dq * d);
+            let pp = plane_point(ray_at(ray, d));
             acc = acc + select(P.grey.w, plane_value(pp.xy), pp.z > 0.0);
         }
     }
@@ -324,12 +401,16 @@ fn chess_lines(lo: f32, hi: f32, n_squares: f32) -> Lines {
 }
 
 // d(board)/d(pixel) at the plane point pc of the pixel centre: the homography's Jacobian chained
-// with d(xu)/d(q). Columns: d(board)/d(qx), d(board)/d(qy).
+// with d(d)/d(q). Columns: d(board)/d(qx), d(board)/d(qy).
 fn board_jacobian(pc: vec3<f32>, ray: Ray) -> mat2x2<f32> {
-    let dbdxu = mat2x2<f32>(
+    let dbdxy = mat2x2<f32>(
         vec2<f32>(P.h0.x - pc.x * P.h2.x, P.h1.x - pc.y * P.h2.x) / pc.z,
         vec2<f32>(P.h0.y - pc.x * P.h2.y, P.h1.y - pc.y * P.h2.y) / pc.z);
-    return dbdxu * ray.dxu_dq;
+    if (!wide()) { return dbdxy * jac2(ray); }
+    let dbdz = vec2<f32>(P.h0.z - pc.x * P.h2.z, P.h1.z - pc.y * P.h2.z) / pc.z;
+    let j0 = ray_col(ray, 0u);
+    let j1 = ray_col(ray, 1u);
+    return dbdxy * jac2(ray) + mat2x2<f32>(dbdz * j0.z, dbdz * j1.z);
 }
 
 // ---------------------------------------------------------------- exact pixel coverage
@@ -346,8 +427,8 @@ fn board_jacobian(pc: vec3<f32>, ray: Ray) -> mat2x2<f32> {
 // dot(l.xy, d) >= l.z. (The affine footprint would put the centre's pc for v in the normal.)
 fn board_line(axis: u32, v: f32, pc: vec3<f32>, ray: Ray) -> vec3<f32> {
     let h = select(P.h0, P.h1, axis == 1u);
-    let g = (vec2<f32>(h.x, h.y) - v * vec2<f32>(P.h2.x, P.h2.y)) / pc.z;
-    return vec3<f32>(dot2(g, ray.dxu_dq[0]), dot2(g, ray.dxu_dq[1]), v - select(pc.x, pc.y, axis == 1u));
+    let g = (h.xyz - v * P.h2.xyz) / pc.z;
+    return vec3<f32>(dot_step(g, ray_col(ray, 0u)), dot_step(g, ray_col(ray, 1u)), v - select(pc.x, pc.y, axis == 1u));
 }
 
 // Clip the parameter interval st of the line p0 + s u to the half-plane dot(l.xy, d) >= l.z.
@@ -494,7 +575,7 @@ struct Coarse { value: f32, hard: bool, };
 // corners, several lines or a large footprint are hard.
 fn chess_coarse(ray: Ray) -> Coarse {
     var out: Coarse;
-    let pc = plane_point(ray.xu);
+    let pc = plane_point(ray_d(ray));
     let a = board_jacobian(pc, ray);
     let ext = footprint_extent(a);
     let ex = ext.x;
@@ -517,7 +598,7 @@ fn chess_coarse(ray: Ray) -> Coarse {
     let nlines = lx.count + ly.count;
     let v = select(vp * area + vm * (1.0 - area), chess_value(pc.x, pc.y), nlines == 0u);
     out.value = select(P.grey.w, v, pc.z > 0.0 && ray.ok);
-    out.hard = ray.ok && pc.z > 0.0 && (!small || nlines > 1u);
+    out.hard = ray.ok && pc.z > 0.0 && (!small || nlines > 1u || (nlines > 0u && ray.parts > 1u));
     return out;
 }
 
@@ -525,7 +606,7 @@ fn chess_coarse(ray: Ray) -> Coarse {
 // the board and in every dark square it meets (rect_area); supersampled only when the pixel
 // meets more than MAX_CELLS squares per axis. One loop over the rectangles keeps the code small.
 fn chess_fine(ray: Ray) -> f32 {
-    let pc = plane_point(ray.xu);
+    let pc = plane_point(ray_d(ray));
     let a = board_jacobian(pc, ray);
     let ext = footprint_extent(a);
     let ex = ext.x;
@@ -566,7 +647,7 @@ fn chess_fine(ray: Ray) -> f32 {
 // Dot grid, coarse: pixels near a disc or plate edge are hard.
 fn grid_coarse(ray: Ray) -> Coarse {
     var out: Coarse;
-    let pc = plane_point(ray.xu);
+    let pc = plane_point(ray_d(ray));
     let a = board_jacobian(pc, ray);
     let ext = 0.75 * (len2(a[0]) + len2(a[1])) + 1e-7;
     let n = P.board.x; let hh = 0.5 * P.board.y; let rad = P.board.z; let outer = hh + P.board.w;
@@ -618,7 +699,7 @@ fn ellipse_area(q: vec3<f32>, b: vec2<f32>, c: f32) -> f32 {
 // (rect_area) and in every disc within reach (disc_in_pixels); supersampled only when more than
 // MAX_CELLS discs per axis are in reach.
 fn grid_fine(ray: Ray) -> f32 {
-    let pc = plane_point(ray.xu);
+    let pc = plane_point(ray_d(ray));
     let a = board_jacobian(pc, ray);
     let ext = footprint_extent(a);
     let ex = ext.x;
@@ -630,7 +711,7 @@ fn grid_fine(ray: Ray) -> f32 {
     let j0 = clamp(ceil((pc.y - ey + hh - rad) / pitch), 0.0, n - 1.0);
     let j1 = clamp(floor((pc.y + ey + hh + rad) / pitch), 0.0, n - 1.0);
     var exact = i1 - i0 < MAX_CELLS && j1 - j0 < MAX_CELLS && pc.z > 0.0;
-    let g = vec2<f32>(dot2(P.h2.xy, ray.dxu_dq[0]), dot2(P.h2.xy, ray.dxu_dq[1])) / pc.z;
+    let g = vec2<f32>(dot_step(P.h2.xyz, ray_col(ray, 0u)), dot_step(P.h2.xyz, ray_col(ray, 1u))) / pc.z;
     let a_plate = rect_area(vec2<f32>(-outer, -outer), vec2<f32>(outer, outer), pc, ray);
     let ni = select(0u, u32(max(i1 - i0 + 1.0, 0.0)), exact);
     let nj = select(0u, u32(max(j1 - j0 + 1.0, 0.0)), exact);
@@ -719,7 +800,7 @@ var<private> near_begin: u32;
 var<private> near_end: u32;
 
 fn gather_near(ray: Ray, t_begin: u32, t_end: u32) {
-    let d = vec3<f32>(ray.xu, 1.0);
+    let d = ray_d(ray);
     let alpha = pixel_cone(ray);
     near_count = 0u;
     near_begin = t_begin;
@@ -750,8 +831,10 @@ fn spath_sample_near(d: vec3<f32>, ts: f32) -> f32 {
 // Half-angle of a cone about the pixel's centre ray that holds the rays of the whole pixel
 // square: its half-diagonal plus 10 %.
 fn pixel_cone(ray: Ray) -> f32 {
-    let half_diag = 0.5 * max(len2(ray.dxu_dq[0] + ray.dxu_dq[1]), len2(ray.dxu_dq[0] - ray.dxu_dq[1]));
-    return 1.1 * half_diag / len3(vec3<f32>(ray.xu, 1.0));
+    let a = ray_col(ray, 0u) + ray_col(ray, 1u);
+    let b = ray_col(ray, 0u) - ray_col(ray, 1u);
+    let half_diag = 0.5 * select(max(len2(a.xy), len2(b.xy)), max(len3(a), len3(b)), wide());
+    return 1.1 * half_diag / len3(ray_d(ray));
 }
 
 // Does the cone of rays through the pixel (axis d, half-angle alpha >= the pixel's half-diagonal) reach the
@@ -769,10 +852,9 @@ fn cone_near_ball(d: vec3<f32>, alpha: f32, c: vec3<f32>, r: f32, inside: bool) 
 // of the sphere or of a dot, or when its centre and corner rays disagree (the outline of the part
 // of a bead the sphere does not hide).
 
-// Signed distance (metres, at the sphere) of the ray through normalised point xu from the outline
-// of the sphere: negative inside.
-fn limb_distance(xu: vec2<f32>) -> f32 {
-    let d = vec3<f32>(xu, 1.0);
+// Signed distance (metres, at the sphere) of the ray d from the outline of the sphere: negative
+// inside.
+fn limb_distance(d: vec3<f32>) -> f32 {
     let n = d / len3(d);
     let c = P.sphere.xyz;
     return len3(c - n * dot3(n, c)) - P.sphere.w;
@@ -801,11 +883,10 @@ fn smooth_coverage(g0: f32, grad: vec2<f32>, gtt: f32) -> f32 {
     return clamp(a_lin - sag, 0.0, 1.0);
 }
 
-// Boundary functions of dot b along the ray through normalised point xu (negative = dark side):
-// which 0, the bead's silhouette; otherwise the distance of the sphere hit point from the dot
-// centre minus its radius (painted cap).
-fn dot_boundary(which: u32, xu: vec2<f32>, b: vec4<f32>) -> f32 {
-    let d = vec3<f32>(xu, 1.0);
+// Boundary functions of dot b along the ray d (negative = dark side): which 0, the bead's
+// silhouette; otherwise the distance of the sphere hit point from the dot centre minus its radius
+// (painted cap).
+fn dot_boundary(which: u32, d: vec3<f32>, b: vec4<f32>) -> f32 {
     let n = d / len3(d);
     let ts = hit_sphere(n, P.sphere.xyz, P.sphere.w);
     let sil = len3(b.xyz - n * dot3(n, b.xyz)) - b.w;
@@ -813,11 +894,10 @@ fn dot_boundary(which: u32, xu: vec2<f32>, b: vec4<f32>) -> f32 {
     return select(cap, sil, which == 0u);
 }
 
-// Cut function of bead b along the ray through xu: bead entry minus sphere entry, continued
-// outside the silhouette with the ray's closest approach to the bead's centre so that it stays
-// continuous (negative where the bead is in front).
-fn bead_cut(xu: vec2<f32>, b: vec4<f32>) -> f32 {
-    let d = vec3<f32>(xu, 1.0);
+// Cut function of bead b along the ray d: bead entry minus sphere entry, continued outside the
+// silhouette with the ray's closest approach to the bead's centre so that it stays continuous
+// (negative where the bead is in front).
+fn bead_cut(d: vec3<f32>, b: vec4<f32>) -> f32 {
     let n = d / len3(d);
     let ts = hit_sphere(n, P.sphere.xyz, P.sphere.w);
     let along = dot3(n, b.xyz);
@@ -829,9 +909,9 @@ fn bead_cut(xu: vec2<f32>, b: vec4<f32>) -> f32 {
 // dot_boundary `which` of dot b linearised over the pixel: (value at the centre, central
 // differences per pixel along x and y).
 fn boundary_linear(which: u32, ray: Ray, b: vec4<f32>) -> vec3<f32> {
-    let g0 = dot_boundary(which, ray.xu, b);
-    let gx = dot_boundary(which, ray.xu + 0.5 * ray.dxu_dq[0], b) - dot_boundary(which, ray.xu - 0.5 * ray.dxu_dq[0], b);
-    let gy = dot_boundary(which, ray.xu + 0.5 * ray.dxu_dq[1], b) - dot_boundary(which, ray.xu - 0.5 * ray.dxu_dq[1], b);
+    let g0 = dot_boundary(which, ray_d(ray), b);
+    let gx = dot_boundary(which, ray_plus(ray, 0.5 * ray_col(ray, 0u)), b) - dot_boundary(which, ray_plus(ray, -0.5 * ray_col(ray, 0u)), b);
+    let gy = dot_boundary(which, ray_plus(ray, 0.5 * ray_col(ray, 1u)), b) - dot_boundary(which, ray_plus(ray, -0.5 * ray_col(ray, 1u)), b);
     return vec3<f32>(g0, gx, gy);
 }
 
@@ -844,7 +924,7 @@ fn cap_rim_linear(ray: Ray, b: vec4<f32>, lin: vec3<f32>) -> bool {
     var ok = true;
     for (var k = 0u; k < 4u; k = k + 1u) {
         let o = vec2<f32>(select(-0.5, 0.5, (k & 1u) == 1u), select(-0.5, 0.5, k >= 2u));
-        let g = dot_boundary(2u, ray.xu + ray.dxu_dq * o, b);
+        let g = dot_boundary(2u, ray_at(ray, o), b);
         ok = ok && abs(g - (lin.x + lin.y * o.x + lin.z * o.y)) <= tol;
     }
     return ok;
@@ -858,8 +938,8 @@ fn dot_coverage(which: u32, ray: Ray, b: vec4<f32>, lin: vec3<f32>) -> f32 {
     let gy = lin.z;
     let grad = vec2<f32>(gx, gy);
     let t = vec2<f32>(-gy, gx) / max(len2(grad), 1e-30);
-    let dt = ray.dxu_dq * t;
-    let gtt = (dot_boundary(which, ray.xu + 0.5 * dt, b) + dot_boundary(which, ray.xu - 0.5 * dt, b) - 2.0 * g0) * 4.0;
+    let dt = ray_step(ray, t);
+    let gtt = (dot_boundary(which, ray_plus(ray, 0.5 * dt), b) + dot_boundary(which, ray_plus(ray, -0.5 * dt), b) - 2.0 * g0) * 4.0;
     return smooth_coverage(g0, grad, gtt);
 }
 
@@ -867,11 +947,11 @@ fn dot_coverage(which: u32, ray: Ray, b: vec4<f32>, lin: vec3<f32>) -> f32 {
 // hundreds of pixels) by the closed-form coverage of its linearised distance function.
 fn spath_coarse_limb(ray: Ray) -> Coarse {
     var out: Coarse;
-    let d = vec3<f32>(ray.xu, 1.0);
+    let d = ray_d(ray);
     let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
-    let g0 = limb_distance(ray.xu);
-    let gx = limb_distance(ray.xu + 0.5 * ray.dxu_dq[0]) - limb_distance(ray.xu - 0.5 * ray.dxu_dq[0]);
-    let gy = limb_distance(ray.xu + 0.5 * ray.dxu_dq[1]) - limb_distance(ray.xu - 0.5 * ray.dxu_dq[1]);
+    let g0 = limb_distance(ray_d(ray));
+    let gx = limb_distance(ray_plus(ray, 0.5 * ray_col(ray, 0u))) - limb_distance(ray_plus(ray, -0.5 * ray_col(ray, 0u)));
+    let gy = limb_distance(ray_plus(ray, 0.5 * ray_col(ray, 1u))) - limb_distance(ray_plus(ray, -0.5 * ray_col(ray, 1u)));
     let inside = smooth_coverage(g0, vec2<f32>(gx, gy), 0.0);
     out.value = select(P.grey.w, P.grey.y * inside + P.grey.w * (1.0 - inside), ray.ok && ts > 0.0 || abs(g0) < 1.0);
     out.value = select(P.grey.w, out.value, ray.ok);
@@ -888,9 +968,9 @@ struct PixelRays { d0: vec3<f32>, c0: vec3<f32>, c1: vec3<f32>, };
 
 fn pixel_rays(ray: Ray) -> PixelRays {
     var r: PixelRays;
-    r.d0 = vec3<f32>(ray.xu, 1.0);
-    r.c0 = vec3<f32>(ray.dxu_dq[0], 0.0);
-    r.c1 = vec3<f32>(ray.dxu_dq[1], 0.0);
+    r.d0 = ray_d(ray);
+    r.c0 = ray_col(ray, 0u);
+    r.c1 = ray_col(ray, 1u);
     return r;
 }
 
@@ -969,7 +1049,7 @@ const MARGIN_PX: f32 = 0.9;
 // near two boundaries are hard.
 fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     var out: Coarse;
-    let d = vec3<f32>(ray.xu, 1.0);
+    let d = ray_d(ray);
     let alpha = pixel_cone(ray);
     let t_begin = tile_start[tile];
     let t_end = tile_start[tile + 1u];
@@ -986,11 +1066,11 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     // One bead: which of its two boundaries crosses the pixel? Both functions at the centre and
     // the corners give values and gradients (per pixel); a boundary whose linearised distance from
     // the centre exceeds MARGIN_PX does not cross the pixel.
-    let v0 = bead_cut(ray.xu, b);
-    let v00 = bead_cut(ray.xu + ray.dxu_dq * vec2<f32>(-0.5, -0.5), b);
-    let v10 = bead_cut(ray.xu + ray.dxu_dq * vec2<f32>(0.5, -0.5), b);
-    let v01 = bead_cut(ray.xu + ray.dxu_dq * vec2<f32>(-0.5, 0.5), b);
-    let v11 = bead_cut(ray.xu + ray.dxu_dq * vec2<f32>(0.5, 0.5), b);
+    let v0 = bead_cut(ray_d(ray), b);
+    let v00 = bead_cut(ray_at(ray, vec2<f32>(-0.5, -0.5)), b);
+    let v10 = bead_cut(ray_at(ray, vec2<f32>(0.5, -0.5)), b);
+    let v01 = bead_cut(ray_at(ray, vec2<f32>(-0.5, 0.5)), b);
+    let v11 = bead_cut(ray_at(ray, vec2<f32>(0.5, 0.5)), b);
     let gxv = 0.5 * ((v10 + v11) - (v00 + v01));
     let gyv = 0.5 * ((v01 + v11) - (v00 + v10));
     let dist_cut = v0 / max(len2(vec2<f32>(gxv, gyv)), 1e-30);
@@ -1029,7 +1109,7 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
 // bare sphere or background (the outline is added in closed form: no band between a cap's rim
 // and the outline for the scan lines to resolve).
 fn spath_at(ray: Ray, o: vec2<f32>) -> f32 {
-    let d = vec3<f32>(ray.xu + ray.dxu_dq * o, 1.0);
+    let d = ray_at(ray, o);
     let ts = hit_sphere(d, P.sphere.xyz, P.sphere.w);
     let seen = spath_sample_near(d, ts);
     let bare = select(P.grey.w, P.grey.y, ts > 0.0);
@@ -1072,8 +1152,8 @@ fn dot_chords(ray: Ray, y: f32) -> array<vec2<f32>, 4> {
 // The chord (start, end; start > end: none) of line y whose rays pass through the ball (b, r)
 // (see dot_chords), not clipped to the pixel.
 fn ball_chord(ray: Ray, y: f32, b: vec3<f32>, r: f32) -> vec2<f32> {
-    let p = vec3<f32>(ray.xu + ray.dxu_dq[1] * y, 1.0);
-    let c = vec3<f32>(ray.dxu_dq[0], 0.0);
+    let p = ray_plus(ray, ray_col(ray, 1u) * y);
+    let c = ray_col(ray, 0u);
     let k = dot3(b, b) - r * r;
     let b0 = dot3(b, p);
     let b1 = dot3(b, c);
@@ -1256,13 +1336,38 @@ fn fine_item(gid: vec3<u32>) -> vec3<u32> {
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_chessboard(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = chess_fine(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))));
+    let q = vec2<f32>(f32(it.x), f32(it.y));
+    if (!wide()) {
+        out_vals[gid.y * 65535u * 64u + gid.x] = chess_fine(pixel_ray(q));
+        return;
+    }
+    // A fisheye far off its axis bends the rays across the pixel (src/render/bend.rs): the mean
+    // of its sub-pixels, each with its own ray (a sub-pixel beyond the lens's reach: background).
+    let parts = pixel_ray(q).parts;
+    var acc = 0.0;
+    for (var k = 0u; k < parts * parts; k = k + 1u) {
+        let r = sub_ray(q, parts, k);
+        acc = acc + select(P.grey.w, chess_fine(r), r.ok && plane_point(ray_d(r)).z > 0.0);
+    }
+    out_vals[gid.y * 65535u * 64u + gid.x] = acc / f32(parts * parts);
 }
 
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_dot_grid(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = grid_fine(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))));
+    let q = vec2<f32>(f32(it.x), f32(it.y));
+    if (!wide()) {
+        out_vals[gid.y * 65535u * 64u + gid.x] = grid_fine(pixel_ray(q));
+        return;
+    }
+    // As cs_fine_chessboard.
+    let parts = pixel_ray(q).parts;
+    var acc = 0.0;
+    for (var k = 0u; k < parts * parts; k = k + 1u) {
+        let r = sub_ray(q, parts, k);
+        acc = acc + select(P.grey.w, grid_fine(r), r.ok && plane_point(ray_d(r)).z > 0.0);
+    }
+    out_vals[gid.y * 65535u * 64u + gid.x] = acc / f32(parts * parts);
 }
 
 @compute @workgroup_size(64, 1, 1)

@@ -138,7 +138,7 @@ fn covered_cells(views: &[View], size: ImageSize) -> Vec<Point2<f64>> {
 
 /// `|project_b(unproject_a(q)) - q|`, px; `None` where either model cannot map the pixel.
 fn projection_diff(a: &CameraModel, b: &CameraModel, q: &Point2<f64>) -> Option<f64> {
-    let ray = a.unproject(q).ok()?;
+    let ray = a.unproject_ray(q).ok()?;
     let p = b.project(&Point3::from(ray));
     p.visible().then(|| (p.pixel_px - q).norm()).filter(|d| d.is_finite())
 }

@@ -51,7 +51,8 @@ pub(super) fn view_pose(cam: &CameraModel, view: &View) -> Option<(Isometry3<f64
     let mut cost = 0.0;
     for (x, q) in view {
         let p = pose * x;
-        if !(p.z > 0.0) {
+        // A fisheye maps points behind its camera plane too (theta from atan2).
+        if !(p.z > 0.0 || cam.lens.kind() == LensKind::Fisheye) {
             return None;
         }
         cost += (cam.project_unchecked(&p) - q).norm_squared();

@@ -1,6 +1,8 @@
 //! The lens models a [`super::CameraModel`] can have, behind one interface on normalised
 //! coordinates: `xd = distort(xu)` maps the ray `(xu, yu, 1)` to the distorted normalised point,
-//! and pixels are `K xd` for every model.
+//! and pixels are `K xd` for every model. A fisheye also maps rays at and beyond 90 degrees from
+//! the axis ([`Fisheye::distort_ray`], [`Fisheye::undistort_ray`]; the camera's `project` and
+//! `unproject_ray` use them).
 //!
 //! | model | parameters (this order) | OpenCV | Kalibr | ROS `distortion_model` |
 //! |---|---|---|---|---|
@@ -12,7 +14,7 @@
 
 use nalgebra::{Matrix2, SMatrix, Vector2};
 
-use super::{CameraError, Distortion, DoubleSphere, Fisheye};
+use super::{CameraError, Distortion, DoubleSphere, Fisheye, MAX_RAY_ANGLE_RAD};
 
 /// Most lens parameters of any model (OpenCV's 14).
 pub const MAX_LENS_PARAMS: usize = 14;
@@ -191,8 +193,17 @@ impl Lens {
     pub fn max_radius(&self) -> Option<f64> {
         match self {
             Self::OpenCv(d) => d.max_monotonic_radius(),
-            Self::Fisheye(f) => Some(f.theta_max().tan()),
+            Self::Fisheye(f) => Some(f.theta_max().min(MAX_RAY_ANGLE_RAD).tan()),
             Self::DoubleSphere(d) => Some(d.max_radius()),
+        }
+    }
+
+    /// The largest angle from the optical axis (radians) of the model's valid region: beyond 90
+    /// degrees only for a fisheye ([`Fisheye::theta_max`]); `pi / 2` for an unbounded OpenCV lens.
+    pub fn max_angle_rad(&self) -> f64 {
+        match self {
+            Self::Fisheye(f) => f.theta_max(),
+            _ => self.max_radius().map_or(std::f64::consts::FRAC_PI_2, f64::atan),
         }
     }
 }

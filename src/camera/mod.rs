@@ -42,15 +42,16 @@ pub mod project;
 
 pub use distortion::Distortion;
 pub use double_sphere::DoubleSphere;
-pub use fisheye::Fisheye;
+pub use fisheye::{Fisheye, FISHEYE_MAX_ANGLE_RAD};
 pub use intrinsics::Intrinsics;
 pub use lens::{Lens, LensKind, MAX_LENS_PARAMS};
 pub use project::{intrinsic_names, Projection, BASE_INTRINSIC_NAMES, N_INTRINSICS};
 
 use nalgebra::Point2;
 
-/// Rays are `(xu, yu, 1)`: the fisheye and Double Sphere models are rendered and reported
-/// visible up to this angle from the optical axis (89.5 degrees; a field of view below 180).
+/// Rays of the `(xu, yu, 1)` form ([`CameraModel::unproject`]) and the Double Sphere model's
+/// visible region end at this angle from the optical axis (89.5 degrees); the fisheye model
+/// reaches beyond it, to [`FISHEYE_MAX_ANGLE_RAD`] ([`CameraModel::unproject_ray`]).
 pub const MAX_RAY_ANGLE_RAD: f64 = 89.5 * std::f64::consts::PI / 180.0;
 
 /// Errors of the camera model.

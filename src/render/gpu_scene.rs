@@ -81,7 +81,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         intr: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
         ..Default::default()
     };
-    lens_params(&mut p, cam);
+    lens_params(&mut p, cam, grid.split_radii);
     let (mut dots, tile_start, mut tile_items) = match &scene.target {
         Target::Chessboard(_) | Target::DotGrid(_) => {
             planar_params(&mut p, scene)?;
@@ -100,8 +100,8 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     Ok(GpuScene { params: p, lens_variant: lens_variant(&cam.lens), dots, tile_start, tile_items, tile_flat })
 }
 
-/// The lens model's uniforms (see `Params`).
-fn lens_params(p: &mut Params, cam: &CameraModel) {
+/// The lens model's uniforms (see `Params`); `split` from [`super::bend::split_radii`].
+fn lens_params(p: &mut Params, cam: &CameraModel, split: [f64; 2]) {
     let r2_max = cam.lens.max_radius().map_or(1e30, |r| (r * r) as f32);
     p.intr2 = [cam.intrinsics.skew as f32, r2_max, if cam.lens.is_identity() { 0.0 } else { 1.0 }, 0.0];
     let a = cam.lens.params().map(|v| v as f32);
@@ -120,7 +120,7 @@ fn lens_params(p: &mut Params, cam: &CameraModel) {
                 p.tilt2 = [t[(2, 0)] as f32, t[(2, 1)] as f32, t[(2, 2)] as f32, 0.0];
             }
         }
-        Lens::Fisheye(f) => p.dist1 = [f.theta_max() as f32, 0.0, 0.0, 0.0],
+        Lens::Fisheye(f) => p.dist1 = [f.theta_max() as f32, split[0].min(1e30) as f32, split[1].min(1e30) as f32, 0.0],
         Lens::DoubleSphere(_) => {}
     }
 }
@@ -194,7 +194,7 @@ fn s_path_params(p: &mut Params, scene: &Scene, s: &SPathDots, (tiles_x, tiles_y
     (dots, tile_start, tile_items)
 }
 
-/// Rays (camera frame, z = 1) through the corners of the tile grid, `(tiles_x + 1) x (tiles_y + 1)`,
+/// Rays (camera frame, [`CameraModel::unproject_ray`]) through the corners of the tile grid, `(tiles_x + 1) x (tiles_y + 1)`,
 /// row-major; `None` where the distortion cannot be inverted. Depends only on the camera, so a
 /// renderer computes it once per camera (like an undistortion map).
 #[derive(Debug, Clone, PartialEq)]
@@ -202,6 +202,8 @@ pub struct TileCornerRays {
     /// The camera the rays belong to.
     pub camera: CameraModel,
     rays: Vec<Option<Vector3<f64>>>,
+    /// [`super::bend::split_radii`] of the camera.
+    split_radii: [f64; 2],
 }
 
 impl TileCornerRays {
@@ -215,17 +217,30 @@ impl TileCornerRays {
             .map(|k| {
                 let x = (f64::from((k % tx) * TILE_PX) - 0.5).min(w - 0.5);
                 let y = (f64::from((k / tx) * TILE_PX) - 0.5).min(h - 0.5);
-                camera.unproject(&Point2::new(x, y)).ok()
+                camera.unproject_ray(&Point2::new(x, y)).ok()
             })
             .collect();
-        Self { camera: *camera, rays }
+        Self { camera: *camera, rays, split_radii: super::bend::split_radii(camera) }
     }
 
     /// The four corner rays of tile (tx, ty), or `None` if one is missing.
     fn tile(&self, tx: u32, ty: u32) -> Option<[Vector3<f64>; 4]> {
+        let c = self.corners(tx, ty);
+        Some([c[0]?, c[1]?, c[2]?, c[3]?])
+    }
+
+    fn corners(&self, tx: u32, ty: u32) -> [Option<Vector3<f64>>; 4] {
         let stride = self.camera.size.width.div_ceil(TILE_PX) + 1;
         let at = |x: u32, y: u32| self.rays.get((y * stride + x) as usize).copied().flatten();
-        Some([at(tx, ty)?, at(tx + 1, ty)?, at(tx + 1, ty + 1)?, at(tx, ty + 1)?])
+        [at(tx, ty), at(tx + 1, ty), at(tx + 1, ty + 1), at(tx, ty + 1)]
+    }
+
+    /// Whether tile (tx, ty) lies wholly outside the lens's valid region: no corner has a ray and
+    /// the region is an ellipse in the image (fisheye, Double Sphere: a disc of distorted radii),
+    /// convex and hundreds of pixels across, so it cannot reach a pixel centre of the tile (half a
+    /// pixel inside its edges) between corners outside it.
+    fn beyond_lens(&self, tx: u32, ty: u32) -> bool {
+        matches!(self.camera.lens, Lens::Fisheye(_) | Lens::DoubleSphere(_)) && self.corners(tx, ty).iter().all(Option::is_none)
     }
 }
 
@@ -249,6 +264,17 @@ fn plane_bbox(target_from_cam: &Isometry3<f64>, rays: &[Vector3<f64>]) -> Option
     Some([bb[0] - gx, bb[1] - gy, bb[2] + gx, bb[3] + gy])
 }
 
+/// Whether every ray of a tile provably misses the target plane (it sees the background): each
+/// corner ray points away from the plane by more than a tenth of the tile's angular size (the
+/// rays meeting the plane form a hemisphere of directions; the lens bends a tile's edges by far
+/// less than that margin). A wide lens looks past the plane's horizon over much of its image.
+fn plane_missed(target_from_cam: &Isometry3<f64>, rays: &[Vector3<f64>; 4]) -> bool {
+    let side = -target_from_cam.translation.vector.z.signum();
+    let units = rays.map(|r| target_from_cam.rotation * r.normalize());
+    let size = (units[0] - units[2]).norm().max((units[1] - units[3]).norm());
+    units.iter().all(|d| d.z * side < -(0.1 * size + 1e-9))
+}
+
 fn any_in(lines: &[f64], lo: f64, hi: f64) -> bool {
     lines.iter().any(|l| *l >= lo && *l <= hi)
 }
@@ -263,6 +289,9 @@ fn classify_tiles(scene: &Scene, grid: &TileCornerRays, tiles_x: u32, tiles_y: u
         .map(|t| {
             let (tx, ty) = (t % tiles_x, t / tiles_x);
             let has_dots = tile_start[t as usize + 1] > tile_start[t as usize];
+            if grid.beyond_lens(tx, ty) {
+                return scene.target.background() as f32;
+            }
             grid.tile(tx, ty).and_then(|rays| flat.value(scene, &rays, has_dots)).map_or(-1.0, |v| v as f32)
         })
         .collect()
@@ -301,6 +330,7 @@ impl FlatTest {
     /// `has_dots`: S-path dots reach the tile.
     fn value(&self, scene: &Scene, rays: &[Vector3<f64>; 4], has_dots: bool) -> Option<f64> {
         match &scene.target {
+            Target::Chessboard(_) | Target::DotGrid(_) if plane_missed(&self.target_from_cam, rays) => Some(scene.target.background()),
             Target::Chessboard(b) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
                 let [xl, yl] = &self.lines_m;
                 (!any_in(xl, bb[0], bb[2]) && !any_in(yl, bb[1], bb[3])).then(|| b.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))

@@ -6,6 +6,7 @@
 //! box-filters each pixel (analytic coverage or supersampling). `post` applies blur, noise and
 //! quantisation on the CPU, deterministically.
 
+pub mod bend;
 mod buffers;
 pub mod context;
 pub(crate) mod gpu_scene;

@@ -16,7 +16,8 @@ pub struct Params {
     pub intr2: [f32; 4],
     /// OpenCV: k1, k2, p1, p2; fisheye: k1, k2, k3, k4; Double Sphere: xi, alpha, 0, 0.
     pub dist0: [f32; 4],
-    /// OpenCV: k3, k4, k5, k6; fisheye: theta_max, 0, 0, 0.
+    /// OpenCV: k3, k4, k5, k6; fisheye: theta_max, the distorted radii beyond which a pixel is
+    /// split into 2 x 2 and 4 x 4 sub-pixels (`render::bend`), 0.
     pub dist1: [f32; 4],
     /// OpenCV: s1, s2, s3, s4.
     pub dist2: [f32; 4],

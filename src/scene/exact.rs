@@ -1,7 +1,7 @@
 //! Exact box-filtered reference for planar targets (chessboard, dot grid), f64.
 //!
 //! Each pixel square is cut into `subdivisions^2` sub-squares; the corners of every sub-square are
-//! unprojected exactly ([`crate::camera::CameraModel::unproject`]: Newton inversion of the
+//! unprojected exactly ([`crate::camera::CameraModel::unproject_ray`]: Newton inversion of the
 //! distortion) and intersected with the target plane, which gives a quadrilateral on the plane.
 //! Its area inside every square, margin, plate and disc is computed exactly by polygon clipping
 //! ([`crate::math::polygon`]); the sub-square's grey is the area-weighted mean of the region greys,
@@ -57,7 +57,7 @@ pub fn plane_point(scene: &Scene, q_px: Point2<f64>) -> Option<Option<Vector2<f6
 
 /// [`plane_point`] with the scene's `target_from_cam` computed once by the caller.
 fn plane_point_from(scene: &Scene, target_from_cam: &Isometry3<f64>, q_px: Point2<f64>) -> Option<Option<Vector2<f64>>> {
-    let d = scene.camera.unproject(&q_px).ok()?;
+    let d = scene.camera.unproject_ray(&q_px).ok()?;
     let o = target_from_cam * Point3::origin();
     let dir = target_from_cam.rotation * d;
     let t = -o.z / dir.z;

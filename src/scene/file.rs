@@ -330,4 +330,17 @@ t_m = [-0.05, -0.04, 0.3]
         let e = parse_scene(&GOOD.replace("square_m = 0.02", "square_m = -0.02")).unwrap_err().to_string();
         assert!(e.contains("square_m"), "{e}");
     }
+
+    #[test]
+    fn a_fisheye_beyond_180_degrees_sees_a_board_behind_its_camera_plane() {
+        let text = include_str!("../../assets/scenes/fisheye_wide_chessboard.toml");
+        let s = parse_scene(text).expect("wide fisheye scene");
+        let centre = s.cam_from_target * nalgebra::Point3::new(0.27, 0.21, 0.0);
+        assert!(centre.z < 0.0, "{centre}");
+        // The same pose through a pinhole model, or a fisheye that folds at 57 degrees: behind.
+        let pinhole = text.replace("model = \"fisheye\"\ndist = [0.02, -0.005, 0.0, 0.0]", "dist = [0.0, 0.0, 0.0, 0.0, 0.0]");
+        assert!(matches!(parse_scene(&pinhole).unwrap_err(), SceneError::TargetBehindCamera { .. }));
+        let folding = text.replace("dist = [0.02, -0.005, 0.0, 0.0]", "dist = [-0.3, 0.0, 0.0, 0.0]");
+        assert!(matches!(parse_scene(&folding).unwrap_err(), SceneError::TargetBehindCamera { .. }));
+    }
 }

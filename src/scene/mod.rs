@@ -68,8 +68,9 @@ pub enum SceneError {
     /// The target is invalid.
     #[error("[target]: {0}")]
     Target(#[from] TargetError),
-    /// The pose puts the target behind the camera.
-    #[error("[pose]: the target is behind the camera (mean depth of its features {mean_depth_m:.4} m <= 0)")]
+    /// The pose puts the target behind the camera (outside a fisheye's reach, for one whose
+    /// reach passes 90 degrees).
+    #[error("[pose]: the target is behind the camera (mean depth of its features {mean_depth_m:.4} m <= 0, outside the lens's reach)")]
     TargetBehindCamera {
         /// Mean z of the feature points in the camera frame.
         mean_depth_m: f64,
@@ -120,9 +121,12 @@ impl Scene {
             return Err(SceneError::InvalidField { field: "render.bit_depth".into(), reason: format!("must be 8 or 16, got {}", rs.bit_depth) });
         }
         let pts = self.target.feature_points_m();
-        let mean_depth_m = pts.iter().map(|p| (self.cam_from_target * p).z).sum::<f64>() / pts.len().max(1) as f64;
-        if !(mean_depth_m > 0.0) {
-            return Err(SceneError::TargetBehindCamera { mean_depth_m });
+        let n = pts.len().max(1) as f64;
+        let mean_cam = pts.iter().map(|p| (self.cam_from_target * p).coords).sum::<nalgebra::Vector3<f64>>() / n;
+        // A fisheye whose reach passes 90 degrees sees targets behind the camera plane.
+        let seen = mean_cam.z > 0.0 || mean_cam.xy().norm().atan2(mean_cam.z) < self.camera.lens.max_angle_rad();
+        if !seen {
+            return Err(SceneError::TargetBehindCamera { mean_depth_m: mean_cam.z });
         }
         Ok(())
     }

@@ -104,7 +104,7 @@ impl<'a> Tracer<'a> {
     }
 
     fn trace_px_in(&self, q_px: &Point2<f64>, candidates: Option<&[usize]>) -> Hit {
-        match self.scene.camera.unproject(q_px) {
+        match self.scene.camera.unproject_ray(q_px) {
             Ok(ray) => self.trace_ray_among(&ray, candidates),
             Err(_) => Hit { intensity: self.scene.target.background(), feature: None },
         }

@@ -25,7 +25,8 @@ fn scenes() -> Vec<(&'static str, synthcam::scene::Scene)> {
     opencv14.camera.lens = synthcam::camera::Lens::OpenCv(synthcam::camera::Distortion::from_coefficients([
         -0.2, 0.05, 0.001, -0.002, 0.01, 0.03, -0.01, 0.002, 1e-3, -2e-4, 5e-4, 3e-4, 0.02, -0.015,
     ]));
-    vec![("chessboard", board), ("s-path", spath), ("fisheye", fisheye), ("double-sphere", ds), ("opencv14", opencv14)]
+    let wide = parse_scene(include_str!("../../assets/scenes/fisheye_wide_chessboard.toml")).expect("scene");
+    vec![("chessboard", board), ("s-path", spath), ("fisheye", fisheye), ("double-sphere", ds), ("opencv14", opencv14), ("fisheye-wide", wide)]
 }
 
 #[test]

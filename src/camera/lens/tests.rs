@@ -4,7 +4,7 @@
 
 use nalgebra::{DMatrix, DVector, Point2, Point3, Vector2};
 
-use crate::camera::{CameraModel, Distortion, DoubleSphere, Fisheye, ImageSize, Intrinsics, Lens, MAX_RAY_ANGLE_RAD};
+use crate::camera::{CameraModel, Distortion, DoubleSphere, Fisheye, ImageSize, Intrinsics, Lens, FISHEYE_MAX_ANGLE_RAD};
 use crate::math::numdiff::central_diff;
 
 const OPENCV14: [f64; 14] = [-0.2, 0.05, 0.001, -0.002, 0.01, 0.03, -0.01, 0.002, 1e-3, -2e-4, 5e-4, 3e-4, 0.02, -0.015];
@@ -151,8 +151,13 @@ fn outside_the_valid_region_is_not_visible_and_not_invertible() {
     assert!(!cam.project(&beyond).in_image);
     let far = Point2::new(639.5 + 400.0 * 0.9, 511.5);
     assert!(cam.unproject(&far).is_err());
-    // Every model: behind 89.5 degrees, no ray.
-    assert!(Fisheye::default().theta_max() <= MAX_RAY_ANGLE_RAD);
+    // The (xu, yu, 1) form ends at 89.5 degrees; a fisheye's unit ray goes on to its reach.
+    let eq = camera([400.0, 400.0, 639.5, 511.5], Lens::Fisheye(Fisheye::default()));
+    assert!((Fisheye::default().theta_max() - FISHEYE_MAX_ANGLE_RAD).abs() < 1e-12);
+    let at_100 = Point2::new(639.5 + 400.0 * 100f64.to_radians(), 511.5);
+    assert!(eq.unproject(&at_100).is_err());
+    let ray = eq.unproject_ray(&at_100).expect("ray at 100 degrees");
+    assert!((ray.z.atan2(ray.x) - (-10f64).to_radians()).abs() < 1e-12, "{ray}");
     let ds = DoubleSphere { xi: -0.2, alpha: 0.6 };
     assert!(ds.undistort(&Vector2::new(5.0, 0.0)).is_err());
     assert!(Lens::Fisheye(Fisheye { k: [f64::NAN, 0.0, 0.0, 0.0] }).validate().is_err());
@@ -166,4 +171,87 @@ fn opencv_vector_lengths() {
         assert_eq!(d.opencv_len(), n);
     }
     assert_eq!(Distortion::default().opencv_len(), 4);
+}
+
+/// A fisheye that reaches 152 degrees (k1 0.02, k2 -0.005).
+fn wide_fisheye() -> CameraModel {
+    camera([250.0, 252.5, 639.5, 511.5], Lens::Fisheye(Fisheye { k: [0.02, -0.005, 0.0, 0.0] }))
+}
+
+/// Points at 60 to 150 degrees from the axis, behind the camera plane from 90 on.
+const WIDE_POINTS: [[f64; 3]; 5] = [[0.8, 0.3, 0.5], [0.7, -0.7, 1e-3], [0.9, 0.2, -0.3], [-0.4, 0.5, -0.6], [0.35, -0.2, -0.7]];
+
+#[test]
+fn a_fisheye_projects_behind_its_camera_plane_like_kannala_brandt() {
+    let cam = wide_fisheye();
+    let k = [0.02, -0.005];
+    for p in WIDE_POINTS {
+        // Kannala and Brandt 2006, eq. 6: theta is the angle of incidence.
+        let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
+        let th = r.atan2(p[2]);
+        let td = th * (1.0 + k[0] * th * th + k[1] * th.powi(4));
+        let expect = [250.0 * td * p[0] / r + 639.5, 252.5 * td * p[1] / r + 511.5];
+        let q = cam.project(&Point3::new(p[0], p[1], p[2]));
+        assert!((q.pixel_px.x - expect[0]).abs() < 1e-9 && (q.pixel_px.y - expect[1]).abs() < 1e-9, "{p:?}: {q:?} vs {expect:?}");
+        assert!(q.visible(), "{p:?} at {:.1} deg", th.to_degrees());
+        assert_eq!(cam.project_unchecked(&Point3::new(p[0], p[1], p[2])), q.pixel_px);
+    }
+    // Beyond the reach (160 degrees) and straight behind: not visible, no panic.
+    let th = 160f64.to_radians();
+    assert!(!cam.project(&Point3::new(th.sin(), 0.0, th.cos())).visible());
+    assert!(!cam.project(&Point3::new(0.0, 0.0, -1.0)).visible());
+    // The pinhole models do not see behind the camera plane.
+    let pin = camera([250.0, 250.0, 639.5, 511.5], Lens::OpenCv(Distortion::default()));
+    assert!(!pin.project(&Point3::new(0.9, 0.2, -0.3)).in_front);
+}
+
+#[test]
+fn wide_fisheye_jacobians_match_central_differences_behind_the_camera_plane() {
+    let cam = wide_fisheye();
+    for p in WIDE_POINTS {
+        let a = cam.dq_dp_cam(&Point3::new(p[0], p[1], p[2]));
+        let n = central_diff(
+            |v| DVector::from_column_slice(cam.project_unchecked(&Point3::new(v[0], v[1], v[2])).coords.as_slice()),
+            &DVector::from_column_slice(&p),
+            1e-6,
+        );
+        let a = DMatrix::from_column_slice(2, 3, a.as_slice());
+        assert!((&a - &n).amax() / (1.0 + n.amax()) < 1e-7, "{p:?}: {a} vs {n}");
+        let pt = Point3::new(p[0], p[1], p[2]);
+        let ai = cam.dq_dintrinsics(&pt);
+        let x0 = [250.0, 252.5, 639.5, 511.5, 0.0, 0.02, -0.005, 0.0, 0.0];
+        let ni = central_diff(
+            |v| {
+                let c = CameraModel {
+                    intrinsics: Intrinsics { fx: v[0], fy: v[1], cx: v[2], cy: v[3], skew: v[4] },
+                    lens: Lens::Fisheye(Fisheye { k: [v[5], v[6], v[7], v[8]] }),
+                    ..cam
+                };
+                DVector::from_column_slice(c.project_unchecked(&pt).coords.as_slice())
+            },
+            &DVector::from_column_slice(&x0),
+            1e-6,
+        );
+        let ai = DMatrix::from_fn(2, 9, |i, j| ai[(i, j)]);
+        assert!((&ai - &ni).amax() / (1.0 + ni.amax()) < 1e-6, "{p:?}: {ai} vs {ni}");
+    }
+}
+
+#[test]
+fn wide_fisheye_round_trips_to_its_reach() {
+    // unproject_ray(project(x)) on a grid of directions up to 150 degrees (the reach is 152):
+    // the 1e-10 on the unit ray.
+    let cam = wide_fisheye();
+    let mut worst: f64 = 0.0;
+    for i in 0..=60 {
+        let th = (150.0 * f64::from(i) / 60.0).to_radians();
+        for j in 0..24 {
+            let phi = std::f64::consts::TAU * f64::from(j) / 24.0;
+            let d = nalgebra::Vector3::new(th.sin() * phi.cos(), th.sin() * phi.sin(), th.cos());
+            let q = cam.project_unchecked(&Point3::from(d));
+            let ray = cam.unproject_ray(&q).unwrap_or_else(|e| panic!("no ray at {:.1} deg: {e}", th.to_degrees()));
+            worst = worst.max((ray.normalize() - d).norm());
+        }
+    }
+    assert!(worst < 1e-10, "{worst:e}");
 }
