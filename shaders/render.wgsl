@@ -1333,41 +1333,34 @@ fn fine_item(gid: vec3<u32>) -> vec3<u32> {
     return vec3<u32>(x, y, (y >> 3u) * P.tiles.x + (x >> 3u));
 }
 
-@compute @workgroup_size(64, 1, 1)
-fn cs_fine_chessboard(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let it = fine_item(gid);
-    let q = vec2<f32>(f32(it.x), f32(it.y));
+// The fine value of a planar target's pixel at q: chess_fine or grid_fine (`chess` is a literal at
+// each call, so the compiler keeps one). A fisheye far off its axis bends the rays across the pixel
+// (src/render/bend.rs): the mean of its sub-pixels, each with its own ray (a sub-pixel beyond the
+// lens's reach or the plane's horizon: background).
+fn planar_fine(q: vec2<f32>, chess: bool) -> f32 {
     if (!wide()) {
-        out_vals[gid.y * 65535u * 64u + gid.x] = chess_fine(pixel_ray(q));
-        return;
+        let r = pixel_ray(q);
+        return select(grid_fine(r), chess_fine(r), chess);
     }
-    // A fisheye far off its axis bends the rays across the pixel (src/render/bend.rs): the mean
-    // of its sub-pixels, each with its own ray (a sub-pixel beyond the lens's reach: background).
     let parts = pixel_ray(q).parts;
     var acc = 0.0;
     for (var k = 0u; k < parts * parts; k = k + 1u) {
         let r = sub_ray(q, parts, k);
-        acc = acc + select(P.grey.w, chess_fine(r), r.ok && plane_point(ray_d(r)).z > 0.0);
+        acc = acc + select(P.grey.w, select(grid_fine(r), chess_fine(r), chess), r.ok && plane_point(ray_d(r)).z > 0.0);
     }
-    out_vals[gid.y * 65535u * 64u + gid.x] = acc / f32(parts * parts);
+    return acc / f32(parts * parts);
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn cs_fine_chessboard(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let it = fine_item(gid);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), true);
 }
 
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_dot_grid(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
-    let q = vec2<f32>(f32(it.x), f32(it.y));
-    if (!wide()) {
-        out_vals[gid.y * 65535u * 64u + gid.x] = grid_fine(pixel_ray(q));
-        return;
-    }
-    // As cs_fine_chessboard.
-    let parts = pixel_ray(q).parts;
-    var acc = 0.0;
-    for (var k = 0u; k < parts * parts; k = k + 1u) {
-        let r = sub_ray(q, parts, k);
-        acc = acc + select(P.grey.w, grid_fine(r), r.ok && plane_point(ray_d(r)).z > 0.0);
-    }
-    out_vals[gid.y * 65535u * 64u + gid.x] = acc / f32(parts * parts);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), false);
 }
 
 @compute @workgroup_size(64, 1, 1)

@@ -186,3 +186,38 @@ fn every_model_recovers_its_camera_from_noise_free_views() {
         assert!(r.rms_px < 1e-6, "{model}: rms {}", r.rms_px);
     }
 }
+
+#[test]
+fn a_fisheye_calibrates_from_boards_behind_its_camera_plane() {
+    use crate::camera::Fisheye;
+    // A 280-degree lens (reach 152 degrees); boards in front, and the same poses turned 85-115
+    // degrees about the camera's y axis (many corners at z < 0).
+    let truth = CameraModel {
+        size: ImageSize { width: 1280, height: 1024 },
+        intrinsics: Intrinsics { fx: 250.0, fy: 252.5, cx: 641.0, cy: 510.0, skew: 0.0 },
+        lens: Lens::Fisheye(Fisheye { k: [0.02, -0.005, 0.001, 0.0] }),
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let pts = board(8, 6, 0.03);
+    let mut views = synthetic_spread(&truth, 6, 21, 0.2);
+    let mut behind = 0;
+    while views.len() < 14 {
+        let tilt = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), rng.random_range(-0.4..0.4));
+        let t = Vector3::new(rng.random_range(-0.1..0.1), rng.random_range(-0.1..0.1), rng.random_range(0.3..0.5)) - tilt * Vector3::new(0.105, 0.075, 0.0);
+        let yaw =
+            UnitQuaternion::from_axis_angle(&Vector3::y_axis(), rng.random_range(85f64..115.0).to_radians() * if rng.random_bool(0.5) { 1.0 } else { -1.0 });
+        let pose = Isometry3::from_parts(Translation3::identity(), yaw) * Isometry3::from_parts(Translation3::from(t), tilt);
+        let v: View = pts.iter().map(|p| (*p, truth.project(&(pose * p)))).filter(|(_, pr)| pr.visible()).map(|(p, pr)| (p, pr.pixel_px)).collect();
+        if v.len() == pts.len() {
+            behind += pts.iter().filter(|p| (pose * *p).z < 0.0).count();
+            views.push(v);
+        }
+    }
+    assert!(behind >= 100, "only {behind} corners behind the camera plane");
+    let r = calibrate(&views, truth.size, &CalibParams { model: CalibModel::Fisheye, ..Default::default() }).expect("calibrate");
+    let (k, kt) = (r.camera.intrinsics, truth.intrinsics);
+    for (a, b) in [(k.fx, kt.fx), (k.fy, kt.fy), (k.cx, kt.cx), (k.cy, kt.cy)] {
+        assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+    }
+    assert!(r.rms_px < 1e-6, "rms {}", r.rms_px);
+}

@@ -95,7 +95,8 @@ pub enum PosesSpec {
     /// plane, then turned by `roll_deg` about the optical axis. Every range is `[lo, hi]`, sampled
     /// uniformly (lo = hi gives a constant).
     Board {
-        /// Distance of the target centre along the optical axis, metres.
+        /// Distance of the target centre along the optical axis, metres: > 0, or any value for a
+        /// fisheye that reaches beyond 90 degrees (<= 0: beside or behind the camera plane).
         distance_m: Vec<f64>,
         /// Angle between the optical axis and the target normal, degrees, within [0, 90).
         tilt_deg: Vec<f64>,
@@ -245,15 +246,17 @@ fn check_finite<const N: usize>(field: &str, v: &[f64; N]) -> Result<(), SpecErr
 
 impl PosesSpec {
     /// The validated mode, whether the visibility constraint applies, and its margin.
-    fn to_mode(&self, target: &Target) -> Result<(PoseMode, bool, f64), SpecError> {
+    fn to_mode(&self, target: &Target, camera: &CameraModel) -> Result<(PoseMode, bool, f64), SpecError> {
         match self {
             PosesSpec::Board { distance_m, tilt_deg, roll_deg, offset_x_m, offset_y_m, tilt_from, full_target_visible, margin_px } => {
                 if !target.is_planar() {
                     return Err(invalid("poses.mode", "\"board\" needs a planar target (chessboard or dot-grid); use \"robot\" for the s-path"));
                 }
-                let d = check_range("poses.distance_m", Some(distance_m), 0.0, f64::MAX)?;
-                if !(d[0] > 0.0) {
-                    return Err(invalid("poses.distance_m", format!("must be > 0, got {d:?}")));
+                // A fisheye that reaches beyond 90 degrees sees boards behind its camera plane.
+                let behind_ok = camera.lens.max_angle_rad() > std::f64::consts::FRAC_PI_2;
+                let d = check_range("poses.distance_m", Some(distance_m), f64::MIN, f64::MAX)?;
+                if !(d[0] > 0.0) && !behind_ok {
+                    return Err(invalid("poses.distance_m", format!("must be > 0 (a lens that sees behind its camera plane allows <= 0), got {d:?}")));
                 }
                 let ranges = BoardRanges {
                     distance_m: d,
@@ -318,7 +321,7 @@ impl DatasetSpec {
         // ahead keeps the depth check quiet; the sampled poses are checked per image).
         let probe = crate::scene::Scene { camera, target: target.clone(), cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3), render };
         probe.validate()?;
-        let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target)?;
+        let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target, &camera)?;
         Ok(DatasetPlan { count: self.count, seed: self.seed, camera, target, render, mode, full_target_visible, margin_px })
     }
 }
@@ -336,13 +339,25 @@ pub fn parse_dataset_spec(text: &str) -> Result<DatasetPlan, SpecError> {
 mod tests {
     use super::*;
 
-    const EXAMPLES: [(&str, &str); 5] = [
+    const EXAMPLES: [(&str, &str); 7] = [
         ("tiny", include_str!("../../assets/specs/tiny.toml")),
         ("chessboard_1280", include_str!("../../assets/specs/chessboard_1280.toml")),
         ("course_calibration", include_str!("../../assets/specs/course_calibration.toml")),
         ("s_path_robot", include_str!("../../assets/specs/s_path_robot.toml")),
         ("fisheye_1280", include_str!("../../assets/specs/fisheye_1280.toml")),
+        ("fisheye_edge_1280", include_str!("../../assets/specs/fisheye_edge_1280.toml")),
+        ("fisheye_wide_1280", include_str!("../../assets/specs/fisheye_wide_1280.toml")),
     ];
+
+    #[test]
+    fn only_a_lens_that_sees_behind_its_camera_plane_takes_boards_there() {
+        let wide = EXAMPLES[6].1;
+        assert!(parse_dataset_spec(wide).is_ok());
+        // The same ranges with a fisheye that folds at 57 degrees: distance_m must be > 0.
+        let folding = wide.replace("dist = [0.02, -0.005, 0.0, 0.0]", "dist = [-0.3, 0.0, 0.0, 0.0]");
+        let e = parse_dataset_spec(&folding).unwrap_err().to_string();
+        assert!(e.contains("poses.distance_m") && e.contains("must be > 0"), "{e}");
+    }
 
     #[test]
     fn example_specs_parse_and_are_feasible() {

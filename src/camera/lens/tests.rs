@@ -96,16 +96,21 @@ fn dq_dp_cam_matches_central_differences_for_every_model() {
     for lens in lenses() {
         let cam = camera([400.0, 410.0, 639.5, 511.5], lens);
         for p in [[0.2, -0.1, 2.0], [1.5, 0.8, 0.6], [-0.3, 0.3, 0.7]] {
-            let a = cam.dq_dp_cam(&Point3::new(p[0], p[1], p[2]));
-            let n = central_diff(
-                |v| DVector::from_column_slice(cam.project_unchecked(&Point3::new(v[0], v[1], v[2])).coords.as_slice()),
-                &DVector::from_column_slice(&p),
-                1e-6,
-            );
-            let a = DMatrix::from_column_slice(2, 3, a.as_slice());
-            assert!((&a - &n).amax() / (1.0 + n.amax()) < 1e-7, "{lens:?} at {p:?}: {a} vs {n}");
+            check_dq_dp(&cam, p);
         }
     }
+}
+
+/// `dq_dp_cam` against central differences of `project_unchecked` at `p`.
+fn check_dq_dp(cam: &CameraModel, p: [f64; 3]) {
+    let a = cam.dq_dp_cam(&Point3::new(p[0], p[1], p[2]));
+    let n = central_diff(
+        |v| DVector::from_column_slice(cam.project_unchecked(&Point3::new(v[0], v[1], v[2])).coords.as_slice()),
+        &DVector::from_column_slice(&p),
+        1e-6,
+    );
+    let a = DMatrix::from_column_slice(2, 3, a.as_slice());
+    assert!((&a - &n).amax() / (1.0 + n.amax()) < 1e-7, "{:?} at {p:?}: {a} vs {n}", cam.lens);
 }
 
 /// unproject(project(x)) over the valid region: rays on a grid of angles up to `max_deg`.
@@ -209,14 +214,7 @@ fn a_fisheye_projects_behind_its_camera_plane_like_kannala_brandt() {
 fn wide_fisheye_jacobians_match_central_differences_behind_the_camera_plane() {
     let cam = wide_fisheye();
     for p in WIDE_POINTS {
-        let a = cam.dq_dp_cam(&Point3::new(p[0], p[1], p[2]));
-        let n = central_diff(
-            |v| DVector::from_column_slice(cam.project_unchecked(&Point3::new(v[0], v[1], v[2])).coords.as_slice()),
-            &DVector::from_column_slice(&p),
-            1e-6,
-        );
-        let a = DMatrix::from_column_slice(2, 3, a.as_slice());
-        assert!((&a - &n).amax() / (1.0 + n.amax()) < 1e-7, "{p:?}: {a} vs {n}");
+        check_dq_dp(&cam, p);
         let pt = Point3::new(p[0], p[1], p[2]);
         let ai = cam.dq_dintrinsics(&pt);
         let x0 = [250.0, 252.5, 639.5, 511.5, 0.0, 0.02, -0.005, 0.0, 0.0];
