@@ -58,9 +58,11 @@ pub struct FeatureLabel {
     pub point_target_m: [f64; 3],
     /// Projection through the full camera model, pixels (OpenCV convention).
     pub pixel_px: [f64; 2],
-    /// Depth in the camera frame, metres.
+    /// Depth in the camera frame (its z), metres: negative behind the camera plane, where a
+    /// fisheye that reaches beyond 90 degrees still sees.
     pub depth_m: f64,
-    /// In front of the camera.
+    /// On the side of the camera its lens sees: z > 0, or within a fisheye's reach
+    /// ([`crate::camera::Projection::in_front`]).
     pub in_front: bool,
     /// Projected pixel inside the image.
     pub in_image: bool,

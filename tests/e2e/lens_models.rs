@@ -7,7 +7,7 @@
 //! 0.037 px between two images that agree to 0.17 grey levels), off-axis; OpenCV 14 coefficients
 //! (f 467), fisheye (Kannala-Brandt, f 200) and Double Sphere (f 173, xi -0.2, alpha 0.6); and a
 //! fisheye beyond 180 degrees (f 125, theta_max 152 degrees: a 280-degree field of view across the
-//! image width) with the board 105 degrees off the axis, its corners 75-135 degrees, behind the
+//! image width) with the board 105 degrees off the axis, its corners 75-134 degrees, behind the
 //! camera plane. Tolerances: the mean |diff| <= 0.5 grey levels and every pixel
 //! <= 0.5; corner geometry <= 0.005 px RMS / 0.01 px max; truth 1e-9 px.
 
