@@ -8,11 +8,15 @@
 //! Intensities are grey levels in [0, 255] (linear, before noise and quantisation).
 //! The plane colour functions here are the CPU twins of the ones in `shaders/render.wgsl`.
 
+pub mod aruco;
+pub mod charuco;
 pub mod chessboard;
 pub mod dot_grid;
 pub mod s_path;
 pub mod s_path_dots;
 
+pub use aruco::Dictionary;
+pub use charuco::Charuco;
 pub use chessboard::Chessboard;
 pub use dot_grid::DotGrid;
 pub use s_path::{course_s_path, SPath};
