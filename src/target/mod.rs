@@ -4,10 +4,14 @@
 //! - [`DotGrid`]: the course's N x N planar grid of filled discs (course-scenario 1.2, 3.3).
 //! - [`SPathDots`]: the course's 101-point S on a sphere (course-scenario 1.4, 3.4), each point a dark
 //!   dot (a bead, or a disc painted on the sphere) on a light sphere.
+//! - Coded boards, geometry and codes only so far (not yet scene targets: no rendering or
+//!   detection): [`Charuco`] (OpenCV's ChArUco board), [`AprilGrid`] (Kalibr's), and the marker
+//!   [`Dictionary`] tables they use.
 //!
 //! Intensities are grey levels in [0, 255] (linear, before noise and quantisation).
 //! The plane colour functions here are the CPU twins of the ones in `shaders/render.wgsl`.
 
+pub mod aprilgrid;
 pub mod aruco;
 pub mod charuco;
 pub mod chessboard;
@@ -15,6 +19,7 @@ pub mod dot_grid;
 pub mod s_path;
 pub mod s_path_dots;
 
+pub use aprilgrid::AprilGrid;
 pub use aruco::Dictionary;
 pub use charuco::Charuco;
 pub use chessboard::Chessboard;
