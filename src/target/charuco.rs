@@ -107,6 +107,37 @@ impl Charuco {
             .collect()
     }
 
+    /// Whether the board point `(x, y)` (board frame, metres) is dark: a square without a
+    /// marker, or a marker's one-bit black border or black bit (`None` off the square area).
+    /// The CPU twin of the renderer's board colouring, as `cv::aruco::CharucoBoard::generateImage`
+    /// draws it (`borderBits = 1`).
+    pub fn is_dark(&self, x: f64, y: f64) -> Option<bool> {
+        let [nx, ny] = self.squares;
+        let s = self.square_m;
+        let (fi, fj) = ((x / s).floor(), (y / s).floor());
+        if !(fi >= 0.0 && fj >= 0.0 && fi < f64::from(nx) && fj < f64::from(ny)) {
+            return None;
+        }
+        let (i, j) = (fi as u32, fj as u32);
+        if !self.has_marker(i, j) {
+            return Some(true);
+        }
+        let inset = 0.5 * (s - self.marker_m);
+        let (u, v) = (x - fi * s - inset, y - fj * s - inset);
+        if !(u >= 0.0 && v >= 0.0 && u < self.marker_m && v < self.marker_m) {
+            return Some(false);
+        }
+        let n = self.dictionary.marker_bits();
+        let cell = self.marker_m / (n + 2) as f64;
+        let (cx, cy) = (((u / cell) as usize).min(n + 1), ((v / cell) as usize).min(n + 1));
+        if cx == 0 || cy == 0 || cx == n + 1 || cy == n + 1 {
+            return Some(true);
+        }
+        let k = self.marker_squares().position(|q| q == [i, j])?;
+        let code = self.dictionary.code(self.first_id as usize + k)?;
+        Some(!code[(cy - 1) * n + (cx - 1)])
+    }
+
     /// The inner chessboard corners in id order (`getChessboardCorners()`), board frame, metres.
     pub fn chessboard_corners_m(&self) -> Vec<Point3<f64>> {
         let [nx, ny] = self.squares;
@@ -191,6 +222,61 @@ mod tests {
         // CharucoBoard(..., ids = 7..16).getIds() = 7..16.
         let ids: Vec<u32> = Charuco { first_id: 7, ..board(false) }.markers().iter().map(|m| m.id).collect();
         assert_eq!(ids, (7..17).collect::<Vec<_>>());
+    }
+
+    /// `cv2.aruco.CharucoBoard((3, 3), 0.06, 0.042, DICT_4X4_50).generateImage((1800, 1800),
+    /// marginSize=0, borderBits=1)` sampled at (0.0025 + 0.005 i, 0.0025 + 0.005 j) m (OpenCV
+    /// 5.1.0): `#` dark.
+    const OPENCV_IMAGE: [&str; 36] = [
+        "############............############",
+        "############............############",
+        "############..########..############",
+        "############..#..#...#..############",
+        "############..#..#...#..############",
+        "############..###.#..#..############",
+        "############..####...#..############",
+        "############..####.###..############",
+        "############..####.###..############",
+        "############..########..############",
+        "############............############",
+        "############............############",
+        "............############............",
+        "............############............",
+        "..########..############..########..",
+        "..########..############..####...#..",
+        "..########..############..####...#..",
+        "..#......#..############..####...#..",
+        "..#..##..#..############..####.###..",
+        "..#..#.###..############..#...#..#..",
+        "..#..#.###..############..#...#..#..",
+        "..########..############..########..",
+        "............############............",
+        "............############............",
+        "############............############",
+        "############............############",
+        "############..########..############",
+        "############..#..##..#..############",
+        "############..#..##..#..############",
+        "############..#..##..#..############",
+        "############..###.####..############",
+        "############..###..###..############",
+        "############..###..###..############",
+        "############..########..############",
+        "############............############",
+        "############............############",
+    ];
+
+    #[test]
+    fn board_colouring_matches_opencv_generate_image() {
+        let b = Charuco { squares: [3, 3], square_m: 0.06, marker_m: 0.042, dictionary: Dictionary::Dict4x4_50, legacy: false, first_id: 0 };
+        for (j, row) in OPENCV_IMAGE.iter().enumerate() {
+            for (i, c) in row.bytes().enumerate() {
+                let (x, y) = (0.0025 + 0.005 * i as f64, 0.0025 + 0.005 * j as f64);
+                assert_eq!(b.is_dark(x, y), Some(c == b'#'), "({x:.4}, {y:.4})");
+            }
+        }
+        assert_eq!(b.is_dark(-0.001, 0.01), None);
+        assert_eq!(b.is_dark(0.01, 0.18), None);
     }
 
     #[test]
