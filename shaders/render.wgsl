@@ -168,7 +168,7 @@ struct Ray {
     d: vec3<f32>,         // the pixel centre's ray: (xu, yu, 1), or a fisheye's unit vector
     dd_dq: mat2x3<f32>,   // d(d)/d(pixel): columns d/dqx, d/dqy
     ok: bool,             // false beyond the fold of the lens model
-    parts: u32,           // the fine pass splits the pixel into parts x parts sub-pixels (fine_split)
+    parts: u32,           // the fine pass splits the pixel into parts x parts sub-pixels (planar_fine)
 };
 
 // The ray (xu, 1) and its Jacobian from d(xu)/d(q).
@@ -242,12 +242,6 @@ fn ray_col(ray: Ray, k: u32) -> vec3<f32> {
     return vec3<f32>(c.xy, 0.0);
 }
 
-// The ray through pixel offset o (distortion linearised over the pixel).
-fn ray_at(ray: Ray, o: vec2<f32>) -> vec3<f32> {
-    if (wide()) { return ray.d + ray.dd_dq * o; }
-    return vec3<f32>(ray.d.xy + jac2(ray) * o, 1.0);
-}
-
 // The change of the ray over the pixel offset t.
 fn ray_step(ray: Ray, t: vec2<f32>) -> vec3<f32> {
     if (wide()) { return ray.dd_dq * t; }
@@ -258,6 +252,11 @@ fn ray_step(ray: Ray, t: vec2<f32>) -> vec3<f32> {
 fn ray_plus(ray: Ray, v: vec3<f32>) -> vec3<f32> {
     if (wide()) { return ray.d + v; }
     return vec3<f32>(ray.d.xy + v.xy, 1.0);
+}
+
+// The ray through pixel offset o (distortion linearised over the pixel).
+fn ray_at(ray: Ray, o: vec2<f32>) -> vec3<f32> {
+    return ray_plus(ray, ray_step(ray, o));
 }
 
 // dot(g, v) for v a change of the ray (z = 0 unless wide).
@@ -271,7 +270,7 @@ fn pixel_ray(q: vec2<f32>) -> Ray {
     let xd = vec2<f32>((q.x - P.intr.z - P.intr2.x * yd) / P.intr.x, yd);
     let kinv = mat2x2<f32>(vec2<f32>(1.0 / P.intr.x, 0.0), vec2<f32>(-P.intr2.x / (P.intr.x * P.intr.y), 1.0 / P.intr.y));
     if (P.intr2.z == 0.0) { return planar_ray(xd, kinv); }
-    if (LENS_MODEL == 1u) { return fisheye_ray(xd, kinv); }
+    if (wide()) { return fisheye_ray(xd, kinv); }
     let rd2 = dot2(xd, xd);
     var xu = xd;
     if (LENS_MODEL == 2u) {

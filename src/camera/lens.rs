@@ -12,7 +12,7 @@
 //!
 //! The course's Bouguet `k1..k5` map to OpenCV's `k1, k2, p1, p2, k3` (see [`super`]).
 
-use nalgebra::{Matrix2, SMatrix, Vector2};
+use nalgebra::{Matrix2, SMatrix, Vector2, Vector3};
 
 use super::{CameraError, Distortion, DoubleSphere, Fisheye, MAX_RAY_ANGLE_RAD};
 
@@ -175,6 +175,29 @@ impl Lens {
             Self::DoubleSphere(d) => j.fixed_view_mut::<2, 2>(0, 0).copy_from(&d.dxd_dparams(xu)),
         }
         j
+    }
+
+    /// Distorted normalised point of the camera-frame point `p`: [`Self::distort`] of
+    /// `p.xy / p.z`, except that a fisheye takes its angle from the axis by atan2
+    /// ([`Fisheye::distort_ray`], also behind the camera plane).
+    pub fn distort_point(&self, p: &Vector3<f64>) -> Vector2<f64> {
+        match self {
+            Self::Fisheye(f) => f.distort_ray(p),
+            _ => self.distort(&Vector2::new(p.x / p.z, p.y / p.z)),
+        }
+    }
+
+    /// [`Self::dxd_dparams_n`] at the camera-frame point `p` (a fisheye's by atan2, as
+    /// [`Self::distort_point`]).
+    pub fn dxd_dparams_point(&self, p: &Vector3<f64>, n: usize) -> SMatrix<f64, 2, MAX_LENS_PARAMS> {
+        match self {
+            Self::Fisheye(f) => {
+                let mut j = SMatrix::<f64, 2, MAX_LENS_PARAMS>::zeros();
+                j.fixed_view_mut::<2, 4>(0, 0).copy_from(&f.dxd_dcoeffs_ray(p));
+                j
+            }
+            _ => self.dxd_dparams_n(&Vector2::new(p.x / p.z, p.y / p.z), n),
+        }
     }
 
     /// The ray `(xu, 1)` of a distorted normalised point.

@@ -93,15 +93,11 @@ impl CameraModel {
         Projection { pixel_px, in_front: p_cam.z > 0.0 || within, in_image: within && self.size.contains_px(&pixel_px) }
     }
 
-    /// Projects without any check: `K * distort(x/z, y/z)`. Division by `z`
-    /// as is (z <= 0 gives meaningless or non-finite output); a fisheye takes the angle from
-    /// the axis by atan2 ([`Fisheye::distort_ray`]), valid at z <= 0 too.
+    /// Projects without any check: `K * distort(x/z, y/z)` ([`super::Lens::distort_point`]).
+    /// Division by `z` as is (z <= 0 gives meaningless or non-finite output); a fisheye takes
+    /// the angle from the axis by atan2 ([`Fisheye::distort_ray`]), valid at z <= 0 too.
     pub fn project_unchecked(&self, p_cam: &Point3<f64>) -> Point2<f64> {
-        if let Lens::Fisheye(f) = &self.lens {
-            return self.intrinsics.normalized_to_pixel(&f.distort_ray(&p_cam.coords));
-        }
-        let xu = Vector2::new(p_cam.x / p_cam.z, p_cam.y / p_cam.z);
-        self.intrinsics.normalized_to_pixel(&self.lens.distort(&xu))
+        self.intrinsics.normalized_to_pixel(&self.lens.distort_point(&p_cam.coords))
     }
 
     /// Back-projects a pixel to the ray `(xu, yu, 1)` in the camera frame
@@ -171,26 +167,14 @@ impl CameraModel {
     /// [`Self::dq_dintrinsics`] with only the first `n_lens` lens columns computed (the others
     /// zero): what an estimate that fixes the trailing parameters needs.
     pub fn dq_dintrinsics_n(&self, p_cam: &Point3<f64>, n_lens: usize) -> SMatrix<f64, 2, N_INTRINSICS> {
-        let xu = Vector2::new(p_cam.x / p_cam.z, p_cam.y / p_cam.z);
-        let fisheye_behind = match &self.lens {
-            Lens::Fisheye(f) if !(p_cam.z > 0.0) => Some(f),
-            _ => None,
-        };
-        let xd = fisheye_behind.map_or_else(|| self.lens.distort(&xu), |f| f.distort_ray(&p_cam.coords));
+        let xd = self.lens.distort_point(&p_cam.coords);
         let mut j = SMatrix::<f64, 2, N_INTRINSICS>::zeros();
         j[(0, 0)] = xd.x; // fx
         j[(1, 1)] = xd.y; // fy
         j[(0, 2)] = 1.0; // cx
         j[(1, 3)] = 1.0; // cy
         j[(0, 4)] = xd.y; // skew
-        let dc = match fisheye_behind {
-            Some(f) => {
-                let mut c = SMatrix::<f64, 2, MAX_LENS_PARAMS>::zeros();
-                c.fixed_view_mut::<2, 4>(0, 0).copy_from(&f.dxd_dcoeffs_ray(&p_cam.coords));
-                self.dq_dxd() * c
-            }
-            None => self.dq_dxd() * self.lens.dxd_dparams_n(&xu, n_lens),
-        };
+        let dc = self.dq_dxd() * self.lens.dxd_dparams_point(&p_cam.coords, n_lens);
         j.fixed_view_mut::<2, MAX_LENS_PARAMS>(0, 5).copy_from(&dc);
         j
     }
