@@ -212,15 +212,20 @@ impl TileCornerRays {
         let tx = camera.size.width.div_ceil(TILE_PX) + 1;
         let ty = camera.size.height.div_ceil(TILE_PX) + 1;
         let (w, h) = (f64::from(camera.size.width), f64::from(camera.size.height));
-        let rays = (0..tx * ty)
-            .into_par_iter()
-            .map(|k| {
-                let x = (f64::from((k % tx) * TILE_PX) - 0.5).min(w - 0.5);
-                let y = (f64::from((k / tx) * TILE_PX) - 0.5).min(h - 0.5);
-                camera.unproject_ray(&Point2::new(x, y)).ok()
-            })
-            .collect();
-        Self { camera: *camera, rays, split_radii: super::bend::split_radii(camera) }
+        let (rays, split_radii) = rayon::join(
+            || {
+                (0..tx * ty)
+                    .into_par_iter()
+                    .map(|k| {
+                        let x = (f64::from((k % tx) * TILE_PX) - 0.5).min(w - 0.5);
+                        let y = (f64::from((k / tx) * TILE_PX) - 0.5).min(h - 0.5);
+                        camera.unproject_ray(&Point2::new(x, y)).ok()
+                    })
+                    .collect()
+            },
+            || super::bend::split_radii(camera),
+        );
+        Self { camera: *camera, rays, split_radii }
     }
 
     /// The four corner rays of tile (tx, ty), or `None` if one is missing.
