@@ -25,7 +25,7 @@
 // Mirrors: src/scene/trace.rs (CPU, f64). Uniform layout: src/render/uniforms.rs `Params`.
 
 struct Params {
-    size: vec4<u32>,     // width, height, kind (0 chessboard, 1 dot grid, 2 s-path), samples per axis
+    size: vec4<u32>,     // width, height, kind (0 chessboard, 1 dot grid, 2 s-path, 4 coded board), samples per axis
     tiles: vec4<u32>,    // tiles_x, tiles_y, dot style (0 bead, 1 disc), fine-pass work length
     intr: vec4<f32>,     // fx, fy, cx, cy
     intr2: vec4<f32>,    // skew, r2_max (undistorted r^2 beyond which the lens folds), has_distortion, 0
@@ -38,9 +38,11 @@ struct Params {
     h0: vec4<f32>,       // rows of H: (X, Y, W) = H d, target plane from the ray (W > 0: in front)
     h1: vec4<f32>,
     h2: vec4<f32>,
-    board: vec4<f32>,    // chessboard: nx, ny, square, margin | dot grid: n, edge, radius, margin
+    board: vec4<f32>,    // chessboard: nx, ny, square, margin | dot grid: n, edge, radius, margin | coded: cells x, y, per period, margin
     grey: vec4<f32>,     // dark, light, margin, background
     sphere: vec4<f32>,   // s-path: sphere centre (camera frame), radius
+    lat: vec4<f32>,      // coded boards: lattice period, origin, first sub-interval, cell
+    lat2: vec4<f32>,     // coded boards: board end x, end y, narrowest cell, 0
 };
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -328,7 +330,135 @@ fn grid_value(x: f32, y: f32) -> f32 {
 }
 
 fn plane_value(b: vec2<f32>) -> f32 {
+    if (P.size.z == 4u) { return coded_value(b.x, b.y); }
     return select(grid_value(b.x, b.y), chess_value(b.x, b.y), P.size.z == 0u);
+}
+
+// ---------------------------------------------------------------- coded boards (cell lattice)
+// Every edge of a coded board (ChArUco: squares, marker borders and bits) lies on one lattice,
+// the same along x and y (src/target/lattice.rs CellLattice): periods of P.lat.x from P.lat.y,
+// each cut at P.lat.z and then every P.lat.w; sub-interval 0 is [0, lat.z), the last ends at the
+// period's end. Global index g = period * P.board.z + sub; the board holds g in
+// [0, P.board.x) x [0, P.board.y) and spans [lat.y, lat2.x) x [lat.y, lat2.y). Dark cells: bit
+// gy * board.x + gx of tile_items.
+
+fn lat_index(x: f32) -> i32 {
+    let per = i32(P.board.z);
+    let t = floor((x - P.lat.y) / P.lat.x);
+    let u = x - P.lat.y - t * P.lat.x;
+    var sub = 0;
+    if (u >= P.lat.z) { sub = min(1 + i32(floor((u - P.lat.z) / P.lat.w)), per - 1); }
+    return i32(t) * per + sub;
+}
+
+// [lo, hi] of sub-interval g.
+fn lat_bounds(g: i32) -> vec2<f32> {
+    let per = i32(P.board.z);
+    let period = g / per;
+    let sub = g - period * per;
+    let start = P.lat.y + f32(period) * P.lat.x;
+    let lo = select(P.lat.z + f32(sub - 1) * P.lat.w, 0.0, sub == 0);
+    let hi = select(select(P.lat.z + f32(sub) * P.lat.w, P.lat.z, sub == 0), P.lat.x, sub == per - 1);
+    return vec2<f32>(start + lo, start + hi);
+}
+
+fn coded_dark(gx: i32, gy: i32) -> bool {
+    let k = u32(gy) * u32(P.board.x) + u32(gx);
+    return ((tile_items[k >> 5u] >> (k & 31u)) & 1u) == 1u;
+}
+
+fn coded_value(x: f32, y: f32) -> f32 {
+    let o = P.lat.y; let m = P.board.w;
+    if (x >= o && x < P.lat2.x && y >= o && y < P.lat2.y) {
+        let gx = clamp(lat_index(x), 0, i32(P.board.x) - 1);
+        let gy = clamp(lat_index(y), 0, i32(P.board.y) - 1);
+        return select(P.grey.y, P.grey.x, coded_dark(gx, gy));
+    }
+    if (x >= o - m && x < P.lat2.x + m && y >= o - m && y < P.lat2.y + m) { return P.grey.z; }
+    return P.grey.w;
+}
+
+// Lines of the coded board along one axis in [lo, hi]: the lattice's on the board, and the
+// border's outer edges. Count and the first (the only one when the count is 1).
+fn coded_lines(lo: f32, hi: f32, end: f32, cells: f32) -> Lines {
+    var l: Lines;
+    let o = P.lat.y; let m = P.board.w;
+    // Index -1: before the board; cells: after it (lines o and end between them and the board).
+    let g0 = clamp(lat_index(lo), -1, i32(cells));
+    let g1 = clamp(lat_index(hi), -1, i32(cells));
+    l.count = u32(g1 - g0);
+    l.first = select(lat_bounds(max(g1, 0)).x, end, g1 == i32(cells));
+    if (m > 0.0) {
+        if (o - m >= lo && o - m <= hi) { l.count = l.count + 1u; l.first = o - m; }
+        if (end + m >= lo && end + m <= hi) { l.count = l.count + 1u; l.first = end + m; }
+    }
+    return l;
+}
+
+// Coded board, coarse: flat pixels and pixels crossed by one line (closed-form coverage); the
+// rest are hard.
+fn coded_coarse(ray: Ray) -> Coarse {
+    var out: Coarse;
+    let pc = plane_point(ray_d(ray));
+    let ext = footprint_extent(board_jacobian(pc, ray));
+    let small = max(ext.x, ext.y) < 0.25 * P.lat2.z;
+    let lx = coded_lines(pc.x - ext.x, pc.x + ext.x, P.lat2.x, P.board.x);
+    let ly = coded_lines(pc.y - ext.y, pc.y + ext.y, P.lat2.y, P.board.y);
+    let hasx = lx.count == 1u;
+    let line = board_line(select(1u, 0u, hasx), select(ly.first, lx.first, hasx), pc, ray);
+    let area = halfplane_area(line.xy, line.z);
+    let e = select(ext.y, ext.x, hasx);
+    let l0 = select(ly.first, lx.first, hasx);
+    let cen = select(pc.y, pc.x, hasx);
+    let plus = 0.5 * (l0 + cen + e);
+    let minus = 0.5 * (l0 + cen - e);
+    let vp = select(coded_value(pc.x, plus), coded_value(plus, pc.y), hasx);
+    let vm = select(coded_value(pc.x, minus), coded_value(minus, pc.y), hasx);
+    let nlines = lx.count + ly.count;
+    let v = select(vp * area + vm * (1.0 - area), coded_value(pc.x, pc.y), nlines == 0u);
+    out.value = select(P.grey.w, v, pc.z > 0.0 && ray.ok);
+    out.hard = ray.ok && pc.z > 0.0 && (!small || nlines > 1u || (nlines > 0u && ray.parts > 1u));
+    return out;
+}
+
+// Coded board, fine: the exact area of the pixel square in the border's outline, on the board
+// and in every dark cell it meets (rect_area); supersampled when it meets more than MAX_CELLS
+// cells per axis.
+fn coded_fine(ray: Ray) -> f32 {
+    let pc = plane_point(ray_d(ray));
+    let ext = footprint_extent(board_jacobian(pc, ray));
+    let o = P.lat.y; let m = P.board.w;
+    let gx0 = clamp(lat_index(pc.x - ext.x), 0, i32(P.board.x) - 1);
+    let gx1 = clamp(lat_index(pc.x + ext.x), 0, i32(P.board.x) - 1);
+    let gy0 = clamp(lat_index(pc.y - ext.y), 0, i32(P.board.y) - 1);
+    let gy1 = clamp(lat_index(pc.y + ext.y), 0, i32(P.board.y) - 1);
+    let exact = f32(gx1 - gx0) < MAX_CELLS && f32(gy1 - gy0) < MAX_CELLS;
+    let ni = u32(gx1 - gx0) + 1u;
+    let cells = select(0u, ni * (u32(gy1 - gy0) + 1u), exact);
+    // Rectangle 0: the border's outline; 1: the board; 2..: the cells (dark ones only).
+    var a_margin = 0.0; var a_board = 0.0; var dark = 0.0;
+    for (var k = 0u; k < 2u + cells; k = k + 1u) {
+        let c = k - 2u;
+        let gx = gx0 + i32(c % ni);
+        let gy = gy0 + i32(c / ni);
+        let bx = lat_bounds(gx);
+        let by = lat_bounds(gy);
+        var lo = vec2<f32>(bx.x, by.x);
+        var hi = vec2<f32>(bx.y, by.y);
+        lo = select(lo, vec2<f32>(o, o), k == 1u);
+        hi = select(hi, P.lat2.xy, k == 1u);
+        lo = select(lo, vec2<f32>(o - m, o - m), k == 0u);
+        hi = select(hi, P.lat2.xy + vec2<f32>(m, m), k == 0u);
+        let is_dark = k < 2u || coded_dark(gx, gy);
+        var area = 0.0;
+        if (is_dark) { area = rect_area(lo, hi, pc, ray); }
+        a_margin = select(a_margin, area, k == 0u);
+        a_board = select(a_board, area, k == 1u);
+        dark = dark + select(0.0, area, k >= 2u);
+    }
+    let v = P.grey.w * (1.0 - a_margin) + P.grey.z * (a_margin - a_board) + P.grey.x * dark + P.grey.y * (a_board - dark);
+    let sup = plane_supersample(ray, select(P.size.w, 0u, exact));
+    return select(sup, v, exact);
 }
 
 // Target-plane point of the ray d (any length and direction: H is linear); z < 0 when the ray
@@ -1332,38 +1462,56 @@ fn fine_item(gid: vec3<u32>) -> vec3<u32> {
     return vec3<u32>(x, y, (y >> 3u) * P.tiles.x + (x >> 3u));
 }
 
-// The fine value of a planar target's pixel at q: chess_fine or grid_fine (`chess` is a literal at
-// each call, so the compiler keeps one). A fisheye far off its axis bends the rays across the pixel
+// The fine value of a planar target's pixel at q: chess_fine, grid_fine or coded_fine (`kind` is a
+// literal at each call, so the compiler keeps one). A fisheye far off its axis bends the rays across the pixel
 // (src/render/bend.rs): the mean of its sub-pixels, each with its own ray (a sub-pixel beyond the
 // lens's reach or the plane's horizon: background).
-fn planar_fine(q: vec2<f32>, chess: bool) -> f32 {
+fn planar_fine(q: vec2<f32>, kind: u32) -> f32 {
     if (!wide()) {
-        let r = pixel_ray(q);
-        return select(grid_fine(r), chess_fine(r), chess);
+        return planar_fine_ray(pixel_ray(q), kind);
     }
     let parts = pixel_ray(q).parts;
     var acc = 0.0;
     for (var k = 0u; k < parts * parts; k = k + 1u) {
         let r = sub_ray(q, parts, k);
-        acc = acc + select(P.grey.w, select(grid_fine(r), chess_fine(r), chess), r.ok && plane_point(ray_d(r)).z > 0.0);
+        acc = acc + select(P.grey.w, planar_fine_ray(r, kind), r.ok && plane_point(ray_d(r)).z > 0.0);
     }
     return acc / f32(parts * parts);
+}
+
+// The fine value of pass kind `kind` (a literal at each call) along `r`.
+fn planar_fine_ray(r: Ray, kind: u32) -> f32 {
+    if (kind == 4u) { return coded_fine(r); }
+    if (kind == 0u) { return chess_fine(r); }
+    return grid_fine(r);
 }
 
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_chessboard(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), true);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), 0u);
 }
 
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_dot_grid(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), false);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), 1u);
 }
 
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_spath(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
     out_vals[gid.y * 65535u * 64u + gid.x] = spath_fine(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))), it.z);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn cs_coarse_coded(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let px = coarse_pixel(wg, lid);
+    write_coarse(wg, lid, coded_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn cs_fine_coded(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let it = fine_item(gid);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), 4u);
 }

@@ -1,4 +1,6 @@
-//! `synthcam calibrate <IMAGES | detections.json>... --target chessboard:COLSxROWS --square M`.
+//! `synthcam calibrate <IMAGES | detections.json>... --target chessboard:COLSxROWS | charuco:NXxNY:DICT:RATIO --square M`.
+//!
+//! Coded boards calibrate from partial views: each view's points are matched to the board by id.
 
 use std::path::PathBuf;
 
@@ -20,10 +22,10 @@ pub struct CalibrateArgs {
     /// Images or folders (detected here), or one detections JSON written by `synthcam detect`.
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
-    /// Target: chessboard:COLSxROWS (inner corners).
+    /// Target: chessboard:COLSxROWS (inner corners) or charuco:NXxNY:DICT:MARKER_OVER_SQUARE[:legacy].
     #[arg(long, value_parser = |s: &str| s.parse::<TargetSpec>())]
     pub target: TargetSpec,
-    /// Square size, metres (the board's unit).
+    /// Square size, metres (the board's unit; ChArUco: the square).
     #[arg(long)]
     pub square: f64,
     /// Also estimate the skew K[0][1].
@@ -60,6 +62,8 @@ pub struct CalibrateArgs {
 #[derive(Debug, Serialize)]
 struct ViewOut {
     file: String,
+    /// Points used (a coded board's partial views hold fewer than the board).
+    points: usize,
     rms_px: f64,
     max_px: f64,
     rvec: [f64; 3],
@@ -139,7 +143,7 @@ fn cross_out(
         .folds
         .iter()
         .map(|f| FoldOut {
-            held_out: f.held_out.iter().map(|&i| found[i].0.clone()).collect(),
+            held_out: f.held_out.iter().map(|&i| found[i].file.clone()).collect(),
             fit_rms_px: f.fit_rms_px,
             held_out_rms_px: f.held_out_rms_px,
             projection_diff_max_px: f.projection_diff_max_px,
@@ -156,8 +160,52 @@ fn cross_out(
     }))
 }
 
-/// (file, width, height, points) of one image in which the board was found.
-type Found = (String, usize, usize, Vec<Point2<f64>>);
+/// One image in which the board was found.
+#[derive(Debug)]
+struct Found {
+    file: String,
+    width: usize,
+    height: usize,
+    /// Detected points, pixels.
+    points: Vec<Point2<f64>>,
+    /// The board point of each (an index into [`board_points`]).
+    ids: Vec<u32>,
+}
+
+/// Fewest points a view of a coded board needs (a homography, with some to spare).
+const MIN_VIEW_POINTS: usize = 8;
+
+/// The board points by id: a chessboard's inner corners row by row, a ChArUco board's corners by
+/// OpenCV's id; `square` metres per square.
+fn board_points(target: &TargetSpec, square: f64) -> anyhow::Result<Vec<Point3<f64>>> {
+    match *target {
+        TargetSpec::Chessboard { cols, rows } => {
+            Ok((0..cols * rows).map(|k| Point3::new((k % cols) as f64 * square, (k / cols) as f64 * square, 0.0)).collect())
+        }
+        TargetSpec::Charuco { .. } => Ok(target.charuco_board(square).map(|b| b.chessboard_corners_m()).unwrap_or_default()),
+        _ => anyhow::bail!("calibrate takes a chessboard or ChArUco target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO)"),
+    }
+}
+
+impl Found {
+    /// A detection of a target with `n` board points: ids given (coded boards) or the whole
+    /// board in order; `Err` with the reason to skip it.
+    fn new(file: String, (width, height): (usize, usize), points: Vec<Point2<f64>>, ids: Option<Vec<u32>>, n: usize) -> Result<Self, String> {
+        let ids = match ids {
+            Some(ids) => ids,
+            None if points.len() == n => (0..n as u32).collect(),
+            None => return Err(format!("{} points, the target has {n}", points.len())),
+        };
+        if ids.len() != points.len() || ids.iter().any(|&i| i as usize >= n) {
+            return Err(format!("{} ids for {} points, or an id beyond the board's {n}", ids.len(), points.len()));
+        }
+        if points.len() < MIN_VIEW_POINTS.min(n) {
+            return Err(format!("only {} points (a view needs {MIN_VIEW_POINTS})", points.len()));
+        }
+        Ok(Self { file, width, height, points, ids })
+    }
+}
+
 /// The images in which the board was found, and the skipped ones.
 type Detections = (Vec<Found>, Vec<Skipped>);
 
@@ -180,10 +228,21 @@ fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
                 _ => anyhow::bail!("{file}: a point is not [u, v]"),
             })
             .collect::<anyhow::Result<_>>()?;
-        anyhow::ensure!(pts.len() == n, "{file}: {} points, the target has {n}", pts.len());
+        let ids = match im.get("ids").and_then(|v| v.as_array()) {
+            Some(ids) => Some(
+                ids.iter()
+                    .map(|i| i.as_u64().and_then(|i| u32::try_from(i).ok()).with_context(|| format!("{file}: an id is not a count")))
+                    .collect::<anyhow::Result<Vec<u32>>>()?,
+            ),
+            None => None,
+        };
         let w = im["width"].as_u64().with_context(|| format!("{file}: `width` missing"))? as usize;
         let h = im["height"].as_u64().with_context(|| format!("{file}: `height` missing"))? as usize;
-        found.push((file, w, h, pts));
+        match Found::new(file.clone(), (w, h), pts, ids, n) {
+            Ok(f) => found.push(f),
+            Err(why) if v["target"]["kind"] == "charuco" => skipped.push(Skipped::new(file, why)),
+            Err(why) => anyhow::bail!("{file}: {why}"),
+        }
     }
     Ok((found, skipped))
 }
@@ -199,10 +258,13 @@ fn load_detections(args: &CalibrateArgs, n: usize) -> anyhow::Result<Detections>
         match load_grey(&f) {
             Ok(img) => {
                 let det = detect(&img, &args.target)?;
-                if det.found {
-                    found.push((name, img.width, img.height, det.points_px));
-                } else {
+                if !det.found {
                     skipped.push(Skipped::new(name, "board not found"));
+                    continue;
+                }
+                match Found::new(name.clone(), (img.width, img.height), det.points_px, det.ids, n) {
+                    Ok(f) => found.push(f),
+                    Err(why) => skipped.push(Skipped::new(name, why)),
                 }
             }
             Err(e) => {
@@ -217,9 +279,9 @@ fn load_detections(args: &CalibrateArgs, n: usize) -> anyhow::Result<Detections>
 /// Keep the images of the first image's size; the others go to `skipped` with a warning (one
 /// camera has one image size: a resized or cropped frame would bias the intrinsics).
 fn keep_first_size((found, mut skipped): Detections) -> Detections {
-    let Some(&(_, w, h, _)) = found.first() else { return (found, skipped) };
-    let (same, other): (Vec<Found>, Vec<Found>) = found.into_iter().partition(|f| f.1 == w && f.2 == h);
-    skipped.extend(other.into_iter().map(|(file, fw, fh, _)| Skipped::other_size(file, (fw, fh), (w, h), "")));
+    let Some((w, h)) = found.first().map(|f| (f.width, f.height)) else { return (found, skipped) };
+    let (same, other): (Vec<Found>, Vec<Found>) = found.into_iter().partition(|f| f.width == w && f.height == h);
+    skipped.extend(other.into_iter().map(|f| Skipped::other_size(f.file, (f.width, f.height), (w, h), "")));
     (same, skipped)
 }
 
@@ -243,16 +305,12 @@ fn export_files<'a>(args: &'a CalibrateArgs, cam: &synthcam::camera::CameraModel
 
 /// Run `calibrate`.
 pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
-    let TargetSpec::Chessboard { cols, rows } = args.target else {
-        anyhow::bail!("calibrate takes a chessboard target (chessboard:COLSxROWS)");
-    };
     anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be a positive number of metres, got {}", args.square);
-    let n = cols * rows;
-    let (found, skipped) = keep_first_size(load_detections(args, n)?);
-    let Some(&(_, w, h, _)) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
-    let board: Vec<Point3<f64>> = (0..n).map(|k| Point3::new((k % cols) as f64 * args.square, (k / cols) as f64 * args.square, 0.0)).collect();
-    let views: Vec<View> = found.iter().map(|(_, _, _, pts)| board.iter().copied().zip(pts.iter().copied()).collect()).collect();
-    let size = ImageSize { width: w as u32, height: h as u32 };
+    let board = board_points(&args.target, args.square)?;
+    let (found, skipped) = keep_first_size(load_detections(args, board.len())?);
+    let Some(first) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
+    let size = ImageSize { width: first.width as u32, height: first.height as u32 };
+    let views: Vec<View> = found.iter().map(|f| f.ids.iter().map(|&i| board[i as usize]).zip(f.points.iter().copied()).collect()).collect();
     let t0 = std::time::Instant::now();
     let params = CalibParams { estimate_skew: args.skew, model: args.model, ..Default::default() };
     let r = calibrate(&views, size, &params).context("calibrating")?;
@@ -285,7 +343,14 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         views: found
             .iter()
             .zip(&r.views)
-            .map(|((file, ..), v)| ViewOut { file: file.clone(), rms_px: v.rms_px, max_px: v.max_px, rvec: v.rvec.into(), tvec: v.tvec.into() })
+            .map(|(f, v)| ViewOut {
+                file: f.file.clone(),
+                points: f.points.len(),
+                rms_px: v.rms_px,
+                max_px: v.max_px,
+                rvec: v.rvec.into(),
+                tvec: v.tvec.into(),
+            })
             .collect(),
         used: found.len(),
         skipped,
@@ -301,7 +366,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         write_atomic(p, text.as_bytes())?;
     }
     if let Some(p) = &args.plot {
-        let pts: Vec<Vec<Point2<f64>>> = found.iter().map(|f| f.3.clone()).collect();
+        let pts: Vec<Vec<Point2<f64>>> = found.iter().map(|f| f.points.clone()).collect();
         write_atomic(p, &plot_png(&r, &pts)?)?;
     }
     Ok(())

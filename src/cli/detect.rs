@@ -1,4 +1,5 @@
-//! `synthcam detect <IMAGES>... --target chessboard:COLSxROWS | dot-grid:NxN | s-path`.
+//! `synthcam detect <IMAGES>... --target chessboard:COLSxROWS | dot-grid:NxN | s-path |
+//! charuco:NXxNY:DICT:MARKER_OVER_SQUARE[:legacy][:first_id=N]`.
 
 use std::path::{Path, PathBuf};
 
@@ -16,7 +17,9 @@ pub struct DetectArgs {
     /// Image files or folders (PNG, JPEG; folders are read in name order).
     #[arg(required = true)]
     pub images: Vec<PathBuf>,
-    /// Target: chessboard:COLSxROWS (inner corners), dot-grid:NxN or s-path.
+    /// Target: chessboard:COLSxROWS (inner corners), dot-grid:NxN, s-path, or
+    /// charuco:NXxNY:DICT:MARKER_OVER_SQUARE[:legacy][:first_id=N] (squares, OpenCV dictionary,
+    /// e.g. charuco:11x8:DICT_5X5_100:0.733).
     #[arg(long, value_parser = |s: &str| s.parse::<TargetSpec>())]
     pub target: TargetSpec,
     /// Write the detections as JSON here.
@@ -44,6 +47,9 @@ struct ImageResult {
     points_px: Vec<[f64; 2]>,
     #[serde(skip_serializing_if = "Option::is_none")]
     indices: Option<Vec<usize>>,
+    /// Coded boards: the id of each point (ChArUco: OpenCV's chessboard-corner id).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ids: Option<Vec<u32>>,
     /// S-path: each dot's residual against the fit of the whole nominal path, px.
     #[serde(skip_serializing_if = "Option::is_none")]
     path_residuals_px: Option<Vec<[f64; 2]>>,
@@ -106,6 +112,7 @@ impl ImageResult {
             found: false,
             points_px: Vec::new(),
             indices: None,
+            ids: None,
             path_residuals_px: None,
             path_deviation_mm: None,
             path_residual_rms_px: None,
@@ -129,6 +136,7 @@ impl ImageResult {
             path_deviation_mm: residuals.map(|r| r.iter().map(|p| 1e3 * p.deviation_m).collect()),
             path_residual_rms_px: residuals.map(|r| (r.iter().map(|p| p.residual_px.norm_squared()).sum::<f64>() / r.len().max(1) as f64).sqrt()),
             indices: det.indices,
+            ids: det.ids,
             unmeasured_indices: det.unmeasured,
             time_ms: Some(time_ms),
             note: det.note,

@@ -96,8 +96,14 @@ fn draw_pose(rng: &mut ChaCha8Rng, plan: &DatasetPlan, centre: &Vector3<f64>) ->
     }
 }
 
-/// Whether every feature point projects inside the image, `margin_px` from its border.
+/// Whether every feature point projects inside the image, `margin_px` from its border (partial
+/// views: whether the fraction inside lies in the plan's range).
 fn meets_constraint(plan: &DatasetPlan, pts: &[Point3<f64>], cam_from_target: &Isometry3<f64>) -> bool {
+    if let Some([lo, hi]) = plan.inside_fraction {
+        let inside = pts.iter().filter(|p| plan.camera.sees_all(cam_from_target, std::slice::from_ref(*p), plan.margin_px)).count();
+        let f = inside as f64 / pts.len().max(1) as f64;
+        return f >= lo && f <= hi;
+    }
     if !plan.full_target_visible {
         return true;
     }
@@ -105,7 +111,9 @@ fn meets_constraint(plan: &DatasetPlan, pts: &[Point3<f64>], cam_from_target: &I
 }
 
 fn constraint_name(plan: &DatasetPlan) -> &'static str {
-    if matches!(plan.mode, PoseMode::Course) {
+    if plan.inside_fraction.is_some() {
+        "poses.inside_fraction"
+    } else if matches!(plan.mode, PoseMode::Course) {
         "poses (course mode: full target visible)"
     } else {
         "poses.full_target_visible"

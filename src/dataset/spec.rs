@@ -112,6 +112,10 @@ pub enum PosesSpec {
         tilt_from: Option<TiltFrom>,
         /// Re-draw until every feature point projects inside the image (default true).
         full_target_visible: Option<bool>,
+        /// Partial views: re-draw until the fraction of feature points inside the image (by
+        /// `margin_px`) lies in `[lo, hi]`, within [0, 1] (replaces `full_target_visible`; for
+        /// coded boards, which are detected in part).
+        inside_fraction: Option<Vec<f64>>,
         /// Margin of the visibility constraint, pixels (default 0).
         margin_px: Option<f64>,
     },
@@ -201,6 +205,9 @@ pub struct DatasetPlan {
     pub mode: PoseMode,
     /// Whether every feature point must project inside the image.
     pub full_target_visible: bool,
+    /// Partial views: the range of the fraction of feature points inside the image (overrides
+    /// `full_target_visible`).
+    pub inside_fraction: Option<[f64; 2]>,
     /// Margin of that constraint, pixels.
     pub margin_px: f64,
 }
@@ -245,12 +252,20 @@ fn check_finite<const N: usize>(field: &str, v: &[f64; N]) -> Result<(), SpecErr
 }
 
 impl PosesSpec {
+    /// A board's partial-view range ([`PosesSpec::Board`]'s `inside_fraction`), validated.
+    fn inside_fraction(&self) -> Result<Option<[f64; 2]>, SpecError> {
+        match self {
+            PosesSpec::Board { inside_fraction: Some(r), .. } => check_range("poses.inside_fraction", Some(r), 0.0, 1.0).map(Some),
+            _ => Ok(None),
+        }
+    }
+
     /// The validated mode, whether the visibility constraint applies, and its margin.
     fn to_mode(&self, target: &Target, camera: &CameraModel) -> Result<(PoseMode, bool, f64), SpecError> {
         match self {
-            PosesSpec::Board { distance_m, tilt_deg, roll_deg, offset_x_m, offset_y_m, tilt_from, full_target_visible, margin_px } => {
+            PosesSpec::Board { distance_m, tilt_deg, roll_deg, offset_x_m, offset_y_m, tilt_from, full_target_visible, margin_px, .. } => {
                 if !target.is_planar() {
-                    return Err(invalid("poses.mode", "\"board\" needs a planar target (chessboard or dot-grid); use \"robot\" for the s-path"));
+                    return Err(invalid("poses.mode", "\"board\" needs a planar target (chessboard, dot-grid or charuco); use \"robot\" for the s-path"));
                 }
                 // A fisheye that reaches beyond 90 degrees sees boards behind its camera plane.
                 let behind_ok = camera.lens.max_angle_rad() > std::f64::consts::FRAC_PI_2;
@@ -322,7 +337,8 @@ impl DatasetSpec {
         let probe = crate::scene::Scene { camera, target: target.clone(), cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3), render };
         probe.validate()?;
         let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target, &camera)?;
-        Ok(DatasetPlan { count: self.count, seed: self.seed, camera, target, render, mode, full_target_visible, margin_px })
+        let inside_fraction = self.poses.inside_fraction()?;
+        Ok(DatasetPlan { count: self.count, seed: self.seed, camera, target, render, mode, full_target_visible, inside_fraction, margin_px })
     }
 }
 
@@ -339,7 +355,7 @@ pub fn parse_dataset_spec(text: &str) -> Result<DatasetPlan, SpecError> {
 mod tests {
     use super::*;
 
-    const EXAMPLES: [(&str, &str); 7] = [
+    const EXAMPLES: [(&str, &str); 9] = [
         ("tiny", include_str!("../../assets/specs/tiny.toml")),
         ("chessboard_1280", include_str!("../../assets/specs/chessboard_1280.toml")),
         ("course_calibration", include_str!("../../assets/specs/course_calibration.toml")),
@@ -347,6 +363,8 @@ mod tests {
         ("fisheye_1280", include_str!("../../assets/specs/fisheye_1280.toml")),
         ("fisheye_edge_1280", include_str!("../../assets/specs/fisheye_edge_1280.toml")),
         ("fisheye_wide_1280", include_str!("../../assets/specs/fisheye_wide_1280.toml")),
+        ("charuco_full_1280", include_str!("../../assets/specs/charuco_full_1280.toml")),
+        ("charuco_partial_1280", include_str!("../../assets/specs/charuco_partial_1280.toml")),
     ];
 
     #[test]

@@ -9,6 +9,7 @@
 //! Reference: OpenCV `findChessboardCorners` / `cornerSubPix`; Geiger et al. 2012, "Automatic
 //! camera and range sensor calibration using a single shot".
 
+pub mod charuco;
 pub mod chessboard;
 pub mod dots;
 pub(crate) mod edge_surround;
@@ -28,6 +29,7 @@ pub mod target;
 pub(crate) mod xcorner;
 
 pub use self::image::{GreyWindow, ImageF32, ImageU8};
+pub use charuco::{find_charuco, CharucoDetection, CharucoParams, MarkerDetection};
 pub use chessboard::{find_chessboard, ChessboardCorners, ChessboardParams};
 pub use saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};
 pub use subpixel::{refine_corner, SubpixelParams};

@@ -5,16 +5,17 @@ use std::str::FromStr;
 
 use nalgebra::Point2;
 
+use super::charuco::{find_charuco, CharucoParams};
 use super::chessboard::{find_chessboard, find_chessboard_u8, ChessboardCorners, ChessboardParams};
 use super::dots::{find_dots, DotParams};
 use super::grid_order::order_grid;
 use super::s_path_fit::{index_s_path, path_residuals, unmeasured, PathResidual, SPathFitParams};
 use super::{DetectError, ImageF32, ImageU8};
 use crate::target::s_path::{build_s_path, course_planar_s};
-use crate::target::{course_s_path, SPath};
+use crate::target::{course_s_path, Charuco, Dictionary, SPath};
 
 /// What to look for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum TargetSpec {
     /// A chessboard of `cols x rows` inner corners.
@@ -34,6 +35,19 @@ pub enum TargetSpec {
         /// Points on the path.
         points: usize,
     },
+    /// A ChArUco board; its points are the chessboard corners found, with their ids.
+    Charuco {
+        /// Squares along x and y (OpenCV's `size`).
+        squares: [u32; 2],
+        /// The markers' dictionary.
+        dictionary: Dictionary,
+        /// Marker edge over square edge.
+        marker_over_square: f64,
+        /// OpenCV's legacy layout.
+        legacy: bool,
+        /// Id of the board's first marker.
+        first_id: u32,
+    },
 }
 
 impl TargetSpec {
@@ -44,8 +58,53 @@ impl TargetSpec {
             Target::Chessboard(b) => TargetSpec::Chessboard { cols: b.inner_corner_count()[0] as usize, rows: b.inner_corner_count()[1] as usize },
             Target::DotGrid(g) => TargetSpec::DotGrid { n: g.n as usize },
             Target::SPath(s) => TargetSpec::SPath { points: s.path.points_m.len() },
+            Target::Charuco(c) => {
+                let b = &c.board;
+                TargetSpec::Charuco {
+                    squares: b.squares,
+                    dictionary: b.dictionary,
+                    marker_over_square: b.marker_m / b.square_m,
+                    legacy: b.legacy,
+                    first_id: b.first_id,
+                }
+            }
         }
     }
+
+    /// The board of a ChArUco spec, its squares `square_m` wide.
+    pub fn charuco_board(&self, square_m: f64) -> Option<Charuco> {
+        match *self {
+            TargetSpec::Charuco { squares, dictionary, marker_over_square, legacy, first_id } => {
+                Some(Charuco { squares, square_m, marker_m: marker_over_square * square_m, dictionary, legacy, first_id })
+            }
+            _ => None,
+        }
+    }
+}
+
+/// `charuco:NXxNY:DICT:MARKER_OVER_SQUARE[:legacy][:first_id=N]` after its `charuco:`.
+fn parse_charuco(rest: &str) -> Result<TargetSpec, String> {
+    let usage = "charuco:NXxNY:DICT:MARKER_OVER_SQUARE[:legacy][:first_id=N], e.g. charuco:11x8:DICT_5X5_100:0.733";
+    let mut parts = rest.split(':');
+    let (Some(dims), Some(dict), Some(ratio)) = (parts.next(), parts.next(), parts.next()) else {
+        return Err(format!("expected {usage}"));
+    };
+    let (nx, ny) = dims.split_once(['x', 'X']).ok_or_else(|| format!("expected NXxNY squares, got `{dims}`"))?;
+    let count = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("`{v}` is not a count"));
+    let squares = [count(nx)?, count(ny)?];
+    let dictionary = Dictionary::from_name(dict).map_err(|e| e.to_string())?;
+    let marker_over_square: f64 = ratio.parse().map_err(|_| format!("`{ratio}` is not a number (marker edge / square edge)"))?;
+    let (mut legacy, mut first_id) = (false, 0);
+    for p in parts {
+        match p.split_once('=') {
+            None if p == "legacy" => legacy = true,
+            Some(("first_id", v)) => first_id = count(v)?,
+            _ => return Err(format!("unknown option `{p}` (legacy, first_id=N)")),
+        }
+    }
+    let spec = TargetSpec::Charuco { squares, dictionary, marker_over_square, legacy, first_id };
+    spec.charuco_board(1.0).map(|b| b.validate()).transpose().map_err(|e| e.to_string())?;
+    Ok(spec)
 }
 
 impl FromStr for TargetSpec {
@@ -68,7 +127,8 @@ impl FromStr for TargetSpec {
                 (a, b) => Err(format!("dot-grid must be square, got {a}x{b}")),
             },
             None if s == "s-path" => Ok(TargetSpec::SPath { points: 101 }),
-            _ => Err(format!("unknown target `{s}` (chessboard:COLSxROWS, dot-grid:NxN, s-path)")),
+            Some(("charuco", rest)) => parse_charuco(rest),
+            _ => Err(format!("unknown target `{s}` (chessboard:COLSxROWS, dot-grid:NxN, s-path, charuco:NXxNY:DICT:MARKER_OVER_SQUARE)")),
         }
     }
 }
@@ -88,6 +148,8 @@ pub struct Detection {
     /// S-path: the path indices of dots that helped to order the rest but are not reported,
     /// their centres not being measurements (`Dot::touching`: two slivers meeting end to end; two caps seen as one blob).
     pub unmeasured: Option<Vec<usize>>,
+    /// Coded boards: the id of each point (ChArUco: OpenCV's chessboard-corner id).
+    pub ids: Option<Vec<u32>>,
     /// Why it was not found, when it was not.
     pub note: Option<String>,
 }
@@ -120,12 +182,19 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
                         indices: Some(ordered.iter().map(|d| d.index).collect()),
                         path_residuals: path_residuals(&ordered, &path),
                         unmeasured: Some(unmeasured),
+                        ids: None,
                         note: None,
                     })
                 }
                 Err(DetectError::NotFound { reason }) => Ok(Detection { note: Some(reason), ..Default::default() }),
                 Err(e) => Err(e),
             }
+        }
+        TargetSpec::Charuco { .. } => {
+            let Some(board) = spec.charuco_board(1.0) else { return Err(DetectError::BadParams { reason: "not a ChArUco target" }) };
+            let found = find_charuco(img, &board, &CharucoParams::default())?;
+            let note = found.ids.is_empty().then(|| format!("{} markers decoded, no ChArUco corner", found.markers.len()));
+            Ok(Detection { found: !found.ids.is_empty(), points_px: found.corners_px, ids: Some(found.ids), note, ..Default::default() })
         }
     }
 }
@@ -174,5 +243,19 @@ mod tests {
         assert!("dot-grid:3x4".parse::<TargetSpec>().is_err());
         assert!("hex:3x3".parse::<TargetSpec>().is_err());
         assert!("chessboard:1x6".parse::<TargetSpec>().is_err());
+        let c = "charuco:11x8:DICT_5X5_100:0.733".parse::<TargetSpec>();
+        assert_eq!(c, Ok(TargetSpec::Charuco { squares: [11, 8], dictionary: Dictionary::Dict5x5_100, marker_over_square: 0.733, legacy: false, first_id: 0 }));
+        let c = "charuco:5x4:4X4_50:0.7:legacy:first_id=10".parse::<TargetSpec>();
+        assert_eq!(c, Ok(TargetSpec::Charuco { squares: [5, 4], dictionary: Dictionary::Dict4x4_50, marker_over_square: 0.7, legacy: true, first_id: 10 }));
+        for bad in [
+            "charuco:11x8:DICT_5X5_100",
+            "charuco:11x8:DICT_9X9:0.7",
+            "charuco:11x8:DICT_5X5_100:1.2",
+            "charuco:11x8:DICT_4X4_50:0.7",
+            "charuco:1x8:DICT_5X5_100:0.7",
+            "charuco:5x5:DICT_5X5_100:0.7:mirror",
+        ] {
+            assert!(bad.parse::<TargetSpec>().is_err(), "{bad}");
+        }
     }
 }

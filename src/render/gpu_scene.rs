@@ -40,7 +40,8 @@ pub struct GpuScene {
     pub dots: Vec<[f32; 4]>,
     /// Per tile, the start of its list in `tile_items` (`tiles + 1` entries).
     pub tile_start: Vec<u32>,
-    /// Dot indices per tile.
+    /// Dot indices per tile (S-path); coded boards: the dark-cell bits of the lattice
+    /// ([`crate::target::CellLattice::dark_bits`]).
     pub tile_items: Vec<u32>,
     /// Per tile, its grey level when the whole tile is one flat region, else -1.
     pub tile_flat: Vec<f32>,
@@ -54,14 +55,19 @@ fn v3(m: &Matrix3<f64>, row: usize) -> [f32; 4] {
 pub const SPATH_KIND: usize = 2;
 /// The pass kind of the S-path's tiles that no dot reaches (the sphere's outline only).
 pub const SPATH_LIMB_KIND: usize = 3;
+/// The pass kind of coded boards (ChArUco): shaded on their cell lattice.
+pub const CODED_KIND: usize = 4;
+/// Number of pass kinds.
+pub const PASS_KINDS: usize = 5;
 
 /// The pass kind of a target (the shader's `P.size.z`, a row of the renderer's entry points):
-/// chessboard 0, dot grid 1, S-path [`SPATH_KIND`].
+/// chessboard 0, dot grid 1, S-path [`SPATH_KIND`], coded boards [`CODED_KIND`].
 pub fn pass_kind(target: &Target) -> usize {
     match target {
         Target::Chessboard(_) => 0,
         Target::DotGrid(_) => 1,
         Target::SPath(_) => SPATH_KIND,
+        Target::Charuco(_) => CODED_KIND,
     }
 }
 
@@ -83,9 +89,9 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     };
     lens_params(&mut p, cam, grid.split_radii);
     let (mut dots, tile_start, mut tile_items) = match &scene.target {
-        Target::Chessboard(_) | Target::DotGrid(_) => {
-            planar_params(&mut p, scene)?;
-            (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], Vec::new())
+        Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) => {
+            let bits = planar_params(&mut p, scene)?;
+            (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], bits)
         }
         Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
     };
@@ -125,8 +131,9 @@ fn lens_params(p: &mut Params, cam: &CameraModel, split: [f64; 2]) {
     }
 }
 
-/// The plane homography and the board's or grid's parameters (chessboard, dot grid).
-fn planar_params(p: &mut Params, scene: &Scene) -> Result<(), RenderError> {
+/// The plane homography and the board's or grid's parameters (chessboard, dot grid, coded
+/// boards); for a coded board its dark-cell bits.
+fn planar_params(p: &mut Params, scene: &Scene) -> Result<Vec<u32>, RenderError> {
     let r = scene.cam_from_target.rotation.to_rotation_matrix();
     let t = scene.cam_from_target.translation.vector;
     let m = r.matrix();
@@ -150,9 +157,18 @@ fn planar_params(p: &mut Params, scene: &Scene) -> Result<(), RenderError> {
             p.board = [g.n as f32, g.edge_m as f32, g.dot_radius_m as f32, g.margin_m as f32];
             p.grey = [g.dark as f32, g.light as f32, g.light as f32, g.background as f32];
         }
+        Target::Charuco(c) => {
+            let l = c.lattice();
+            let look = &c.look;
+            p.board = [l.cells[0] as f32, l.cells[1] as f32, l.per_period as f32, look.margin_m as f32];
+            p.grey = [look.dark as f32, look.light as f32, look.margin as f32, look.background as f32];
+            p.lat = [l.period_m as f32, l.origin_m as f32, l.first_m as f32, l.cell_m as f32];
+            p.lat2 = [l.end_m(0) as f32, l.end_m(1) as f32, l.min_cell_m() as f32, 0.0];
+            return Ok(l.dark_bits);
+        }
         Target::SPath(_) => {}
     }
-    Ok(())
+    Ok(Vec::new())
 }
 
 /// The S-path's parameters, its dots in the camera frame, and per tile the dots whose footprint
@@ -280,8 +296,9 @@ fn plane_missed(target_from_cam: &Isometry3<f64>, rays: &[Vector3<f64>; 4]) -> b
     units.iter().all(|d| d.z * side < -(0.1 * size + 1e-9))
 }
 
+/// Whether a line of the ascending `lines` lies in `[lo, hi]`.
 fn any_in(lines: &[f64], lo: f64, hi: f64) -> bool {
-    lines.iter().any(|l| *l >= lo && *l <= hi)
+    lines.get(lines.partition_point(|l| *l < lo)).is_some_and(|l| *l <= hi)
 }
 
 /// Grey level of each tile that is provably one flat region (no edge of the target inside), else
@@ -313,13 +330,19 @@ struct FlatTest {
 
 impl FlatTest {
     fn new(scene: &Scene) -> Self {
-        let lines_m = match &scene.target {
+        let mut lines_m: [Vec<f64>; 2] = match &scene.target {
             Target::Chessboard(b) => {
                 let along = |n: u32| (0..=n).map(|j| f64::from(j) * b.square_m).chain([-b.margin_m, f64::from(n) * b.square_m + b.margin_m]).collect();
                 [along(b.squares[0]), along(b.squares[1])]
             }
+            Target::Charuco(c) => {
+                let l = c.lattice();
+                let m = c.look.margin_m;
+                [0, 1].map(|a| l.lines_m(a).into_iter().chain([l.origin_m - m, l.end_m(a) + m]).collect())
+            }
             _ => Default::default(),
         };
+        lines_m.iter_mut().for_each(|l| l.sort_by(f64::total_cmp));
         let sphere = match &scene.target {
             Target::SPath(s) => {
                 let c = (scene.cam_from_target * s.path.sphere_center_m).coords;
@@ -335,10 +358,12 @@ impl FlatTest {
     /// `has_dots`: S-path dots reach the tile.
     fn value(&self, scene: &Scene, rays: &[Vector3<f64>; 4], has_dots: bool) -> Option<f64> {
         match &scene.target {
-            Target::Chessboard(_) | Target::DotGrid(_) if plane_missed(&self.target_from_cam, rays) => Some(scene.target.background()),
-            Target::Chessboard(b) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
+            Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) if plane_missed(&self.target_from_cam, rays) => Some(scene.target.background()),
+            Target::Chessboard(_) | Target::Charuco(_) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
                 let [xl, yl] = &self.lines_m;
-                (!any_in(xl, bb[0], bb[2]) && !any_in(yl, bb[1], bb[3])).then(|| b.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
+                (!any_in(xl, bb[0], bb[2]) && !any_in(yl, bb[1], bb[3]))
+                    .then(|| scene.target.plane_intensity(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
+                    .flatten()
             }),
             Target::DotGrid(g) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
                 let outer = 0.5 * g.edge_m + g.margin_m;

@@ -10,18 +10,19 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
 use super::context::{BackendChoice, GpuContext};
-use super::gpu_scene::{gpu_scene, lens_variant, pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX};
+use super::gpu_scene::{gpu_scene, lens_variant, pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, PASS_KINDS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX};
 use super::{GreyImage, RenderError};
 use crate::scene::Scene;
 
 const SHADER: &str = include_str!("../../shaders/render.wgsl");
 /// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
-/// S-path tiles without dots.
-const ENTRY_POINTS: [[&str; 2]; 4] = [
+/// S-path tiles without dots, coded boards (the cell lattice).
+const ENTRY_POINTS: [[&str; 2]; PASS_KINDS] = [
     ["cs_coarse_chessboard", "cs_fine_chessboard"],
     ["cs_coarse_dot_grid", "cs_fine_dot_grid"],
     ["cs_coarse_spath", "cs_fine_spath"],
     ["cs_coarse_spath_limb", "cs_fine_spath"],
+    ["cs_coarse_coded", "cs_fine_coded"],
 ];
 /// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
 const MAX_GROUPS_X: u64 = 65535;
@@ -36,7 +37,7 @@ pub struct Renderer {
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
     /// Per target kind, coarse / fine, lens variant (`gpu_scene::LENS_VARIANTS`).
-    pipelines: [[[OnceLock<wgpu::ComputePipeline>; LENS_VARIANTS.len()]; 2]; 4],
+    pipelines: [[[OnceLock<wgpu::ComputePipeline>; LENS_VARIANTS.len()]; 2]; PASS_KINDS],
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     buffers: Mutex<Buffers>,
@@ -272,7 +273,7 @@ impl Renderer {
         let mut img = vec![0.0f32; w as usize * h as usize];
         let kind = pass_kind(&scene.target);
         // Work lists per pass kind: S-path tiles without dots get the cheaper limb-only pass.
-        let mut work: [Vec<u32>; 4] = Default::default();
+        let mut work: [Vec<u32>; PASS_KINDS] = Default::default();
         for (t, v) in gs.tile_flat.iter().enumerate() {
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             if *v >= 0.0 {

@@ -6,7 +6,7 @@ use bytemuck::{Pod, Zeroable};
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, Default, PartialEq)]
 pub struct Params {
-    /// width, height, kind (0 chessboard, 1 dot grid, 2 s-path), samples per axis.
+    /// width, height, pass kind (`gpu_scene::pass_kind`), samples per axis.
     pub size: [u32; 4],
     /// tiles_x, tiles_y, dot style (0 bead, 1 disc), fine-pass work length.
     pub tiles: [u32; 4],
@@ -33,18 +33,24 @@ pub struct Params {
     pub h1: [f32; 4],
     /// Homography row 2.
     pub h2: [f32; 4],
-    /// Chessboard: nx, ny, square, margin; dot grid: n, edge, radius, margin.
+    /// Chessboard: nx, ny, square, margin; dot grid: n, edge, radius, margin; coded boards: cells
+    /// along x and y, sub-intervals per period, margin.
     pub board: [f32; 4],
     /// dark, light, margin, background grey levels.
     pub grey: [f32; 4],
     /// S-path sphere centre (camera frame) and radius.
     pub sphere: [f32; 4],
+    /// Coded boards' cell lattice (`target::CellLattice`): period, origin, first sub-interval,
+    /// cell, metres.
+    pub lat: [f32; 4],
+    /// Coded boards: the board's end along x and y, the narrowest cell (metres), 0.
+    pub lat2: [f32; 4],
 }
 
 #[cfg(test)]
 mod tests {
     #[test]
-    fn params_is_16_vec4() {
-        assert_eq!(std::mem::size_of::<super::Params>(), 16 * 16);
+    fn params_is_18_vec4() {
+        assert_eq!(std::mem::size_of::<super::Params>(), 18 * 16);
     }
 }

@@ -1,4 +1,4 @@
-//! Exact box-filtered reference for planar targets (chessboard, dot grid), f64.
+//! Exact box-filtered reference for planar targets (chessboard, dot grid, ChArUco), f64.
 //!
 //! Each pixel square is cut into `subdivisions^2` sub-squares; the corners of every sub-square are
 //! unprojected exactly ([`crate::camera::CameraModel::unproject_ray`]: Newton inversion of the
@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use super::{Scene, SceneError};
 use crate::math::polygon::{self, Polygon};
-use crate::target::{Chessboard, DotGrid, Target};
+use crate::target::{Charuco, CharucoTarget, Chessboard, DotGrid, Target};
 
 /// A rendered exact reference: grey levels row-major, `None` where a sub-square corner's ray
 /// cannot be unprojected (beyond the fold of the lens model), where the grey is not defined.
@@ -96,6 +96,7 @@ fn region_mean(target: &Target, quad: &[Vector2<f64>]) -> f64 {
     match target {
         Target::Chessboard(b) => chessboard_sum(b, quad, a) / a,
         Target::DotGrid(g) => dot_grid_sum(g, quad, a) / a,
+        Target::Charuco(c) => charuco_sum(c, quad, a) / a,
         Target::SPath(_) => target.background(),
     }
 }
@@ -120,6 +121,57 @@ fn chessboard_sum(b: &Chessboard, quad: &[Vector2<f64>], a: f64) -> f64 {
         }
     }
     b.background * (a - a_margin) + b.margin * (a_margin - a_board) + b.dark * dark + b.light * (a_board - dark)
+}
+
+/// Integral of a ChArUco board's grey over `quad` (area `a`): squares without a marker, then each
+/// marker's border and bit cells (the board's colouring from [`Charuco::is_dark`] at their centres).
+fn charuco_sum(c: &CharucoTarget, quad: &[Vector2<f64>], a: f64) -> f64 {
+    let b = &c.board;
+    let s = b.square_m;
+    let [_, _, w, h] = c.extent_m();
+    let mm = c.look.margin_m;
+    let a_margin = polygon::area(&polygon::clip_rect(quad, Vector2::new(-mm, -mm), Vector2::new(w + mm, h + mm)));
+    let on_board = polygon::clip_rect(quad, Vector2::zeros(), Vector2::new(w, h));
+    let a_board = polygon::area(&on_board);
+    let mut dark = 0.0;
+    if let Some((lo, hi)) = polygon::bbox(&on_board) {
+        let (i0, i1) = cell_range(lo.x, hi.x, s, b.squares[0]);
+        let (j0, j1) = cell_range(lo.y, hi.y, s, b.squares[1]);
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                let sq = Vector2::new(f64::from(i) * s, f64::from(j) * s);
+                dark += if b.has_marker(i, j) {
+                    marker_dark_area(b, &on_board, sq, (lo, hi))
+                } else {
+                    polygon::area(&polygon::clip_rect(&on_board, sq, sq + Vector2::new(s, s)))
+                };
+            }
+        }
+    }
+    let l = &c.look;
+    l.background * (a - a_margin) + l.margin * (a_margin - a_board) + l.dark * dark + l.light * (a_board - dark)
+}
+
+/// Area of `poly` (within the box `lo..hi`) on the dark cells of the marker in the square whose
+/// top-left corner is `sq`.
+fn marker_dark_area(b: &Charuco, poly: &[Vector2<f64>], sq: Vector2<f64>, (lo, hi): (Vector2<f64>, Vector2<f64>)) -> f64 {
+    let n = b.dictionary.marker_bits() as u32 + 2;
+    let cell = b.marker_m / f64::from(n);
+    let origin = sq + Vector2::repeat(0.5 * (b.square_m - b.marker_m));
+    let range = |lo: f64, hi: f64| (((lo / cell).floor().max(0.0) as u32).min(n), ((hi / cell).floor().max(0.0) as u32).min(n - 1));
+    let (cx0, cx1) = range(lo.x - origin.x, hi.x - origin.x);
+    let (cy0, cy1) = range(lo.y - origin.y, hi.y - origin.y);
+    let mut dark = 0.0;
+    for cy in cy0..=cy1 {
+        for cx in cx0..=cx1 {
+            let c_lo = origin + Vector2::new(f64::from(cx), f64::from(cy)) * cell;
+            let mid = c_lo + Vector2::repeat(0.5 * cell);
+            if b.is_dark(mid.x, mid.y) == Some(true) {
+                dark += polygon::area(&polygon::clip_rect(poly, c_lo, c_lo + Vector2::repeat(cell)));
+            }
+        }
+    }
+    dark
 }
 
 /// Cells `i` with `[i s, (i + 1) s]` meeting `[lo, hi]`, clamped to `0..n`.

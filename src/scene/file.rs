@@ -14,7 +14,7 @@
 //! # fisheye: dist = [k1, k2, k3, k4]; double-sphere: xi = -0.2, alpha = 0.6 (no dist)
 //!
 //! [target]
-//! kind = "chessboard"        # or "dot-grid", "s-path"
+//! kind = "chessboard"        # or "dot-grid", "s-path", "charuco" (squares, square_m, marker_m, dictionary = "DICT_5X5_100", legacy, first_id)
 //! squares = [9, 7]
 //! square_m = 0.03
 //!
@@ -40,7 +40,7 @@ pub use camera::{CameraSpec, ModelName};
 
 use super::{RenderSettings, Scene, SceneError};
 use crate::math::so3::rotation_from_rvec;
-use crate::target::{Chessboard, DotGrid, DotStyle, SPathDots, Target};
+use crate::target::{BoardLook, Charuco, CharucoTarget, Chessboard, Dictionary, DotGrid, DotStyle, SPathDots, Target};
 
 /// `[target]` table.
 #[derive(Debug, Clone, Deserialize)]
@@ -77,6 +77,31 @@ pub enum TargetSpec {
         dark: Option<f64>,
         /// Light grey level.
         light: Option<f64>,
+        /// Background grey level.
+        background: Option<f64>,
+    },
+    /// OpenCV's ChArUco board (`cv::aruco::CharucoBoard`).
+    Charuco {
+        /// Squares along x and y.
+        squares: [u32; 2],
+        /// Square edge, metres.
+        square_m: f64,
+        /// Marker edge, metres.
+        marker_m: f64,
+        /// OpenCV dictionary name, e.g. "DICT_5X5_100".
+        dictionary: Dictionary,
+        /// OpenCV's legacy layout (`setLegacyPattern(true)`; default false).
+        legacy: Option<bool>,
+        /// Id of the first marker (default 0).
+        first_id: Option<u32>,
+        /// Light border around the board, metres (default: half a square).
+        margin_m: Option<f64>,
+        /// Dark grey level.
+        dark: Option<f64>,
+        /// Light grey level.
+        light: Option<f64>,
+        /// Border grey level (default: light).
+        margin: Option<f64>,
         /// Background grey level.
         background: Option<f64>,
     },
@@ -127,6 +152,19 @@ impl TargetSpec {
                     light: light.unwrap_or(d.light),
                     background: background.unwrap_or(d.background),
                 })
+            }
+            TargetSpec::Charuco { squares, square_m, marker_m, dictionary, legacy, first_id, margin_m, dark, light, margin, background } => {
+                let d = BoardLook::default();
+                let light = light.unwrap_or(d.light);
+                let board = Charuco { squares, square_m, marker_m, dictionary, legacy: legacy.unwrap_or(false), first_id: first_id.unwrap_or(0) };
+                let look = BoardLook {
+                    margin_m: margin_m.unwrap_or(0.5 * square_m),
+                    dark: dark.unwrap_or(d.dark),
+                    light,
+                    margin: margin.unwrap_or(light),
+                    background: background.unwrap_or(d.background),
+                };
+                Target::Charuco(CharucoTarget { board, look })
             }
             TargetSpec::SPath { style, dot_radius_m, start_dot_radius_m, dark, light, background } => {
                 let d = SPathDots::default();

@@ -92,16 +92,31 @@ pub struct TruthLabels {
     pub camera: CameraSpec,
     /// `cam_from_target`.
     pub cam_from_target: PoseLabel,
-    /// Target kind ("chessboard", "dot-grid", "s-path").
+    /// Target kind ("chessboard", "dot-grid", "s-path", "charuco").
     pub target_kind: String,
     /// "corner" or "dot".
     pub feature_kind: FeatureKind,
-    /// Chessboard inner corners `[cols, rows]` or dot-grid `[n, n]`; S-path `[101, 1]`.
+    /// Chessboard (and ChArUco) inner corners `[cols, rows]` or dot-grid `[n, n]`; S-path `[101, 1]`.
     pub grid: [u32; 2],
     /// Render settings.
     pub render: RenderLabel,
     /// Features in the target's order.
     pub features: Vec<FeatureLabel>,
+    /// Coded boards: every marker, by id.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub markers: Vec<MarkerLabel>,
+}
+
+/// Truth of one marker of a coded board.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct MarkerLabel {
+    /// Marker id in its dictionary.
+    pub id: u32,
+    /// Its corners' projections (top-left, top-right, bottom-right, bottom-left in the board
+    /// frame, as OpenCV's `getObjPoints()`), pixels.
+    pub corners_px: [[f64; 2]; 4],
+    /// Every corner in front of the camera and inside the image.
+    pub visible: bool,
 }
 
 /// Render settings as written to JSON.
@@ -207,7 +222,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
     let radius = |i: usize| match &scene.target {
         Target::DotGrid(g) => g.dot_radius_m,
         Target::SPath(s) => s.dot_radius(i),
-        Target::Chessboard(_) => 0.0,
+        Target::Chessboard(_) | Target::Charuco(_) => 0.0,
     };
     // Each blob only needs the dots whose boxes overlap its own (conservative: a dot without a
     // box, partly behind the camera, is always a candidate).
@@ -260,6 +275,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
         Target::Chessboard(b) => b.inner_corner_count(),
         Target::DotGrid(g) => [g.n, g.n],
         Target::SPath(s) => [s.path.points_m.len() as u32, 1],
+        Target::Charuco(c) => [c.board.squares[0] - 1, c.board.squares[1] - 1],
     };
     TruthLabels {
         version: 1,
@@ -275,5 +291,19 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
         grid,
         render: scene.render.into(),
         features,
+        markers: marker_labels(scene),
     }
+}
+
+/// The markers of a coded board, projected.
+fn marker_labels(scene: &Scene) -> Vec<MarkerLabel> {
+    let Target::Charuco(c) = &scene.target else { return Vec::new() };
+    c.board
+        .markers()
+        .iter()
+        .map(|m| {
+            let p = m.corners_m.map(|q| scene.camera.project(&(scene.cam_from_target * q)));
+            MarkerLabel { id: m.id, corners_px: p.map(|p| [p.pixel_px.x, p.pixel_px.y]), visible: p.iter().all(|p| p.visible()) }
+        })
+        .collect()
 }

@@ -57,7 +57,8 @@ impl Sensor for RenderedSensor<'_> {
     fn capture(&mut self, scene: &Scene) -> Result<Capture, SimError> {
         let Timed { image, det, render_ms, detect_ms } = render_and_detect_target(self.renderer, scene)?;
         let features = if det.found {
-            let ids = det.indices.unwrap_or_else(|| (0..det.points_px.len()).collect());
+            let coded = det.ids.map(|ids| ids.into_iter().map(|i| i as usize).collect());
+            let ids = det.indices.or(coded).unwrap_or_else(|| (0..det.points_px.len()).collect());
             ids.into_iter().zip(det.points_px).map(|(id, pixel_px)| Feature { id, pixel_px }).collect()
         } else {
             Vec::new()

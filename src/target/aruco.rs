@@ -189,6 +189,20 @@ impl Dictionary {
     }
 }
 
+/// Scene files name a dictionary as OpenCV does (`"DICT_5X5_100"`, see [`Dictionary::from_name`]).
+impl<'de> serde::Deserialize<'de> for Dictionary {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        Dictionary::from_name(&name).map_err(serde::de::Error::custom)
+    }
+}
+
+impl serde::Serialize for Dictionary {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,7 +19,8 @@
 
 use nalgebra::Point3;
 
-use super::{require_positive, Dictionary, TargetError};
+use super::lattice::CellLattice;
+use super::{require_positive, BoardLook, Dictionary, TargetError};
 
 /// A ChArUco board.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -143,6 +144,47 @@ impl Charuco {
         let [nx, ny] = self.squares;
         let s = self.square_m;
         (1..ny).flat_map(|y| (1..nx).map(move |x| Point3::new(f64::from(x) * s, f64::from(y) * s, 0.0))).collect()
+    }
+}
+
+/// A ChArUco board as a scene target: the board and how it is printed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CharucoTarget {
+    /// The board's geometry and codes.
+    pub board: Charuco,
+    /// Border and grey levels.
+    pub look: BoardLook,
+}
+
+impl CharucoTarget {
+    /// Checks the board and its look.
+    ///
+    /// # Errors
+    /// [`TargetError::InvalidField`] naming the field.
+    pub fn validate(&self) -> Result<(), TargetError> {
+        self.board.validate()?;
+        self.look.validate()
+    }
+
+    /// The board's extent `[x0, y0, x1, y1]` (without the border), metres.
+    pub fn extent_m(&self) -> [f64; 4] {
+        let s = self.board.square_m;
+        [0.0, 0.0, s * f64::from(self.board.squares[0]), s * f64::from(self.board.squares[1])]
+    }
+
+    /// Grey level at a point of the board plane (board frame, metres).
+    pub fn intensity_at(&self, x: f64, y: f64) -> f64 {
+        self.look.grey(self.board.is_dark(x, y), x, y, self.extent_m())
+    }
+
+    /// The board's cell lattice: per square the white inset, the marker's `n + 2` cells (border
+    /// and bits), the inset again.
+    pub fn lattice(&self) -> CellLattice {
+        let b = &self.board;
+        let n = b.dictionary.marker_bits() as u32 + 2;
+        let inset = 0.5 * (b.square_m - b.marker_m);
+        let per = n + 2;
+        CellLattice::new(b.square_m, 0.0, inset, b.marker_m / f64::from(n), per, [b.squares[0] * per, b.squares[1] * per], |x, y| b.is_dark(x, y) == Some(true))
     }
 }
 

@@ -4,9 +4,10 @@
 //! - [`DotGrid`]: the course's N x N planar grid of filled discs (course-scenario 1.2, 3.3).
 //! - [`SPathDots`]: the course's 101-point S on a sphere (course-scenario 1.4, 3.4), each point a dark
 //!   dot (a bead, or a disc painted on the sphere) on a light sphere.
-//! - Coded boards, geometry and codes only so far (not yet scene targets: no rendering or
-//!   detection): [`Charuco`] (OpenCV's ChArUco board), [`AprilGrid`] (Kalibr's), and the marker
-//!   [`Dictionary`] tables they use.
+//! - [`CharucoTarget`]: OpenCV's ChArUco board ([`Charuco`]) as printed ([`BoardLook`]), its
+//!   features the chessboard corners by id; every edge lies on its [`CellLattice`].
+//! - [`AprilGrid`] (Kalibr's), geometry and codes only so far (not yet a scene target), and the
+//!   marker [`Dictionary`] tables of both.
 //!
 //! Intensities are grey levels in [0, 255] (linear, before noise and quantisation).
 //! The plane colour functions here are the CPU twins of the ones in `shaders/render.wgsl`.
@@ -16,14 +17,18 @@ pub mod aruco;
 pub mod charuco;
 pub mod chessboard;
 pub mod dot_grid;
+pub mod lattice;
+pub mod look;
 pub mod s_path;
 pub mod s_path_dots;
 
 pub use aprilgrid::AprilGrid;
 pub use aruco::Dictionary;
-pub use charuco::Charuco;
+pub use charuco::{Charuco, CharucoTarget};
 pub use chessboard::Chessboard;
 pub use dot_grid::DotGrid;
+pub use lattice::CellLattice;
+pub use look::BoardLook;
 pub use s_path::{course_s_path, SPath};
 pub use s_path_dots::{DotStyle, SPathDots};
 
@@ -68,6 +73,8 @@ pub enum Target {
     DotGrid(DotGrid),
     /// The 3-D S-path dot target.
     SPath(SPathDots),
+    /// A ChArUco board.
+    Charuco(CharucoTarget),
 }
 
 /// Which kind of feature a target labels.
@@ -106,6 +113,7 @@ impl Target {
             Target::Chessboard(b) => b.validate(),
             Target::DotGrid(g) => g.validate(),
             Target::SPath(s) => s.validate(),
+            Target::Charuco(c) => c.validate(),
         }
     }
 
@@ -115,23 +123,25 @@ impl Target {
             Target::Chessboard(b) => b.inner_corners_m(),
             Target::DotGrid(g) => g.dot_centres_m(),
             Target::SPath(s) => s.path.points_m.clone(),
+            Target::Charuco(c) => c.board.chessboard_corners_m(),
         }
     }
 
     /// The kind of feature the target labels.
     pub fn feature_kind(&self) -> FeatureKind {
         match self {
-            Target::Chessboard(_) => FeatureKind::Corner,
+            Target::Chessboard(_) | Target::Charuco(_) => FeatureKind::Corner,
             _ => FeatureKind::Dot,
         }
     }
 
-    /// Short name used in scene files ("chessboard", "dot-grid", "s-path").
+    /// Short name used in scene files ("chessboard", "dot-grid", "s-path", "charuco").
     pub fn kind_name(&self) -> &'static str {
         match self {
             Target::Chessboard(_) => "chessboard",
             Target::DotGrid(_) => "dot-grid",
             Target::SPath(_) => "s-path",
+            Target::Charuco(_) => "charuco",
         }
     }
 
@@ -146,6 +156,7 @@ impl Target {
             Target::Chessboard(b) => b.background,
             Target::DotGrid(g) => g.background,
             Target::SPath(s) => s.background,
+            Target::Charuco(c) => c.look.background,
         }
     }
 
@@ -155,6 +166,7 @@ impl Target {
             Target::Chessboard(b) => Some(b.intensity_at(x, y)),
             Target::DotGrid(g) => Some(g.intensity_at(x, y)),
             Target::SPath(_) => None,
+            Target::Charuco(c) => Some(c.intensity_at(x, y)),
         }
     }
 }

@@ -25,7 +25,7 @@ const SUBDIVISIONS: u32 = 8;
 
 /// A camera whose whole image stays well inside the lens model's fold (the renderer and the
 /// reference treat rays beyond it alike, as background, but not pixels straddling it).
-fn random_camera(rng: &mut ChaCha8Rng, w: u32, h: u32) -> CameraModel {
+pub(crate) fn random_camera(rng: &mut ChaCha8Rng, w: u32, h: u32) -> CameraModel {
     loop {
         let f = rng.random_range(250.0..700.0);
         let distorted = rng.random_bool(0.6);
@@ -57,7 +57,7 @@ fn random_camera(rng: &mut ChaCha8Rng, w: u32, h: u32) -> CameraModel {
 
 /// Target rolled by any angle, tilted up to 70 degrees about a random in-plane axis, its centre
 /// at a random image point (boards may leave the image) at the distance that gives `feature_px`.
-fn random_pose(rng: &mut ChaCha8Rng, cam: &CameraModel, feature_m: f64, feature_px: f64, centre_m: Vector3<f64>) -> Isometry3<f64> {
+pub(crate) fn random_pose(rng: &mut ChaCha8Rng, cam: &CameraModel, feature_m: f64, feature_px: f64, centre_m: Vector3<f64>) -> Isometry3<f64> {
     let f = cam.intrinsics.fx;
     let distance = f * feature_m / feature_px;
     let roll = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), rng.random_range(-std::f64::consts::PI..std::f64::consts::PI));
@@ -152,7 +152,7 @@ fn classify(scene: &Scene, x: f64, y: f64) -> Path {
                 Path::Flat
             }
         }
-        Target::SPath(_) => Path::Flat,
+        Target::SPath(_) | Target::Charuco(_) => Path::Flat,
     }
 }
 

@@ -6,6 +6,7 @@ mod architecture;
 mod bad_input;
 mod calibrate_cli;
 mod calibration;
+mod charuco;
 mod chessboard_accuracy;
 mod common;
 mod coverage_exact;

@@ -1,0 +1,174 @@
+//! Marker decoding: the perspective map of the unit square onto the refined quad samples the
+//! `(n + 2) x (n + 2)` cells (the mean of 3 x 3 bilinear samples in the inner half of each), Otsu's
+//! threshold splits the cell means, the border cells must read black (up to a share), and the
+//! `n x n` bits are matched against the board's codes in the four rotations by Hamming distance
+//! within the dictionary's (scaled) correction capacity. The rotation fixes which corner is the
+//! marker's top-left.
+//!
+//! Reference: S. Garrido-Jurado et al., "Automatic generation and detection of highly reliable
+//! fiducial markers under occlusion", Pattern Recognition 47(6), 2014, sec. 3; OpenCV
+//! `aruco_detector.cpp` (`_extractBits`, `_identifyOneCandidate`); N. Otsu, IEEE SMC 9(1), 1979.
+
+use nalgebra::{Matrix3, Point2};
+
+use super::edges;
+use super::quads::{shoelace, Quad};
+use super::{CharucoParams, MarkerDetection};
+use crate::detect::xcorner::bilinear;
+use crate::detect::ImageF32;
+use crate::math::homography::homography;
+use crate::target::Charuco;
+
+/// Positions of the samples inside a cell, as fractions of the cell.
+const SAMPLES: [f64; 3] = [0.3, 0.5, 0.7];
+
+/// The board's codes, packed: bit `y n + x` is cell `(x, y)` of the code, set for white.
+pub(super) struct BoardCodes {
+    /// Bits per marker side.
+    n: usize,
+    /// Code of marker `first_id + k`.
+    codes: Vec<u64>,
+    /// First id.
+    first_id: u32,
+    /// Largest Hamming distance accepted.
+    max_correction: u32,
+}
+
+impl BoardCodes {
+    /// The codes of `board`'s markers.
+    pub(super) fn new(board: &Charuco, params: &CharucoParams) -> Self {
+        let n = board.dictionary.marker_bits();
+        let count = board.markers().len();
+        let pack = |bits: Vec<bool>| bits.iter().enumerate().fold(0u64, |acc, (k, b)| acc | (u64::from(*b) << k));
+        let codes = (0..count).filter_map(|k| board.dictionary.code(board.first_id as usize + k).map(pack)).collect();
+        let max_correction = (params.error_correction_rate * f64::from(board.dictionary.max_correction_bits())).floor() as u32;
+        Self { n, codes, first_id: board.first_id, max_correction }
+    }
+}
+
+/// A decoded candidate: the marker, its Hamming distance and its perimeter, pixels.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Decoded {
+    /// The marker.
+    pub marker: MarkerDetection,
+    /// Bits corrected.
+    pub hamming: u32,
+    /// Perimeter, pixels.
+    pub perimeter: f64,
+}
+
+/// Refine and decode candidate `q`; `None` when it is not one of the board's markers.
+pub(super) fn marker(img: &ImageF32, q: &Quad, board: &Charuco, codes: &BoardCodes, params: &CharucoParams) -> Option<Decoded> {
+    let cells = codes.n + 2;
+    if cells * cells > 81 || codes.n * codes.n > 64 {
+        return None;
+    }
+    let margin_rate = 0.5 * (board.square_m - board.marker_m) / board.marker_m;
+    let r = edges::refine(img, q, cells, margin_rate, params.min_contrast)?;
+    if !(shoelace(&r) > 0.0) {
+        return None;
+    }
+    let unit = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.0), Point2::new(1.0, 1.0), Point2::new(0.0, 1.0)];
+    let h = homography(&unit, &r)?;
+    let means = cell_means(img, &h, cells)?;
+    let white = classify(&means, cells, params)?;
+    let (hamming, id, rot) = identify(&white, codes)?;
+    let corners_px = [r[rot], r[(rot + 1) % 4], r[(rot + 2) % 4], r[(rot + 3) % 4]];
+    let perimeter = (0..4).map(|i| (r[(i + 1) % 4] - r[i]).norm()).sum();
+    Some(Decoded { marker: MarkerDetection { id, corners_px }, hamming, perimeter })
+}
+
+/// Mean grey of each cell, row-major; `None` when a sample leaves the image or is not finite.
+fn cell_means(img: &ImageF32, h: &Matrix3<f64>, cells: usize) -> Option<[f64; 81]> {
+    let mut means = [0.0f64; 81];
+    let k = cells as f64;
+    for (i, m) in means.iter_mut().take(cells * cells).enumerate() {
+        let (cx, cy) = ((i % cells) as f64, (i / cells) as f64);
+        let mut sum = 0.0;
+        for fy in SAMPLES {
+            for fx in SAMPLES {
+                let p = h * nalgebra::Vector3::new((cx + fx) / k, (cy + fy) / k, 1.0);
+                sum += f64::from(bilinear(img, Point2::new(p.x / p.z, p.y / p.z))?);
+            }
+        }
+        *m = sum / (SAMPLES.len() * SAMPLES.len()) as f64;
+    }
+    means[..cells * cells].iter().all(|v| v.is_finite()).then_some(means)
+}
+
+/// White cells by Otsu's threshold on the cell means; `None` when the contrast is too low or
+/// too many border cells read white.
+fn classify(means: &[f64; 81], cells: usize, params: &CharucoParams) -> Option<[bool; 81]> {
+    let m = cells * cells;
+    let mut sorted: Vec<f64> = means[..m].to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let total: f64 = sorted.iter().sum();
+    let (mut best, mut split, mut acc) = (-1.0, 0, 0.0);
+    for i in 1..m {
+        acc += sorted[i - 1];
+        let (m0, m1) = (acc / i as f64, (total - acc) / (m - i) as f64);
+        let between = (i * (m - i)) as f64 * (m1 - m0) * (m1 - m0);
+        if between > best {
+            (best, split) = (between, i);
+        }
+    }
+    let (m0, m1) = (sorted[..split].iter().sum::<f64>() / split as f64, sorted[split..].iter().sum::<f64>() / (m - split) as f64);
+    if !(m1 - m0 >= params.min_contrast) {
+        return None;
+    }
+    let t = 0.5 * (sorted[split - 1] + sorted[split]);
+    let mut white = [false; 81];
+    for (w, v) in white.iter_mut().zip(&means[..m]) {
+        *w = *v > t;
+    }
+    let border = |i: usize| i % cells == 0 || i / cells == 0 || i % cells == cells - 1 || i / cells == cells - 1;
+    let errors = (0..m).filter(|&i| border(i) && white[i]).count();
+    (errors as f64 <= params.max_border_error_rate * (4 * (cells - 1)) as f64).then_some(white)
+}
+
+/// The inner bits read with corner `rot` of the quad as the top-left, packed as the codes.
+fn read_bits(white: &[bool; 81], cells: usize, rot: usize) -> u64 {
+    let n = cells - 2;
+    let mut bits = 0u64;
+    for y in 0..n {
+        for x in 0..n {
+            // frame rot -> frame 0: (x, y) -> (cells - 1 - y, x), rot times
+            let (mut u, mut v) = (x + 1, y + 1);
+            for _ in 0..rot {
+                (u, v) = (cells - 1 - v, u);
+            }
+            bits |= u64::from(white[v * cells + u]) << (y * n + x);
+        }
+    }
+    bits
+}
+
+/// Best (Hamming distance, id, rotation) over the board's codes; `None` when it exceeds the
+/// correction capacity or two matches tie.
+fn identify(white: &[bool; 81], codes: &BoardCodes) -> Option<(u32, u32, usize)> {
+    let cells = codes.n + 2;
+    let mut best: Option<(u32, u32, usize)> = None;
+    let mut tie = false;
+    for rot in 0..4 {
+        let bits = read_bits(white, cells, rot);
+        for (k, c) in codes.codes.iter().enumerate() {
+            let d = (bits ^ c).count_ones();
+            match best {
+                Some((bd, ..)) if d > bd => {}
+                Some((bd, ..)) if d == bd => tie = true,
+                _ => {
+                    best = Some((d, codes.first_id + k as u32, rot));
+                    tie = false;
+                }
+            }
+        }
+    }
+    best.filter(|b| b.0 <= codes.max_correction && !tie)
+}
+
+/// One candidate per id (fewest corrected bits, then the largest), sorted by id.
+pub(super) fn best_per_id(mut found: Vec<Decoded>) -> Vec<MarkerDetection> {
+    found.sort_by(|a, b| a.marker.id.cmp(&b.marker.id).then(a.hamming.cmp(&b.hamming)).then(b.perimeter.total_cmp(&a.perimeter)));
+    found.dedup_by_key(|d| d.marker.id);
+    found.into_iter().map(|d| d.marker).collect()
+}

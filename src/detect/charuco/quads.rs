@@ -1,0 +1,197 @@
+//! Marker candidates: the convex hull of each dark component (Andrew's monotone chain over the
+//! corners of its runs) approximated by a quadrilateral (the hull vertex farthest from the
+//! centroid, the vertex farthest from that, and the farthest vertex on either side of their
+//! diagonal), kept when the hull lies within a tolerance of it and it is large, convex and not
+//! too skewed (OpenCV's `approxPolyDP` test, `polygonalApproxAccuracyRate`,
+//! `minCornerDistanceRate`). Quads found again at another threshold window are dropped.
+//!
+//! Reference: A. M. Andrew, "Another efficient algorithm for convex hulls in two dimensions",
+//! Information Processing Letters 9(5), 1979; OpenCV `aruco_detector.cpp`
+//! (`_findMarkerContours`).
+
+use nalgebra::{Point2, Vector2};
+
+use super::components::{components, Blob};
+use super::threshold::{dark_runs, Integral, Run};
+use super::CharucoParams;
+use crate::detect::ImageF32;
+
+/// A quadrilateral, corners in image order with a positive shoelace sum (clockwise on screen).
+pub(super) type Quad = [Point2<f64>; 4];
+
+/// Smallest sine of a corner angle of a candidate.
+const MIN_CORNER_SINE: f64 = 0.25;
+/// Shortest side as a fraction of the perimeter.
+const MIN_SIDE_RATE: f64 = 0.08;
+
+/// Candidate quads of `img` (the search image, `scale` times smaller than the full image), in
+/// full-resolution pixels.
+pub(super) fn candidates(img: &ImageF32, scale: f64, params: &CharucoParams) -> Vec<Quad> {
+    let (w, h) = (img.width as u32, img.height as u32);
+    if w < 4 || h < 4 {
+        return Vec::new();
+    }
+    let integral = Integral::new(img);
+    let min_perimeter = params.min_marker_perimeter_px / scale;
+    let max_perimeter = params.max_marker_perimeter_rate * f64::from(w.max(h));
+    // a convex shape's perimeter is at most its bounding box's and at least 1/sqrt(2) of it
+    let keep = |b: &Blob| {
+        let bbox_perimeter = 2.0 * f64::from(b.x1 - b.x0 + b.y1 - b.y0);
+        b.x0 > 0 && b.y0 > 0 && b.x1 < w && b.y1 < h && bbox_perimeter >= min_perimeter && bbox_perimeter <= 1.5 * max_perimeter
+    };
+    let mut runs = Vec::new();
+    let mut out: Vec<Quad> = Vec::new();
+    for &win in params.threshold_windows_px.iter().filter(|w| **w > 0) {
+        dark_runs(img, &integral, win / 2, params.threshold_offset, &mut runs);
+        for comp in components(&runs, keep) {
+            let Some(q) = fit_quad(&comp, params.polygon_accuracy_rate, (min_perimeter, max_perimeter)) else { continue };
+            let q = q.map(|p| Point2::new(scale * p.x + 0.5 * (scale - 1.0), scale * p.y + 0.5 * (scale - 1.0)));
+            if !out.iter().any(|o| same_quad(o, &q)) {
+                out.push(q);
+            }
+        }
+    }
+    out
+}
+
+/// Twice the signed area (shoelace sum) of a polygon.
+pub(super) fn shoelace(p: &[Point2<f64>]) -> f64 {
+    (0..p.len()).map(|i| p[i].coords.perp(&p[(i + 1) % p.len()].coords)).sum()
+}
+
+/// Whether two quads outline the same marker (close centres, similar areas).
+fn same_quad(a: &Quad, b: &Quad) -> bool {
+    let (aa, ab) = (0.5 * shoelace(a), 0.5 * shoelace(b));
+    let centre = |q: &Quad| q.iter().fold(Vector2::zeros(), |s, p| s + p.coords) / 4.0;
+    (centre(a) - centre(b)).norm() < 0.15 * ab.sqrt() && aa < 1.4 * ab && ab < 1.4 * aa
+}
+
+/// (b - a) x (c - a).
+fn cross(a: Point2<f64>, b: Point2<f64>, c: Point2<f64>) -> f64 {
+    (b - a).perp(&(c - a))
+}
+
+/// Convex hull (Andrew), positive orientation, no collinear vertices.
+fn hull(mut pts: Vec<Point2<f64>>) -> Vec<Point2<f64>> {
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    if pts.len() < 3 {
+        return pts;
+    }
+    let mut h: Vec<Point2<f64>> = Vec::with_capacity(2 * pts.len());
+    for pass in 0..2 {
+        let start = h.len();
+        let iter: Box<dyn Iterator<Item = &Point2<f64>>> = if pass == 0 { Box::new(pts.iter()) } else { Box::new(pts.iter().rev()) };
+        for &p in iter {
+            while h.len() >= start + 2 && cross(h[h.len() - 2], h[h.len() - 1], p) <= 0.0 {
+                h.pop();
+            }
+            h.push(p);
+        }
+        h.pop();
+    }
+    h
+}
+
+/// The quad of a component's runs, search-image pixels; `None` when the outline is not one.
+fn fit_quad(runs: &[Run], accuracy_rate: f64, (min_perimeter, max_perimeter): (f64, f64)) -> Option<Quad> {
+    // the pixel corners at either end of each row of the component
+    let mut pts: Vec<Point2<f64>> = Vec::with_capacity(4 * runs.len());
+    let mut row: Option<Run> = None;
+    for r in runs.iter().chain(std::iter::once(&Run { y: u32::MAX, x0: 0, x1: 0 })) {
+        match row {
+            Some(ref mut cur) if cur.y == r.y => (cur.x0, cur.x1) = (cur.x0.min(r.x0), cur.x1.max(r.x1)),
+            _ => {
+                if let Some(cur) = row {
+                    let (x0, x1, y) = (f64::from(cur.x0) - 0.5, f64::from(cur.x1) - 0.5, f64::from(cur.y));
+                    pts.extend([Point2::new(x0, y - 0.5), Point2::new(x0, y + 0.5), Point2::new(x1, y - 0.5), Point2::new(x1, y + 0.5)]);
+                }
+                row = Some(*r);
+            }
+        }
+    }
+    let h = hull(pts);
+    if h.len() < 4 {
+        return None;
+    }
+    let idx = quad_corners(&h)?;
+    let q = idx.map(|i| h[i]);
+    let perimeter: f64 = (0..4).map(|i| (q[(i + 1) % 4] - q[i]).norm()).sum();
+    if !(perimeter >= min_perimeter && perimeter <= max_perimeter) || !well_shaped(&q, perimeter) {
+        return None;
+    }
+    let tol = (accuracy_rate * perimeter).max(1.0);
+    h.iter().all(|p| distance_to_outline(&q, *p) <= tol).then_some(q)
+}
+
+/// Indices of four hull vertices in hull order: the vertex farthest from the centroid, the one
+/// farthest from it, and the farthest on each side of the line through those two.
+fn quad_corners(h: &[Point2<f64>]) -> Option<[usize; 4]> {
+    let c = h.iter().fold(Vector2::zeros(), |s, p| s + p.coords) / h.len() as f64;
+    let farthest = |f: &dyn Fn(&Point2<f64>) -> f64| (0..h.len()).max_by(|&i, &j| f(&h[i]).total_cmp(&f(&h[j])));
+    let a = farthest(&|p| (p.coords - c).norm_squared())?;
+    let b = farthest(&|p| (p - h[a]).norm_squared())?;
+    let l = farthest(&|p| cross(h[a], h[b], *p))?;
+    let r = farthest(&|p| -cross(h[a], h[b], *p))?;
+    let (dl, dr) = (cross(h[a], h[b], h[l]), -cross(h[a], h[b], h[r]));
+    let side = (h[b] - h[a]).norm();
+    if !(dl > 0.1 * side && dr > 0.1 * side) {
+        return None;
+    }
+    let mut idx = [a, b, l, r];
+    idx.sort_unstable();
+    Some(idx)
+}
+
+/// Convex, positively oriented, no short side, no sharp corner.
+fn well_shaped(q: &Quad, perimeter: f64) -> bool {
+    (0..4).all(|i| {
+        let (p, c, n) = (q[(i + 3) % 4], q[i], q[(i + 1) % 4]);
+        let (u, v) = (n - c, p - c);
+        let (lu, lv) = (u.norm(), v.norm());
+        lu >= MIN_SIDE_RATE * perimeter && u.perp(&v) >= MIN_CORNER_SINE * lu * lv
+    })
+}
+
+/// Distance of `p` from the quad's outline (nearest side segment).
+fn distance_to_outline(q: &Quad, p: Point2<f64>) -> f64 {
+    (0..4)
+        .map(|i| {
+            let (a, b) = (q[i], q[(i + 1) % 4]);
+            let d = b - a;
+            let t = ((p - a).dot(&d) / d.norm_squared().max(1e-12)).clamp(0.0, 1.0);
+            (p - (a + d * t)).norm()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hull_and_quad_of_a_rotated_square() {
+        // pixel runs of a square rotated by 30 degrees, side 40
+        let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+        let inside = |x: f64, y: f64| {
+            let (u, v) = (c * (x - 50.0) + s * (y - 50.0), -s * (x - 50.0) + c * (y - 50.0));
+            u.abs() < 20.0 && v.abs() < 20.0
+        };
+        let mut runs = Vec::new();
+        for y in 0..100u32 {
+            let xs: Vec<u32> = (0..100).filter(|&x| inside(f64::from(x), f64::from(y))).collect();
+            if let (Some(a), Some(b)) = (xs.first(), xs.last()) {
+                runs.push(Run { y, x0: *a, x1: b + 1 });
+            }
+        }
+        let q = fit_quad(&runs, 0.03, (40.0, 1000.0)).unwrap();
+        assert!(shoelace(&q) > 0.0);
+        for (u, v) in [(-20.0, -20.0), (20.0, -20.0), (20.0, 20.0), (-20.0, 20.0)] {
+            let p = Point2::new(50.0 + c * u - s * v, 50.0 + s * u + c * v);
+            assert!(q.iter().any(|k| (k - p).norm() < 1.2), "{p} not in {q:?}");
+        }
+        // an L shape is no quad
+        let l: Vec<Run> = (0..40).map(|y| Run { y, x0: 0, x1: if y < 30 { 10 } else { 40 } }).collect();
+        assert!(fit_quad(&l, 0.03, (40.0, 1000.0)).is_none());
+    }
+}

@@ -1,0 +1,294 @@
+//! Tests of the ChArUco detector on boards rendered by the test renderer in `render`.
+
+use std::time::Instant;
+
+use nalgebra::{Point2, Point3};
+
+use super::*;
+use crate::target::Dictionary;
+use render::{render, render_two, Camera};
+
+mod render;
+
+/// 11 x 8 squares, 5x5 markers at 0.733 of the square.
+fn board() -> Charuco {
+    Charuco { squares: [11, 8], square_m: 0.03, marker_m: 0.022, dictionary: Dictionary::Dict5x5_100, legacy: false, first_id: 0 }
+}
+
+/// Comparison of a detection with the truth of `cam`.
+struct Score {
+    /// Corners found.
+    found: usize,
+    /// Corners farther than 0.25 px from their id's truth (wrong ids or failed fits).
+    wrong: usize,
+    /// Markers whose corners are farther than 1 px from their id's truth.
+    wrong_markers: usize,
+    rms: f64,
+    max: f64,
+}
+
+fn score(det: &CharucoDetection, board: &Charuco, cam: &Camera) -> Score {
+    let truth: Vec<Point2<f64>> = board.chessboard_corners_m().iter().map(|p| cam.project(*p)).collect();
+    let layout = board.markers();
+    let errs: Vec<f64> = det.ids.iter().zip(&det.corners_px).map(|(id, p)| truth.get(*id as usize).map_or(f64::INFINITY, |t| (p - t).norm())).collect();
+    let wrong_markers = det
+        .markers
+        .iter()
+        .filter(|m| {
+            let Some(e) = m.id.checked_sub(board.first_id).and_then(|k| layout.get(k as usize)) else { return true };
+            e.corners_m.iter().zip(&m.corners_px).any(|(b, p)| (cam.project(*b) - p).norm() > 1.0)
+        })
+        .count();
+    let good: Vec<f64> = errs.iter().copied().filter(|e| *e <= 0.25).collect();
+    let rms = (good.iter().map(|e| e * e).sum::<f64>() / good.len().max(1) as f64).sqrt();
+    Score { found: det.ids.len(), wrong: errs.len() - good.len(), wrong_markers, rms, max: good.iter().fold(0.0, |a, b| a.max(*b)) }
+}
+
+fn assert_sorted(det: &CharucoDetection) {
+    assert!(det.ids.windows(2).all(|w| w[0] < w[1]), "ids not ascending");
+    assert!(det.markers.windows(2).all(|w| w[0].id < w[1].id), "markers not sorted");
+    assert_eq!(det.ids.len(), det.corners_px.len());
+}
+
+#[test]
+fn full_board_all_ids_and_accurate_corners() {
+    let b = board();
+    let size = (1280, 1024);
+    let cam = Camera::looking_at(&b, size, 1400.0, (0.01, -0.005, 0.45), (0.05, 0.25, -0.2));
+    let img = render(&b, &cam, size, 16);
+    let params = CharucoParams::default();
+    let det = find_charuco(&img, &b, &params).unwrap();
+    let runs = 10;
+    let t0 = Instant::now();
+    for _ in 0..runs {
+        std::hint::black_box(find_charuco(&img, &b, &params).unwrap());
+    }
+    let ms = t0.elapsed().as_secs_f64() * 1e3 / runs as f64;
+    let s = score(&det, &b, &cam);
+    eprintln!(
+        "full board 1280x1024: {} / 70 corners, {} / 44 markers, rms {:.4} px, max {:.4} px, {ms:.2} ms per image ({} rayon threads)",
+        s.found,
+        det.markers.len(),
+        s.rms,
+        s.max,
+        rayon::current_num_threads()
+    );
+    assert_sorted(&det);
+    assert_eq!((s.wrong, s.wrong_markers), (0, 0));
+    assert_eq!(det.markers.len(), 44);
+    assert_eq!(s.found, 70);
+    assert!(s.rms < 0.01 && s.max < 0.04, "rms {} max {}", s.rms, s.max);
+}
+
+#[test]
+fn rotated_boards_keep_their_ids() {
+    let b = board();
+    let size = (800, 800);
+    for roll_deg in [90.0f64, 180.0, 37.0, -123.0] {
+        let cam = Camera::looking_at(&b, size, 1100.0, (0.0, 0.0, 0.65), (roll_deg.to_radians(), 0.15, 0.1));
+        let img = render(&b, &cam, size, 16);
+        let det = find_charuco(&img, &b, &CharucoParams::default()).unwrap();
+        let s = score(&det, &b, &cam);
+        eprintln!("roll {roll_deg}: {} corners, {} markers, rms {:.4} px, max {:.4} px", s.found, det.markers.len(), s.rms, s.max);
+        assert_sorted(&det);
+        assert_eq!((s.wrong, s.wrong_markers), (0, 0), "roll {roll_deg}");
+        assert_eq!((s.found, det.markers.len()), (70, 44), "roll {roll_deg}");
+        assert!(s.rms < 0.02 && s.max < 0.06, "roll {roll_deg}: rms {} max {}", s.rms, s.max);
+    }
+}
+
+/// Corners whose fit window (6 px) and both adjacent markers lie inside the image.
+fn measurable(b: &Charuco, cam: &Camera, (w, h): (usize, usize)) -> usize {
+    let inside = |p: Point2<f64>, m: f64| p.x >= m && p.y >= m && p.x <= w as f64 - 1.0 - m && p.y <= h as f64 - 1.0 - m;
+    let layout = b.markers();
+    let marker_in = |x: u32, y: u32| layout.iter().find(|m| m.square == [x, y]).is_some_and(|m| m.corners_m.iter().all(|c| inside(cam.project(*c), 3.0)));
+    let [nx, ny] = b.squares;
+    (1..ny)
+        .flat_map(|j| (1..nx).map(move |i| (i, j)))
+        .filter(|&(i, j)| {
+            let p = cam.project(Point3::new(f64::from(i) * b.square_m, f64::from(j) * b.square_m, 0.0));
+            let adjacent = [(i - 1, j - 1), (i, j - 1), (i - 1, j), (i, j)].iter().filter(|&&(x, y)| marker_in(x, y)).count();
+            inside(p, 8.0) && adjacent == 2
+        })
+        .count()
+}
+
+#[test]
+fn partial_board_gives_only_correct_ids() {
+    let b = board();
+    let size = (640, 480);
+    for (ox, oy) in [(0.16, 0.0), (-0.12, 0.08), (0.0, 0.1)] {
+        let cam = Camera::looking_at(&b, size, 800.0, (ox, oy, 0.45), (0.3, 0.1, 0.1));
+        let img = render(&b, &cam, size, 8);
+        let det = find_charuco(&img, &b, &CharucoParams::default()).unwrap();
+        let s = score(&det, &b, &cam);
+        let expect = measurable(&b, &cam, size);
+        eprintln!("partial ({ox}, {oy}): {} corners ({expect} measurable), {} markers, rms {:.4} px", s.found, det.markers.len(), s.rms);
+        assert_eq!((s.wrong, s.wrong_markers), (0, 0));
+        assert!(expect > 5 && s.found >= expect && s.found < 70, "found {} of {expect}", s.found);
+    }
+}
+
+#[test]
+fn barrel_distortion_k1() {
+    let b = board();
+    let size = (1024, 768);
+    let mut cam = Camera::looking_at(&b, size, 800.0, (0.0, 0.0, 0.3), (0.1, 0.2, -0.15));
+    cam.k1 = -0.2;
+    let img = render(&b, &cam, size, 8);
+    let det = find_charuco(&img, &b, &CharucoParams::default()).unwrap();
+    let s = score(&det, &b, &cam);
+    eprintln!("k1 = -0.2: {} corners, {} markers, rms {:.4} px, max {:.4} px", s.found, det.markers.len(), s.rms, s.max);
+    assert_eq!((s.wrong, s.wrong_markers), (0, 0));
+    assert_eq!((s.found, det.markers.len()), (70, 44));
+    assert!(s.rms < 0.02 && s.max < 0.06, "rms {} max {}", s.rms, s.max);
+}
+
+#[test]
+fn legacy_layouts_with_even_rows_decode() {
+    let size = (640, 480);
+    for legacy in [false, true] {
+        let b = Charuco { squares: [5, 4], square_m: 0.04, marker_m: 0.03, dictionary: Dictionary::Dict4x4_50, legacy, first_id: 0 };
+        let cam = Camera::looking_at(&b, size, 900.0, (0.0, 0.0, 0.5), (0.2, -0.2, 0.1));
+        let img = render(&b, &cam, size, 8);
+        let det = find_charuco(&img, &b, &CharucoParams::default()).unwrap();
+        let s = score(&det, &b, &cam);
+        eprintln!("legacy {legacy}: {} corners, {} markers, rms {:.4} px", s.found, det.markers.len(), s.rms);
+        assert_eq!((s.wrong, s.wrong_markers), (0, 0));
+        assert_eq!((s.found, det.markers.len()), (12, 10), "legacy {legacy}");
+    }
+}
+
+#[test]
+fn wrong_dictionary_finds_nothing() {
+    let b = board();
+    let size = (640, 480);
+    let cam = Camera::looking_at(&b, size, 700.0, (0.0, 0.0, 0.45), (0.0, 0.1, 0.1));
+    let img = render(&b, &cam, size, 8);
+    for dictionary in [Dictionary::Dict4x4_50, Dictionary::Dict6x6_250, Dictionary::Dict5x5_100] {
+        let other = Charuco { dictionary, first_id: if dictionary == Dictionary::Dict5x5_100 { 50 } else { 0 }, ..b };
+        let det = find_charuco(&img, &other, &CharucoParams::default()).unwrap();
+        assert!(det.markers.is_empty() && det.ids.is_empty(), "{}: {:?}", dictionary.name(), det.markers.iter().map(|m| m.id).collect::<Vec<_>>());
+    }
+}
+
+#[test]
+fn two_boards_with_disjoint_ids_are_found_separately() {
+    let size = (960, 480);
+    let a = Charuco { squares: [5, 4], square_m: 0.04, marker_m: 0.03, dictionary: Dictionary::Dict4x4_50, legacy: false, first_id: 0 };
+    let b = Charuco { first_id: 10, ..a };
+    let ca = Camera::looking_at(&a, size, 800.0, (-0.14, 0.0, 0.6), (0.1, 0.1, 0.2));
+    let cb = Camera::looking_at(&b, size, 800.0, (0.14, 0.0, 0.6), (-0.2, -0.1, -0.2));
+    let img = render_two([(&a, &ca), (&b, &cb)], size, 8);
+    for (board, cam, ids) in [(&a, &ca, 0..10), (&b, &cb, 10..20)] {
+        let det = find_charuco(&img, board, &CharucoParams::default()).unwrap();
+        let s = score(&det, board, cam);
+        eprintln!("board first_id {}: {} corners, {} markers", board.first_id, s.found, det.markers.len());
+        assert_eq!((s.wrong, s.wrong_markers), (0, 0));
+        assert_eq!(det.markers.iter().map(|m| m.id).collect::<Vec<_>>(), ids.collect::<Vec<_>>());
+        assert_eq!(s.found, 12);
+    }
+}
+
+#[test]
+fn garbage_images_never_panic() {
+    let b = board();
+    let p = CharucoParams::default();
+    let mut seed = 12345u64;
+    let mut noise = || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 33) as f32 / (1u64 << 31) as f32 * 255.0
+    };
+    let noisy = ImageF32::new(640, 480, (0..640 * 480).map(|_| noise()).collect()).unwrap();
+    let det = find_charuco(&noisy, &b, &p).unwrap();
+    assert!(det.markers.is_empty() && det.ids.is_empty());
+    for v in [0.0, 128.0, f32::NAN, f32::INFINITY] {
+        let flat = ImageF32::new(64, 48, vec![v; 64 * 48]).unwrap();
+        let det = find_charuco(&flat, &b, &p).unwrap();
+        assert!(det.markers.is_empty() && det.ids.is_empty());
+    }
+    for (w, h) in [(1, 1), (2, 7), (5, 1)] {
+        assert!(find_charuco(&ImageF32::new(w, h, vec![7.0; w * h]).unwrap(), &b, &p).is_ok());
+    }
+    assert!(matches!(find_charuco(&ImageF32::new(0, 5, vec![]).unwrap(), &b, &p), Err(DetectError::EmptyImage { .. })));
+    let bad_buffer = ImageF32 { width: 4, height: 4, data: vec![0.0; 3] };
+    assert!(matches!(find_charuco(&bad_buffer, &b, &p), Err(DetectError::BadBuffer { .. })));
+    // a board with NaN patches: no panic, no wrong id
+    let size = (640, 480);
+    let cam = Camera::looking_at(&b, size, 700.0, (0.0, 0.0, 0.45), (0.0, 0.1, 0.1));
+    let mut img = render(&b, &cam, size, 4);
+    for y in 100..180 {
+        for x in 200..330 {
+            img.data[y * 640 + x] = if (x + y) % 3 == 0 { f32::NAN } else { f32::NEG_INFINITY };
+        }
+    }
+    let det = find_charuco(&img, &b, &p).unwrap();
+    let s = score(&det, &b, &cam);
+    eprintln!("NaN patch: {} corners, {} markers", s.found, det.markers.len());
+    assert_eq!((s.wrong, s.wrong_markers), (0, 0));
+    assert!(s.found > 20);
+}
+
+#[test]
+fn bad_parameters_and_boards_are_typed_errors() {
+    let img = ImageF32::new(32, 32, vec![100.0; 1024]).unwrap();
+    let b = board();
+    let bad = |p: CharucoParams| matches!(find_charuco(&img, &b, &p), Err(DetectError::BadParams { .. }));
+    let d = CharucoParams::default();
+    assert!(bad(CharucoParams { threshold_windows_px: [0, 0, 0], ..d }));
+    assert!(bad(CharucoParams { min_marker_perimeter_px: f64::NAN, ..d }));
+    assert!(bad(CharucoParams { error_correction_rate: 1.5, ..d }));
+    assert!(bad(CharucoParams { max_half_window: 1, ..d }));
+    assert!(bad(CharucoParams { threshold_offset: f32::INFINITY, ..d }));
+    let bad_board = Charuco { marker_m: 0.05, ..b };
+    assert!(matches!(find_charuco(&img, &bad_board, &d), Err(DetectError::BadParams { .. })));
+}
+
+#[test]
+fn debug_stages() {
+    let b = board();
+    let size = (1280, 1024);
+    let cam = Camera::looking_at(&b, size, 1400.0, (0.01, -0.005, 0.45), (0.05, 0.25, -0.2));
+    let img = render(&b, &cam, size, 2);
+    let params = CharucoParams::default();
+    let t = Instant::now();
+    for _ in 0..300 {
+        std::hint::black_box(find_charuco(&img, &b, &params).unwrap());
+    }
+    eprintln!("find_charuco {:.2} ms", t.elapsed().as_secs_f64() * 1e3 / 300.0);
+    for _ in 0..3 {
+        let t = Instant::now();
+        let (search, scale) = search_image(&img, &params);
+        let t1 = t.elapsed().as_secs_f64() * 1e3;
+        let integral = threshold::Integral::new(&search);
+        let t2 = t.elapsed().as_secs_f64() * 1e3;
+        let mut runs = Vec::new();
+        threshold::dark_runs(&search, &integral, 4, 7.0, &mut runs);
+        let t3 = t.elapsed().as_secs_f64() * 1e3;
+        let comps = components::components(&runs, |_| true);
+        let t4 = t.elapsed().as_secs_f64() * 1e3;
+        let quads = quads::candidates(&search, scale, &params);
+        let t5 = t.elapsed().as_secs_f64() * 1e3;
+        let codes = decode::BoardCodes::new(&b, &params);
+        let found: Vec<decode::Decoded> = quads.iter().filter_map(|q| decode::marker(&img, q, &b, &codes, &params)).collect();
+        let t6 = t.elapsed().as_secs_f64() * 1e3;
+        let markers = consistency::filter(decode::best_per_id(found), &b);
+        let t7 = t.elapsed().as_secs_f64() * 1e3;
+        let (ids, _) = corners::interpolate(&img, &b, &markers, &params);
+        let t8 = t.elapsed().as_secs_f64() * 1e3;
+        eprintln!(
+            "half {t1:.2} integral {:.2} runs {:.2} ({}) comps {:.2} ({}) candidates {:.2} ({} quads) decode {:.2} consistency {:.2} corners {:.2} ({})",
+            t2 - t1,
+            t3 - t2,
+            runs.len(),
+            t4 - t3,
+            comps.len(),
+            t5 - t4,
+            quads.len(),
+            t6 - t5,
+            t7 - t6,
+            t8 - t7,
+            ids.len()
+        );
+    }
+}
