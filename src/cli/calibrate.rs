@@ -25,7 +25,7 @@ pub struct CalibrateArgs {
     /// Target: chessboard:COLSxROWS (inner corners) or charuco:NXxNY:DICT:MARKER_OVER_SQUARE[:legacy].
     #[arg(long, value_parser = |s: &str| s.parse::<TargetSpec>())]
     pub target: TargetSpec,
-    /// Square size, metres (the board's unit; ChArUco: the square).
+    /// Square size, metres (the board's unit; ChArUco: the square; AprilGrid: the tag).
     #[arg(long)]
     pub square: f64,
     /// Also estimate the skew K[0][1].
@@ -183,7 +183,10 @@ fn board_points(target: &TargetSpec, square: f64) -> anyhow::Result<Vec<Point3<f
             Ok((0..cols * rows).map(|k| Point3::new((k % cols) as f64 * square, (k / cols) as f64 * square, 0.0)).collect())
         }
         TargetSpec::Charuco { .. } => Ok(target.charuco_board(square).map(|b| b.chessboard_corners_m()).unwrap_or_default()),
-        _ => anyhow::bail!("calibrate takes a chessboard or ChArUco target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO)"),
+        TargetSpec::Aprilgrid { .. } => Ok(target.aprilgrid(square).map(|g| g.corners_by_id_m()).unwrap_or_default()),
+        _ => anyhow::bail!(
+            "calibrate takes a chessboard, ChArUco or AprilGrid target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO, aprilgrid:NXxNY:tag36h11:SPACING)"
+        ),
     }
 }
 
@@ -240,7 +243,7 @@ fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
         let h = im["height"].as_u64().with_context(|| format!("{file}: `height` missing"))? as usize;
         match Found::new(file.clone(), (w, h), pts, ids, n) {
             Ok(f) => found.push(f),
-            Err(why) if v["target"]["kind"] == "charuco" => skipped.push(Skipped::new(file, why)),
+            Err(why) if matches!(v["target"]["kind"].as_str(), Some("charuco" | "aprilgrid")) => skipped.push(Skipped::new(file, why)),
             Err(why) => anyhow::bail!("{file}: {why}"),
         }
     }

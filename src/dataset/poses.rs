@@ -63,7 +63,7 @@ fn uniform(rng: &mut ChaCha8Rng, r: [f64; 2]) -> f64 {
     }
 }
 
-fn board_pose(rng: &mut ChaCha8Rng, b: &BoardRanges, centre: &Vector3<f64>) -> Isometry3<f64> {
+fn board_pose(rng: &mut ChaCha8Rng, b: &BoardRanges, centre: &Vector3<f64>, front_from_target: UnitQuaternion<f64>) -> Isometry3<f64> {
     let d = uniform(rng, b.distance_m);
     let tilt = uniform(rng, b.tilt_deg).to_radians();
     let azimuth = rng.random_range(0.0..std::f64::consts::TAU);
@@ -78,13 +78,15 @@ fn board_pose(rng: &mut ChaCha8Rng, b: &BoardRanges, centre: &Vector3<f64>) -> I
         TiltFrom::Axis => rot,
         TiltFrom::Sight => UnitQuaternion::rotation_between(&Vector3::z(), &at).unwrap_or_else(UnitQuaternion::identity) * rot,
     };
+    // Printed side towards the camera (a target whose z points out of its page turns over).
+    let rot = rot * front_from_target;
     Isometry3::from_parts(Translation3::from(at - rot * centre), rot)
 }
 
 /// One pose draw (and the joints in robot mode).
 fn draw_pose(rng: &mut ChaCha8Rng, plan: &DatasetPlan, centre: &Vector3<f64>) -> (Isometry3<f64>, Option<[f64; 6]>) {
     match &plan.mode {
-        PoseMode::Board(b) => (board_pose(rng, b, centre), None),
+        PoseMode::Board(b) => (board_pose(rng, b, centre, plan.target.front_from_target()), None),
         PoseMode::Course => (crate::scene::poses::course_pose(rng) * Translation3::from(-centre), None),
         PoseMode::Robot(s) => {
             let spread = s.spread_rad;

@@ -12,7 +12,7 @@ use super::grid_order::order_grid;
 use super::s_path_fit::{index_s_path, path_residuals, unmeasured, PathResidual, SPathFitParams};
 use super::{DetectError, ImageF32, ImageU8};
 use crate::target::s_path::{build_s_path, course_planar_s};
-use crate::target::{course_s_path, Charuco, Dictionary, SPath};
+use crate::target::{course_s_path, AprilGrid, Charuco, Dictionary, SPath};
 
 /// What to look for.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -48,6 +48,20 @@ pub enum TargetSpec {
         /// Id of the board's first marker.
         first_id: u32,
     },
+    /// A Kalibr AprilGrid; its points are the tag corners found, id `4 k + c` (corner `c` in
+    /// Kalibr's order of tag `k`, counted from `first_id`).
+    Aprilgrid {
+        /// Tags along x and y.
+        tags: [u32; 2],
+        /// Tag family.
+        family: Dictionary,
+        /// Gap over tag edge.
+        spacing: f64,
+        /// Black border, bits.
+        border_bits: u32,
+        /// Id of tag 0.
+        first_id: u32,
+    },
 }
 
 impl TargetSpec {
@@ -68,6 +82,18 @@ impl TargetSpec {
                     first_id: b.first_id,
                 }
             }
+            Target::AprilGrid(g) => {
+                let g = &g.grid;
+                TargetSpec::Aprilgrid { tags: g.tags, family: g.family, spacing: g.spacing, border_bits: g.border_bits, first_id: g.first_id }
+            }
+        }
+    }
+
+    /// The grid of an AprilGrid spec, its tags `tag_m` wide.
+    pub fn aprilgrid(&self, tag_m: f64) -> Option<AprilGrid> {
+        match *self {
+            TargetSpec::Aprilgrid { tags, family, spacing, border_bits, first_id } => Some(AprilGrid { tags, tag_m, spacing, family, border_bits, first_id }),
+            _ => None,
         }
     }
 
@@ -82,6 +108,39 @@ impl TargetSpec {
     }
 }
 
+/// `NXxNY` as two counts.
+fn pair(dims: &str) -> Result<[u32; 2], String> {
+    let (nx, ny) = dims.split_once(['x', 'X']).ok_or_else(|| format!("expected NXxNY, got `{dims}`"))?;
+    Ok([count(nx)?, count(ny)?])
+}
+
+fn count(v: &str) -> Result<u32, String> {
+    v.trim().parse::<u32>().map_err(|_| format!("`{v}` is not a count"))
+}
+
+/// `aprilgrid:NXxNY:FAMILY:SPACING[:border_bits=N][:first_id=N]` after its `aprilgrid:`.
+fn parse_aprilgrid(rest: &str) -> Result<TargetSpec, String> {
+    let usage = "aprilgrid:NXxNY:tag36h11:SPACING[:border_bits=N][:first_id=N], e.g. aprilgrid:6x6:tag36h11:0.3";
+    let mut parts = rest.split(':');
+    let (Some(dims), Some(fam), Some(spacing)) = (parts.next(), parts.next(), parts.next()) else {
+        return Err(format!("expected {usage}"));
+    };
+    // Kalibr's family names (tag36h11) or OpenCV's (DICT_APRILTAG_36h11).
+    let family = Dictionary::from_name(&fam.replacen("tag", "APRILTAG_", 1)).or_else(|_| Dictionary::from_name(fam)).map_err(|e| e.to_string())?;
+    let spacing: f64 = spacing.parse().map_err(|_| format!("`{spacing}` is not a number (gap / tag edge)"))?;
+    let (mut border_bits, mut first_id) = (2, 0);
+    for p in parts {
+        match p.split_once('=') {
+            Some(("border_bits", v)) => border_bits = count(v)?,
+            Some(("first_id", v)) => first_id = count(v)?,
+            _ => return Err(format!("unknown option `{p}` (border_bits=N, first_id=N)")),
+        }
+    }
+    let spec = TargetSpec::Aprilgrid { tags: pair(dims)?, family, spacing, border_bits, first_id };
+    spec.aprilgrid(1.0).map(|g| g.validate()).transpose().map_err(|e| e.to_string())?;
+    Ok(spec)
+}
+
 /// `charuco:NXxNY:DICT:MARKER_OVER_SQUARE[:legacy][:first_id=N]` after its `charuco:`.
 fn parse_charuco(rest: &str) -> Result<TargetSpec, String> {
     let usage = "charuco:NXxNY:DICT:MARKER_OVER_SQUARE[:legacy][:first_id=N], e.g. charuco:11x8:DICT_5X5_100:0.733";
@@ -89,9 +148,7 @@ fn parse_charuco(rest: &str) -> Result<TargetSpec, String> {
     let (Some(dims), Some(dict), Some(ratio)) = (parts.next(), parts.next(), parts.next()) else {
         return Err(format!("expected {usage}"));
     };
-    let (nx, ny) = dims.split_once(['x', 'X']).ok_or_else(|| format!("expected NXxNY squares, got `{dims}`"))?;
-    let count = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("`{v}` is not a count"));
-    let squares = [count(nx)?, count(ny)?];
+    let squares = pair(dims)?;
     let dictionary = Dictionary::from_name(dict).map_err(|e| e.to_string())?;
     let marker_over_square: f64 = ratio.parse().map_err(|_| format!("`{ratio}` is not a number (marker edge / square edge)"))?;
     let (mut legacy, mut first_id) = (false, 0);
@@ -128,7 +185,10 @@ impl FromStr for TargetSpec {
             },
             None if s == "s-path" => Ok(TargetSpec::SPath { points: 101 }),
             Some(("charuco", rest)) => parse_charuco(rest),
-            _ => Err(format!("unknown target `{s}` (chessboard:COLSxROWS, dot-grid:NxN, s-path, charuco:NXxNY:DICT:MARKER_OVER_SQUARE)")),
+            Some(("aprilgrid", rest)) => parse_aprilgrid(rest),
+            _ => Err(format!(
+                "unknown target `{s}` (chessboard:COLSxROWS, dot-grid:NxN, s-path, charuco:NXxNY:DICT:MARKER_OVER_SQUARE, aprilgrid:NXxNY:tag36h11:SPACING)"
+            )),
         }
     }
 }
@@ -196,6 +256,7 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
             let note = found.ids.is_empty().then(|| format!("{} markers decoded, no ChArUco corner", found.markers.len()));
             Ok(Detection { found: !found.ids.is_empty(), points_px: found.corners_px, ids: Some(found.ids), note, ..Default::default() })
         }
+        TargetSpec::Aprilgrid { .. } => Ok(Detection { note: Some("AprilGrid detection is not built yet".into()), ..Default::default() }),
     }
 }
 
@@ -247,6 +308,19 @@ mod tests {
         assert_eq!(c, Ok(TargetSpec::Charuco { squares: [11, 8], dictionary: Dictionary::Dict5x5_100, marker_over_square: 0.733, legacy: false, first_id: 0 }));
         let c = "charuco:5x4:4X4_50:0.7:legacy:first_id=10".parse::<TargetSpec>();
         assert_eq!(c, Ok(TargetSpec::Charuco { squares: [5, 4], dictionary: Dictionary::Dict4x4_50, marker_over_square: 0.7, legacy: true, first_id: 10 }));
+        let g = "aprilgrid:6x6:tag36h11:0.3".parse::<TargetSpec>();
+        assert_eq!(g, Ok(TargetSpec::Aprilgrid { tags: [6, 6], family: Dictionary::AprilTag36h11, spacing: 0.3, border_bits: 2, first_id: 0 }));
+        let g = "aprilgrid:3x2:DICT_APRILTAG_36h11:0.25:border_bits=1:first_id=6".parse::<TargetSpec>();
+        assert_eq!(g, Ok(TargetSpec::Aprilgrid { tags: [3, 2], family: Dictionary::AprilTag36h11, spacing: 0.25, border_bits: 1, first_id: 6 }));
+        for bad in [
+            "aprilgrid:6x6:tag36h11",
+            "aprilgrid:6x6:tag36h11:1.5",
+            "aprilgrid:6x6:tag99h1:0.3",
+            "aprilgrid:25x24:tag36h11:0.3",
+            "aprilgrid:6x6:tag36h11:0.3:border_bits=3",
+        ] {
+            assert!(bad.parse::<TargetSpec>().is_err(), "{bad}");
+        }
         for bad in [
             "charuco:11x8:DICT_5X5_100",
             "charuco:11x8:DICT_9X9:0.7",

@@ -67,7 +67,7 @@ pub fn pass_kind(target: &Target) -> usize {
         Target::Chessboard(_) => 0,
         Target::DotGrid(_) => 1,
         Target::SPath(_) => SPATH_KIND,
-        Target::Charuco(_) => CODED_KIND,
+        Target::Charuco(_) | Target::AprilGrid(_) => CODED_KIND,
     }
 }
 
@@ -89,7 +89,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     };
     lens_params(&mut p, cam, grid.split_radii);
     let (mut dots, tile_start, mut tile_items) = match &scene.target {
-        Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) => {
+        Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) => {
             let bits = planar_params(&mut p, scene)?;
             (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], bits)
         }
@@ -157,9 +157,8 @@ fn planar_params(p: &mut Params, scene: &Scene) -> Result<Vec<u32>, RenderError>
             p.board = [g.n as f32, g.edge_m as f32, g.dot_radius_m as f32, g.margin_m as f32];
             p.grey = [g.dark as f32, g.light as f32, g.light as f32, g.background as f32];
         }
-        Target::Charuco(c) => {
-            let l = c.lattice();
-            let look = &c.look;
+        Target::Charuco(_) | Target::AprilGrid(_) => {
+            let (Some(l), Some((look, _))) = (scene.target.lattice(), scene.target.coded_look()) else { return Ok(Vec::new()) };
             p.board = [l.cells[0] as f32, l.cells[1] as f32, l.per_period as f32, look.margin_m as f32];
             p.grey = [look.dark as f32, look.light as f32, look.margin as f32, look.background as f32];
             p.lat = [l.period_m as f32, l.origin_m as f32, l.first_m as f32, l.cell_m as f32];
@@ -335,11 +334,12 @@ impl FlatTest {
                 let along = |n: u32| (0..=n).map(|j| f64::from(j) * b.square_m).chain([-b.margin_m, f64::from(n) * b.square_m + b.margin_m]).collect();
                 [along(b.squares[0]), along(b.squares[1])]
             }
-            Target::Charuco(c) => {
-                let l = c.lattice();
-                let m = c.look.margin_m;
-                [0, 1].map(|a| l.lines_m(a).into_iter().chain([l.origin_m - m, l.end_m(a) + m]).collect())
-            }
+            Target::Charuco(_) | Target::AprilGrid(_) => match (scene.target.lattice(), scene.target.coded_look()) {
+                (Some(l), Some((look, _))) => {
+                    [0, 1].map(|a| l.lines_m(a).into_iter().chain([l.origin_m - look.margin_m, l.end_m(a) + look.margin_m]).collect())
+                }
+                _ => Default::default(),
+            },
             _ => Default::default(),
         };
         lines_m.iter_mut().for_each(|l| l.sort_by(f64::total_cmp));
@@ -358,8 +358,10 @@ impl FlatTest {
     /// `has_dots`: S-path dots reach the tile.
     fn value(&self, scene: &Scene, rays: &[Vector3<f64>; 4], has_dots: bool) -> Option<f64> {
         match &scene.target {
-            Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) if plane_missed(&self.target_from_cam, rays) => Some(scene.target.background()),
-            Target::Chessboard(_) | Target::Charuco(_) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
+            Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) if plane_missed(&self.target_from_cam, rays) => {
+                Some(scene.target.background())
+            }
+            Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
                 let [xl, yl] = &self.lines_m;
                 (!any_in(xl, bb[0], bb[2]) && !any_in(yl, bb[1], bb[3]))
                     .then(|| scene.target.plane_intensity(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))

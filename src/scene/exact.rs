@@ -1,4 +1,4 @@
-//! Exact box-filtered reference for planar targets (chessboard, dot grid, ChArUco), f64.
+//! Exact box-filtered reference for planar targets (chessboard, dot grid, ChArUco, AprilGrid), f64.
 //!
 //! Each pixel square is cut into `subdivisions^2` sub-squares; the corners of every sub-square are
 //! unprojected exactly ([`crate::camera::CameraModel::unproject_ray`]: Newton inversion of the
@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use super::{Scene, SceneError};
 use crate::math::polygon::{self, Polygon};
-use crate::target::{Charuco, CharucoTarget, Chessboard, DotGrid, Target};
+use crate::target::{AprilGrid, Charuco, Chessboard, DotGrid, Target};
 
 /// A rendered exact reference: grey levels row-major, `None` where a sub-square corner's ray
 /// cannot be unprojected (beyond the fold of the lens model), where the grey is not defined.
@@ -96,7 +96,7 @@ fn region_mean(target: &Target, quad: &[Vector2<f64>]) -> f64 {
     match target {
         Target::Chessboard(b) => chessboard_sum(b, quad, a) / a,
         Target::DotGrid(g) => dot_grid_sum(g, quad, a) / a,
-        Target::Charuco(c) => charuco_sum(c, quad, a) / a,
+        Target::Charuco(_) | Target::AprilGrid(_) => coded_sum(target, quad, a) / a,
         Target::SPath(_) => target.background(),
     }
 }
@@ -123,55 +123,86 @@ fn chessboard_sum(b: &Chessboard, quad: &[Vector2<f64>], a: f64) -> f64 {
     b.background * (a - a_margin) + b.margin * (a_margin - a_board) + b.dark * dark + b.light * (a_board - dark)
 }
 
-/// Integral of a ChArUco board's grey over `quad` (area `a`): squares without a marker, then each
-/// marker's border and bit cells (the board's colouring from [`Charuco::is_dark`] at their centres).
-fn charuco_sum(c: &CharucoTarget, quad: &[Vector2<f64>], a: f64) -> f64 {
-    let b = &c.board;
-    let s = b.square_m;
-    let [_, _, w, h] = c.extent_m();
-    let mm = c.look.margin_m;
-    let a_margin = polygon::area(&polygon::clip_rect(quad, Vector2::new(-mm, -mm), Vector2::new(w + mm, h + mm)));
-    let on_board = polygon::clip_rect(quad, Vector2::zeros(), Vector2::new(w, h));
+/// Integral of a coded board's grey over `quad` (area `a`): border, board, and the dark area of
+/// its squares, marker and tag cells and corner squares ([`charuco_dark`], [`aprilgrid_dark`]).
+fn coded_sum(target: &Target, quad: &[Vector2<f64>], a: f64) -> f64 {
+    let Some((l, [x0, y0, x1, y1])) = target.coded_look() else { return a * target.background() };
+    let mm = l.margin_m;
+    let a_margin = polygon::area(&polygon::clip_rect(quad, Vector2::new(x0 - mm, y0 - mm), Vector2::new(x1 + mm, y1 + mm)));
+    let on_board = polygon::clip_rect(quad, Vector2::new(x0, y0), Vector2::new(x1, y1));
     let a_board = polygon::area(&on_board);
-    let mut dark = 0.0;
-    if let Some((lo, hi)) = polygon::bbox(&on_board) {
-        let (i0, i1) = cell_range(lo.x, hi.x, s, b.squares[0]);
-        let (j0, j1) = cell_range(lo.y, hi.y, s, b.squares[1]);
-        for j in j0..=j1 {
-            for i in i0..=i1 {
-                let sq = Vector2::new(f64::from(i) * s, f64::from(j) * s);
-                dark += if b.has_marker(i, j) {
-                    marker_dark_area(b, &on_board, sq, (lo, hi))
-                } else {
-                    polygon::area(&polygon::clip_rect(&on_board, sq, sq + Vector2::new(s, s)))
-                };
-            }
-        }
-    }
-    let l = &c.look;
+    let dark = match (target, polygon::bbox(&on_board)) {
+        (Target::Charuco(c), Some(bb)) => charuco_dark(&c.board, &on_board, bb),
+        (Target::AprilGrid(g), Some(bb)) => aprilgrid_dark(&g.grid, &on_board, bb),
+        _ => 0.0,
+    };
     l.background * (a - a_margin) + l.margin * (a_margin - a_board) + l.dark * dark + l.light * (a_board - dark)
 }
 
-/// Area of `poly` (within the box `lo..hi`) on the dark cells of the marker in the square whose
-/// top-left corner is `sq`.
-fn marker_dark_area(b: &Charuco, poly: &[Vector2<f64>], sq: Vector2<f64>, (lo, hi): (Vector2<f64>, Vector2<f64>)) -> f64 {
+/// Dark area of `poly` (on the board, bounding box `bb`) on a ChArUco board: squares without a
+/// marker whole, marker squares cell by cell.
+fn charuco_dark(b: &Charuco, poly: &[Vector2<f64>], (lo, hi): (Vector2<f64>, Vector2<f64>)) -> f64 {
+    let s = b.square_m;
+    let (i0, i1) = cell_range(lo.x, hi.x, s, b.squares[0]);
+    let (j0, j1) = cell_range(lo.y, hi.y, s, b.squares[1]);
     let n = b.dictionary.marker_bits() as u32 + 2;
-    let cell = b.marker_m / f64::from(n);
-    let origin = sq + Vector2::repeat(0.5 * (b.square_m - b.marker_m));
+    let mut dark = 0.0;
+    for j in j0..=j1 {
+        for i in i0..=i1 {
+            let sq = Vector2::new(f64::from(i) * s, f64::from(j) * s);
+            dark += if b.has_marker(i, j) {
+                let origin = sq + Vector2::repeat(0.5 * (s - b.marker_m));
+                cells_dark_area(poly, (lo, hi), origin, b.marker_m / f64::from(n), n, |x, y| b.is_dark(x, y) == Some(true))
+            } else {
+                polygon::area(&polygon::clip_rect(poly, sq, sq + Vector2::new(s, s)))
+            };
+        }
+    }
+    dark
+}
+
+/// Dark area of `poly` (on the grid, bounding box `bb`) on an AprilGrid: the corner squares and
+/// each tag cell by cell.
+fn aprilgrid_dark(g: &AprilGrid, poly: &[Vector2<f64>], bb: (Vector2<f64>, Vector2<f64>)) -> f64 {
+    let (lo, hi) = bb;
+    let squares: f64 =
+        g.corner_squares_m().iter().map(|(c, e)| polygon::area(&polygon::clip_rect(poly, Vector2::new(c[0], c[1]), Vector2::new(c[0] + e, c[1] + e)))).sum();
+    let n = g.family.marker_bits() as u32 + 2 * g.border_bits;
+    let tags: f64 = (0..g.tags[0] * g.tags[1])
+        .map(|k| g.tag_corners_m(k))
+        .filter(|c| c[2].x >= lo.x && c[0].x <= hi.x && c[2].y >= lo.y && c[0].y <= hi.y)
+        .map(|c| cells_dark_area(poly, bb, Vector2::new(c[0].x, c[0].y), g.cell_m(), n, |x, y| g.is_dark(x, y) == Some(true)))
+        .sum();
+    squares + tags
+}
+
+/// Area of `poly` (bounding box `lo..hi`) on the dark cells of the `n x n` grid of `cell`-wide
+/// cells from `origin`, a cell's colour `dark` at its centre.
+fn cells_dark_area(
+    poly: &[Vector2<f64>],
+    (lo, hi): (Vector2<f64>, Vector2<f64>),
+    origin: Vector2<f64>,
+    cell: f64,
+    n: u32,
+    dark: impl Fn(f64, f64) -> bool,
+) -> f64 {
     let range = |lo: f64, hi: f64| (((lo / cell).floor().max(0.0) as u32).min(n), ((hi / cell).floor().max(0.0) as u32).min(n - 1));
     let (cx0, cx1) = range(lo.x - origin.x, hi.x - origin.x);
     let (cy0, cy1) = range(lo.y - origin.y, hi.y - origin.y);
-    let mut dark = 0.0;
+    if hi.x < origin.x || hi.y < origin.y {
+        return 0.0;
+    }
+    let mut area = 0.0;
     for cy in cy0..=cy1 {
         for cx in cx0..=cx1 {
             let c_lo = origin + Vector2::new(f64::from(cx), f64::from(cy)) * cell;
             let mid = c_lo + Vector2::repeat(0.5 * cell);
-            if b.is_dark(mid.x, mid.y) == Some(true) {
-                dark += polygon::area(&polygon::clip_rect(poly, c_lo, c_lo + Vector2::repeat(cell)));
+            if dark(mid.x, mid.y) {
+                area += polygon::area(&polygon::clip_rect(poly, c_lo, c_lo + Vector2::repeat(cell)));
             }
         }
     }
-    dark
+    area
 }
 
 /// Cells `i` with `[i s, (i + 1) s]` meeting `[lo, hi]`, clamped to `0..n`.

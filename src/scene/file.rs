@@ -14,7 +14,7 @@
 //! # fisheye: dist = [k1, k2, k3, k4]; double-sphere: xi = -0.2, alpha = 0.6 (no dist)
 //!
 //! [target]
-//! kind = "chessboard"        # or "dot-grid", "s-path", "charuco" (squares, square_m, marker_m, dictionary = "DICT_5X5_100", legacy, first_id)
+//! kind = "chessboard"        # or "dot-grid", "s-path", "charuco" (squares, square_m, marker_m, dictionary = "DICT_5X5_100", legacy, first_id), "aprilgrid" (tags, tag_m, spacing, family, border_bits, first_id)
 //! squares = [9, 7]
 //! square_m = 0.03
 //!
@@ -40,7 +40,7 @@ pub use camera::{CameraSpec, ModelName};
 
 use super::{RenderSettings, Scene, SceneError};
 use crate::math::so3::rotation_from_rvec;
-use crate::target::{BoardLook, Charuco, CharucoTarget, Chessboard, Dictionary, DotGrid, DotStyle, SPathDots, Target};
+use crate::target::{AprilGrid, AprilGridTarget, BoardLook, Charuco, CharucoTarget, Chessboard, Dictionary, DotGrid, DotStyle, SPathDots, Target};
 
 /// `[target]` table.
 #[derive(Debug, Clone, Deserialize)]
@@ -105,6 +105,31 @@ pub enum TargetSpec {
         /// Background grey level.
         background: Option<f64>,
     },
+    /// Kalibr's AprilGrid.
+    Aprilgrid {
+        /// Tags along x and y (Kalibr's tagCols, tagRows).
+        tags: [u32; 2],
+        /// Tag edge, metres (Kalibr's tagSize).
+        tag_m: f64,
+        /// Gap over tag edge (Kalibr's tagSpacing).
+        spacing: f64,
+        /// Tag family as an OpenCV dictionary name (default "DICT_APRILTAG_36h11", Kalibr's tag36h11).
+        family: Option<Dictionary>,
+        /// Black border, bits (default 2, as Kalibr prints).
+        border_bits: Option<u32>,
+        /// Id of tag 0 (default 0).
+        first_id: Option<u32>,
+        /// Light border around the grid, metres (default: the gap).
+        margin_m: Option<f64>,
+        /// Dark grey level.
+        dark: Option<f64>,
+        /// Light grey level.
+        light: Option<f64>,
+        /// Border grey level (default: light).
+        margin: Option<f64>,
+        /// Background grey level.
+        background: Option<f64>,
+    },
     /// The S-path dot target.
     SPath {
         /// "bead" (default) or "disc".
@@ -154,17 +179,22 @@ impl TargetSpec {
                 })
             }
             TargetSpec::Charuco { squares, square_m, marker_m, dictionary, legacy, first_id, margin_m, dark, light, margin, background } => {
-                let d = BoardLook::default();
-                let light = light.unwrap_or(d.light);
                 let board = Charuco { squares, square_m, marker_m, dictionary, legacy: legacy.unwrap_or(false), first_id: first_id.unwrap_or(0) };
-                let look = BoardLook {
-                    margin_m: margin_m.unwrap_or(0.5 * square_m),
-                    dark: dark.unwrap_or(d.dark),
-                    light,
-                    margin: margin.unwrap_or(light),
-                    background: background.unwrap_or(d.background),
-                };
+                let look = look(margin_m.unwrap_or(0.5 * square_m), [dark, light, margin, background]);
                 Target::Charuco(CharucoTarget { board, look })
+            }
+            TargetSpec::Aprilgrid { tags, tag_m, spacing, family, border_bits, first_id, margin_m, dark, light, margin, background } => {
+                let d = AprilGrid::default();
+                let grid = AprilGrid {
+                    tags,
+                    tag_m,
+                    spacing,
+                    family: family.unwrap_or(d.family),
+                    border_bits: border_bits.unwrap_or(d.border_bits),
+                    first_id: first_id.unwrap_or(0),
+                };
+                let look = look(margin_m.unwrap_or(spacing * tag_m), [dark, light, margin, background]);
+                Target::AprilGrid(AprilGridTarget { grid, look })
             }
             TargetSpec::SPath { style, dot_radius_m, start_dot_radius_m, dark, light, background } => {
                 let d = SPathDots::default();
@@ -180,6 +210,14 @@ impl TargetSpec {
             }
         }
     }
+}
+
+/// A coded board's look from its optional grey levels `[dark, light, margin, background]` (the
+/// margin defaults to `light`).
+fn look(margin_m: f64, [dark, light, margin, background]: [Option<f64>; 4]) -> BoardLook {
+    let d = BoardLook::default();
+    let light = light.unwrap_or(d.light);
+    BoardLook { margin_m, dark: dark.unwrap_or(d.dark), light, margin: margin.unwrap_or(light), background: background.unwrap_or(d.background) }
 }
 
 /// `[pose]` table: `cam_from_target`.

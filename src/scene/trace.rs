@@ -114,7 +114,7 @@ impl<'a> Tracer<'a> {
         let target = &self.scene.target;
         let background = Hit { intensity: target.background(), feature: None };
         match target {
-            Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) => {
+            Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) => {
                 let o = self.target_from_cam.translation.vector;
                 let d = self.target_from_cam.rotation * d_cam;
                 if d.z == 0.0 {

@@ -96,7 +96,8 @@ pub struct TruthLabels {
     pub target_kind: String,
     /// "corner" or "dot".
     pub feature_kind: FeatureKind,
-    /// Chessboard (and ChArUco) inner corners `[cols, rows]` or dot-grid `[n, n]`; S-path `[101, 1]`.
+    /// Chessboard (and ChArUco) inner corners `[cols, rows]` or dot-grid `[n, n]`; S-path `[101, 1]`;
+    /// AprilGrid `[4, tags]` (four corners per tag).
     pub grid: [u32; 2],
     /// Render settings.
     pub render: RenderLabel,
@@ -112,8 +113,9 @@ pub struct TruthLabels {
 pub struct MarkerLabel {
     /// Marker id in its dictionary.
     pub id: u32,
-    /// Its corners' projections (top-left, top-right, bottom-right, bottom-left in the board
-    /// frame, as OpenCV's `getObjPoints()`), pixels.
+    /// Its corners' projections, pixels: ChArUco top-left, top-right, bottom-right, bottom-left
+    /// in the board frame (OpenCV's `getObjPoints()`); AprilGrid Kalibr's order (bottom-left,
+    /// bottom-right, top-right, top-left on the page: feature ids `4 k .. 4 k + 3`).
     pub corners_px: [[f64; 2]; 4],
     /// Every corner in front of the camera and inside the image.
     pub visible: bool,
@@ -222,7 +224,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
     let radius = |i: usize| match &scene.target {
         Target::DotGrid(g) => g.dot_radius_m,
         Target::SPath(s) => s.dot_radius(i),
-        Target::Chessboard(_) | Target::Charuco(_) => 0.0,
+        Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => 0.0,
     };
     // Each blob only needs the dots whose boxes overlap its own (conservative: a dot without a
     // box, partly behind the camera, is always a candidate).
@@ -276,6 +278,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
         Target::DotGrid(g) => [g.n, g.n],
         Target::SPath(s) => [s.path.points_m.len() as u32, 1],
         Target::Charuco(c) => [c.board.squares[0] - 1, c.board.squares[1] - 1],
+        Target::AprilGrid(g) => [4, g.grid.tags[0] * g.grid.tags[1]],
     };
     TruthLabels {
         version: 1,
@@ -297,13 +300,16 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
 
 /// The markers of a coded board, projected.
 fn marker_labels(scene: &Scene) -> Vec<MarkerLabel> {
-    let Target::Charuco(c) = &scene.target else { return Vec::new() };
-    c.board
-        .markers()
+    let markers: Vec<(u32, [nalgebra::Point3<f64>; 4])> = match &scene.target {
+        Target::Charuco(c) => c.board.markers().iter().map(|m| (m.id, m.corners_m)).collect(),
+        Target::AprilGrid(g) => (0..g.grid.tags[0] * g.grid.tags[1]).map(|k| (g.grid.first_id + k, g.grid.tag_corners_m(k))).collect(),
+        _ => return Vec::new(),
+    };
+    markers
         .iter()
-        .map(|m| {
-            let p = m.corners_m.map(|q| scene.camera.project(&(scene.cam_from_target * q)));
-            MarkerLabel { id: m.id, corners_px: p.map(|p| [p.pixel_px.x, p.pixel_px.y]), visible: p.iter().all(|p| p.visible()) }
+        .map(|(id, corners_m)| {
+            let p = corners_m.map(|q| scene.camera.project(&(scene.cam_from_target * q)));
+            MarkerLabel { id: *id, corners_px: p.map(|p| [p.pixel_px.x, p.pixel_px.y]), visible: p.iter().all(|p| p.visible()) }
         })
         .collect()
 }

@@ -240,7 +240,7 @@ fn resolve_ids(target: &Target, features: Vec<Feature>, predicted: &[Option<Poin
         Target::Chessboard(b) => (b.inner_corner_count()[0] as usize, b.inner_corner_count()[1] as usize),
         Target::DotGrid(g) => (g.n as usize, g.n as usize),
         // The detector gave each point its id (decoded markers, path fit).
-        Target::Charuco(_) | Target::SPath(_) => return features,
+        Target::Charuco(_) | Target::AprilGrid(_) | Target::SPath(_) => return features,
     };
     if features.len() != cols * rows || predicted.len() != cols * rows {
         return features;

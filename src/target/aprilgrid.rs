@@ -17,7 +17,8 @@
 
 use nalgebra::Point3;
 
-use super::{require_positive, Dictionary, TargetError};
+use super::lattice::CellLattice;
+use super::{require_positive, BoardLook, Dictionary, TargetError};
 
 /// A Kalibr AprilGrid.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,12 +101,100 @@ impl AprilGrid {
         [Point3::new(x0, y0, 0.0), Point3::new(x0 + s, y0, 0.0), Point3::new(x0 + s, y0 + s, 0.0), Point3::new(x0, y0 + s, 0.0)]
     }
 
+    /// Edge of one bit cell (tag edge over bits plus both borders), metres.
+    pub fn cell_m(&self) -> f64 {
+        self.tag_m / (self.family.marker_bits() as f64 + 2.0 * f64::from(self.border_bits))
+    }
+
+    /// The grid's extent `[x0, y0, x1, y1]`, corner squares included, metres.
+    pub fn extent_m(&self) -> [f64; 4] {
+        let g = self.spacing * self.tag_m;
+        [-g, -g, f64::from(self.tags[0]) * self.pitch_m(), f64::from(self.tags[1]) * self.pitch_m()]
+    }
+
+    /// Whether the grid point `(x, y)` (grid frame, metres, y up the page) is dark: a corner
+    /// square, a tag's border or black bit (`None` off the grid). Kalibr prints tag `k`'s code
+    /// (`kalibr_create_target_pdf`, `generateAprilTag`: black where bit `n i + j` of Kaess's code
+    /// is 0, then `rot90(.., 2)`, row `i` from the top of the page), which is OpenCV's marker image
+    /// of the same id (`generateImageMarker`, the same AprilTag 2 codes) turned 180 degrees on the
+    /// page: the cell `cx` from the left, `cy` from the bottom of the bits is black where
+    /// OpenCV's code has a 0 at row `cy`, column `n - 1 - cx` (checked against Kalibr's drawing
+    /// of tags 0-10 in the unit tests).
+    pub fn is_dark(&self, x: f64, y: f64) -> Option<bool> {
+        let [x0, y0, x1, y1] = self.extent_m();
+        if !(x >= x0 && y >= y0 && x < x1 && y < y1) {
+            return None;
+        }
+        let (p, g) = (self.pitch_m(), self.spacing * self.tag_m);
+        // Period along each axis (the gap before a tag, then the tag) and the offset from the
+        // tag's start (negative in the gap).
+        let split = |v: f64| {
+            let i = ((v + g) / p).floor().max(0.0);
+            (i as u32, v - i * p)
+        };
+        let ((i, u), (j, v)) = (split(x), split(y));
+        match (u < 0.0 || i >= self.tags[0], v < 0.0 || j >= self.tags[1]) {
+            (true, true) => return Some(true),
+            (true, false) | (false, true) => return Some(false),
+            (false, false) => {}
+        }
+        let (n, b) = (self.family.marker_bits(), self.border_bits as usize);
+        let last = n + 2 * b - 1;
+        let (cx, cy) = (((u / self.cell_m()) as usize).min(last), ((v / self.cell_m()) as usize).min(last));
+        if cx < b || cy < b || cx > last - b || cy > last - b {
+            return Some(true);
+        }
+        let code = self.family.code((self.first_id + self.tags[0] * j + i) as usize)?;
+        Some(!code[(cy - b) * n + (n - 1 + b - cx)])
+    }
+
+    /// The tag corners by id `4 k + c`: corner `c` (Kalibr's order: bottom-left, bottom-right,
+    /// top-right, top-left) of tag `k` (counted from `first_id`), metres. Kalibr's own point
+    /// index of each is [`Self::tag_point_ids`].
+    pub fn corners_by_id_m(&self) -> Vec<Point3<f64>> {
+        (0..self.tags[0] * self.tags[1]).flat_map(|k| self.tag_corners_m(k)).collect()
+    }
+
     /// The black squares at the gap crossings: lower-left corner and edge (`spacing x tag_m`),
     /// metres, `(nx + 1) x (ny + 1)` of them, row by row from the bottom.
     pub fn corner_squares_m(&self) -> Vec<([f64; 2], f64)> {
         let [nx, ny] = self.tags;
         let (p, g) = (self.pitch_m(), self.spacing * self.tag_m);
         (0..=ny).flat_map(|j| (0..=nx).map(move |i| ([f64::from(i) * p - g, f64::from(j) * p - g], g))).collect()
+    }
+}
+
+/// An AprilGrid as a scene target: the grid and how it is printed (its frame's z points out of
+/// the page, towards the viewer: [`Self::front_from_target`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AprilGridTarget {
+    /// The grid's geometry and codes.
+    pub grid: AprilGrid,
+    /// Border and grey levels.
+    pub look: BoardLook,
+}
+
+impl AprilGridTarget {
+    /// Checks the grid and its look.
+    ///
+    /// # Errors
+    /// [`TargetError::InvalidField`] naming the field.
+    pub fn validate(&self) -> Result<(), TargetError> {
+        self.grid.validate()?;
+        self.look.validate()
+    }
+
+    /// Grey level at a point of the grid's plane (grid frame, metres).
+    pub fn intensity_at(&self, x: f64, y: f64) -> f64 {
+        self.look.grey(self.grid.is_dark(x, y), x, y, self.grid.extent_m())
+    }
+
+    /// The grid's cell lattice: per period the gap, then the tag's bit cells (borders included).
+    pub fn lattice(&self) -> CellLattice {
+        let g = &self.grid;
+        let gap = g.spacing * g.tag_m;
+        let per = g.family.marker_bits() as u32 + 2 * g.border_bits + 1;
+        CellLattice::new(g.pitch_m(), -gap, gap, g.cell_m(), per, [g.tags[0] * per + 1, g.tags[1] * per + 1], |x, y| g.is_dark(x, y) == Some(true))
     }
 }
 
@@ -150,6 +239,44 @@ mod tests {
         let gap = 0.3 * 0.088;
         assert!((sq[0].0[0] + gap).abs() < 1e-12 && (sq[0].0[1] + gap).abs() < 1e-12 && (sq[0].1 - gap).abs() < 1e-12);
         assert!((sq[4].0[0] - 0.088).abs() < 1e-12 && (sq[4].0[1] - 0.088).abs() < 1e-12);
+    }
+
+    /// Kalibr's drawing of tag `k` (`generateAprilTag`, its code list from Kaess's AprilTags C++
+    /// library): the 6 x 6 bits read from the top of the page, `true` black.
+    fn kalibr_bits(code: u64) -> [[bool; 6]; 6] {
+        let m: [[bool; 6]; 6] = std::array::from_fn(|i| std::array::from_fn(|j| code & (1 << (6 * i + j)) == 0));
+        // np.rot90(m, 2), then row i drawn at height (border - 1 + 6 - i) bits: row 0 on top.
+        std::array::from_fn(|i| std::array::from_fn(|j| m[5 - i][5 - j]))
+    }
+
+    #[test]
+    fn tags_are_coloured_as_kalibr_prints_them() {
+        // Kalibr's t36h11 codes 0..=10 (kalibr_create_target_pdf, AprilTagCodes.t36h11).
+        let codes: [u64; 11] =
+            [0xd5d628584, 0xd97f18b49, 0xdd280910e, 0xe479e9c98, 0xebcbca822, 0xf31dab3ac, 0x056a5d085, 0x10652e1d4, 0x22b1dfead, 0x265ad0472, 0x34fe91b86];
+        let g = AprilGrid { tags: [4, 3], ..Default::default() };
+        let (p, cell) = (g.pitch_m(), g.cell_m());
+        for (k, code) in codes.iter().enumerate() {
+            let (tx, ty) = (k as u32 % 4, k as u32 / 4);
+            let bits = kalibr_bits(*code);
+            for (r, row) in bits.iter().enumerate() {
+                for (c, black) in row.iter().enumerate() {
+                    // Cell (c, r) of the bits, r from the top: 2 border bits, y up the page.
+                    let x = f64::from(tx) * p + (2.5 + c as f64) * cell;
+                    let y = f64::from(ty) * p + (2.5 + (5 - r) as f64) * cell;
+                    assert_eq!(g.is_dark(x, y), Some(*black), "tag {k} bit row {r} col {c}");
+                }
+            }
+            // The two-bit border and the gap around it.
+            assert_eq!(g.is_dark(f64::from(tx) * p + 1.5 * cell, f64::from(ty) * p + 5.0 * cell), Some(true));
+            assert_eq!(g.is_dark(f64::from(tx) * p - 0.5 * g.spacing * g.tag_m, f64::from(ty) * p + 5.0 * cell), Some(false));
+        }
+        // Corner squares at the gap crossings, nothing beyond the grid.
+        let gap = g.spacing * g.tag_m;
+        assert_eq!(g.is_dark(-0.5 * gap, -0.5 * gap), Some(true));
+        assert_eq!(g.is_dark(4.0 * p - 0.5 * gap, 3.0 * p - 0.5 * gap), Some(true));
+        assert_eq!(g.is_dark(-1.5 * gap, 0.01), None);
+        assert_eq!(g.is_dark(0.01, 3.0 * p + 0.001), None);
     }
 
     #[test]

@@ -6,8 +6,9 @@
 //!   dot (a bead, or a disc painted on the sphere) on a light sphere.
 //! - [`CharucoTarget`]: OpenCV's ChArUco board ([`Charuco`]) as printed ([`BoardLook`]), its
 //!   features the chessboard corners by id; every edge lies on its [`CellLattice`].
-//! - [`AprilGrid`] (Kalibr's), geometry and codes only so far (not yet a scene target), and the
-//!   marker [`Dictionary`] tables of both.
+//! - [`AprilGridTarget`]: Kalibr's AprilGrid ([`AprilGrid`]) as printed, its features the tag
+//!   corners (id `4 k + c`); its frame's z points towards the viewer.
+//! - The marker [`Dictionary`] tables of both.
 //!
 //! Intensities are grey levels in [0, 255] (linear, before noise and quantisation).
 //! The plane colour functions here are the CPU twins of the ones in `shaders/render.wgsl`.
@@ -22,7 +23,7 @@ pub mod look;
 pub mod s_path;
 pub mod s_path_dots;
 
-pub use aprilgrid::AprilGrid;
+pub use aprilgrid::{AprilGrid, AprilGridTarget};
 pub use aruco::Dictionary;
 pub use charuco::{Charuco, CharucoTarget};
 pub use chessboard::Chessboard;
@@ -75,6 +76,8 @@ pub enum Target {
     SPath(SPathDots),
     /// A ChArUco board.
     Charuco(CharucoTarget),
+    /// A Kalibr AprilGrid.
+    AprilGrid(AprilGridTarget),
 }
 
 /// Which kind of feature a target labels.
@@ -114,6 +117,7 @@ impl Target {
             Target::DotGrid(g) => g.validate(),
             Target::SPath(s) => s.validate(),
             Target::Charuco(c) => c.validate(),
+            Target::AprilGrid(g) => g.validate(),
         }
     }
 
@@ -124,24 +128,26 @@ impl Target {
             Target::DotGrid(g) => g.dot_centres_m(),
             Target::SPath(s) => s.path.points_m.clone(),
             Target::Charuco(c) => c.board.chessboard_corners_m(),
+            Target::AprilGrid(g) => g.grid.corners_by_id_m(),
         }
     }
 
     /// The kind of feature the target labels.
     pub fn feature_kind(&self) -> FeatureKind {
         match self {
-            Target::Chessboard(_) | Target::Charuco(_) => FeatureKind::Corner,
+            Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => FeatureKind::Corner,
             _ => FeatureKind::Dot,
         }
     }
 
-    /// Short name used in scene files ("chessboard", "dot-grid", "s-path", "charuco").
+    /// Short name used in scene files ("chessboard", "dot-grid", "s-path", "charuco", "aprilgrid").
     pub fn kind_name(&self) -> &'static str {
         match self {
             Target::Chessboard(_) => "chessboard",
             Target::DotGrid(_) => "dot-grid",
             Target::SPath(_) => "s-path",
             Target::Charuco(_) => "charuco",
+            Target::AprilGrid(_) => "aprilgrid",
         }
     }
 
@@ -157,6 +163,7 @@ impl Target {
             Target::DotGrid(g) => g.background,
             Target::SPath(s) => s.background,
             Target::Charuco(c) => c.look.background,
+            Target::AprilGrid(g) => g.look.background,
         }
     }
 
@@ -167,6 +174,36 @@ impl Target {
             Target::DotGrid(g) => Some(g.intensity_at(x, y)),
             Target::SPath(_) => None,
             Target::Charuco(c) => Some(c.intensity_at(x, y)),
+            Target::AprilGrid(g) => Some(g.intensity_at(x, y)),
+        }
+    }
+
+    /// The rotation that turns the target's frame so that its printed side faces a camera
+    /// looking along its +z (the identity for targets whose z points into the board; a half turn
+    /// about x for the AprilGrid, whose z points out of the page, as Kalibr's): a pose sampler
+    /// that aims +z away from the camera composes it on the right.
+    pub fn front_from_target(&self) -> nalgebra::UnitQuaternion<f64> {
+        match self {
+            Target::AprilGrid(_) => nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::x_axis(), std::f64::consts::PI),
+            _ => nalgebra::UnitQuaternion::identity(),
+        }
+    }
+
+    /// A coded board's cell lattice (ChArUco, AprilGrid): every edge of the board lies on it.
+    pub fn lattice(&self) -> Option<CellLattice> {
+        match self {
+            Target::Charuco(c) => Some(c.lattice()),
+            Target::AprilGrid(g) => Some(g.lattice()),
+            _ => None,
+        }
+    }
+
+    /// A coded board's look and extent `[x0, y0, x1, y1]` (border excluded), metres.
+    pub fn coded_look(&self) -> Option<(BoardLook, [f64; 4])> {
+        match self {
+            Target::Charuco(c) => Some((c.look, c.extent_m())),
+            Target::AprilGrid(g) => Some((g.look, g.grid.extent_m())),
+            _ => None,
         }
     }
 }

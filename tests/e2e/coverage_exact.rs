@@ -152,7 +152,7 @@ fn classify(scene: &Scene, x: f64, y: f64) -> Path {
                 Path::Flat
             }
         }
-        Target::SPath(_) | Target::Charuco(_) => Path::Flat,
+        Target::SPath(_) | Target::Charuco(_) | Target::AprilGrid(_) => Path::Flat,
     }
 }
 

@@ -41,17 +41,19 @@ fn random_image(rng: &mut ChaCha8Rng, k: usize) -> ImageF32 {
 #[test]
 fn ten_thousand_random_images_do_not_panic() {
     let mut rng = ChaCha8Rng::seed_from_u64(2026);
-    let targets = [TargetSpec::Chessboard { cols: 9, rows: 6 }, TargetSpec::DotGrid { n: 3 }, TargetSpec::SPath { points: 101 }];
+    let charuco = "charuco:11x8:DICT_4X4_50:0.75".parse::<TargetSpec>().unwrap();
+    let targets = [TargetSpec::Chessboard { cols: 9, rows: 6 }, TargetSpec::DotGrid { n: 3 }, TargetSpec::SPath { points: 101 }, charuco];
     let mut found = 0;
     for k in 0..10_000 {
         let img = random_image(&mut rng, k);
-        let t = &targets[k % 3];
+        let t = &targets[k % targets.len()];
         match detect(&img, t) {
             Ok(d) => found += usize::from(d.found),
             Err(e) => panic!("image {k}: bad input reported for a valid buffer: {e}"),
         }
     }
-    // A 9x6 board, a 3x3 grid or a 101-dot S cannot appear in these images.
+    // A 9x6 board, a 3x3 grid, a 101-dot S or two neighbouring markers of the ChArUco board
+    // (DICT_4X4_50, the smallest codes) cannot appear in these images.
     assert_eq!(found, 0);
     // A buffer that does not match its size is an error, not a panic.
     let bad = ImageF32 { width: 10, height: 10, data: vec![0.0; 7] };

@@ -9,8 +9,9 @@
 
 use nalgebra::{Matrix3, Point2};
 
+use super::decode::square_to_quad;
+
 use super::MarkerDetection;
-use crate::math::homography::homography;
 use crate::target::Charuco;
 
 /// Largest prediction error of a neighbour's corner, as a fraction of the marker's side.
@@ -25,8 +26,10 @@ pub(super) fn filter(markers: Vec<MarkerDetection>, board: &Charuco) -> Vec<Mark
     let fits: Vec<Option<Matrix3<f64>>> = markers
         .iter()
         .map(|m| {
-            let e = entry(m)?;
-            homography(&e.corners_m.map(|c| Point2::new(c.x, c.y)), &m.corners_px)
+            // board -> unit square (the marker's square, corner 0 at its top-left) -> image
+            let (c0, side) = (entry(m)?.corners_m[0], board.marker_m);
+            let to_unit = Matrix3::new(1.0 / side, 0.0, -c0.x / side, 0.0, 1.0 / side, -c0.y / side, 0.0, 0.0, 1.0);
+            Some(square_to_quad(&m.corners_px)? * to_unit)
         })
         .collect();
     let keep: Vec<bool> = (0..markers.len())

@@ -13,11 +13,13 @@
 //! marker) / 2` on the board) is the locally uniform area the fit window must stay in: with `A`
 //! the inverse of the Jacobian scaled by the margin, the largest axis-aligned image square in it
 //! has half-size `h_max = min_rows 1 / (|a_r0| + |a_r1|)`; the window half-size is
-//! `floor(h_max - 1.5)` (room for the rounded window centre and the pixel footprint), at most
-//! `max_half_window`, and a corner where that is below 2 is dropped. A refined corner is dropped
+//! `floor(h_max - 1)` (room for the rounded window centre and the pixel footprint), at least 2
+//! and at most `max_half_window`; a corner with `h_max` below 2.5 pixels (where even the
+//! smallest window would reach well into the marker borders) is dropped. A refined corner is dropped
 //! when the fit fails (window leaving the image, divergence), moves more than
-//! `max_corner_shift_rate * h_max` from the prediction, has the wrong amplitude sign or too little
-//! contrast, or edge directions more than 15 degrees off the prediction.
+//! `max_corner_shift_rate * h_max` or `max_corner_shift_px` from the prediction, has the wrong
+//! amplitude sign, too little contrast or an RMS residual above `max_fit_residual_rate` of the
+//! amplitude (clutter in the window), or edge directions more than 15 degrees off the prediction.
 //!
 //! Reference: OpenCV `modules/objdetect/src/aruco/charuco_detector.cpp`
 //! (`interpolateCornersCharucoLocalHom`, `_selectAndRefineChessboardCorners`).
@@ -31,6 +33,9 @@ use crate::detect::{refine_saddle, ImageF32, SaddleFitParams};
 use crate::math::homography::homography;
 use crate::target::Charuco;
 
+/// Smallest image size of the white margin around a corner (`h_max`, see the module docs) for
+/// a fit, pixels.
+const MIN_MARGIN_PX: f64 = 2.5;
 /// Largest sine of the angle between a fitted edge and its predicted direction.
 const MAX_EDGE_SINE: f64 = 0.26;
 
@@ -124,15 +129,14 @@ fn corner(img: &ImageF32, layout: &Layout, markers: &[MarkerDetection], (i, j): 
     let margin = 0.5 * (board.square_m - board.marker_m);
     let a = (jac * margin).try_inverse()?;
     let h_max = (0..2).map(|r| 1.0 / (a[(r, 0)].abs() + a[(r, 1)].abs())).fold(f64::INFINITY, f64::min);
-    let hw = (h_max - 1.5).floor().min(params.max_half_window as f64);
-    if !(hw >= 2.0) {
+    if !(h_max >= MIN_MARGIN_PX) {
         return None;
     }
-    let hw = hw as usize;
+    let hw = ((h_max - 1.0).floor() as usize).clamp(2, params.max_half_window);
     let fp = SaddleFitParams {
         half_window: hw,
         fast_half_window: params.refine.fast_half_window.min(hw),
-        max_shift_px: params.max_corner_shift_rate * h_max,
+        max_shift_px: (params.max_corner_shift_rate * h_max).min(params.max_corner_shift_px),
         ..params.refine
     };
     let (dx, dy) = (jac.column(0).into_owned(), jac.column(1).into_owned());
@@ -143,7 +147,8 @@ fn corner(img: &ImageF32, layout: &Layout, markers: &[MarkerDetection], (i, j): 
     let side_of = |t: f64| Vector2::new(-t.sin(), t.cos()).dot(&towards_bottom_left).signum();
     let sign_ok = (fit.amplitude * side_of(fit.angles[0]) * side_of(fit.angles[1]) > 0.0) == light;
     let edge_ok = |t: f64, d: &Vector2<f64>| Vector2::new(t.cos(), t.sin()).perp(&d.normalize()).abs() <= MAX_EDGE_SINE;
-    let ok = sign_ok && 2.0 * fit.amplitude.abs() >= params.min_contrast && edge_ok(fit.angles[0], &dx) && edge_ok(fit.angles[1], &dy);
+    let fit_ok = 2.0 * fit.amplitude.abs() >= params.min_contrast && fit.rms_residual <= params.max_fit_residual_rate * fit.amplitude.abs();
+    let ok = sign_ok && fit_ok && edge_ok(fit.angles[0], &dx) && edge_ok(fit.angles[1], &dy);
     ok.then_some(fit.point)
 }
 

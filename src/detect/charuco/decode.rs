@@ -1,5 +1,5 @@
 //! Marker decoding: the perspective map of the unit square onto the refined quad samples the
-//! `(n + 2) x (n + 2)` cells (the mean of 3 x 3 bilinear samples in the inner half of each), Otsu's
+//! `(n + 2) x (n + 2)` cells (the mean of 2 x 2 bilinear samples in the inner part of each), Otsu's
 //! threshold splits the cell means, the border cells must read black (up to a share), and the
 //! `n x n` bits are matched against the board's codes in the four rotations by Hamming distance
 //! within the dictionary's (scaled) correction capacity. The rotation fixes which corner is the
@@ -16,11 +16,10 @@ use super::quads::{shoelace, Quad};
 use super::{CharucoParams, MarkerDetection};
 use crate::detect::xcorner::bilinear;
 use crate::detect::ImageF32;
-use crate::math::homography::homography;
 use crate::target::Charuco;
 
 /// Positions of the samples inside a cell, as fractions of the cell.
-const SAMPLES: [f64; 3] = [0.3, 0.5, 0.7];
+const SAMPLES: [f64; 2] = [0.35, 0.65];
 
 /// The board's codes, packed: bit `y n + x` is cell `(x, y)` of the code, set for white.
 pub(super) struct BoardCodes {
@@ -68,14 +67,29 @@ pub(super) fn marker(img: &ImageF32, q: &Quad, board: &Charuco, codes: &BoardCod
     if !(shoelace(&r) > 0.0) {
         return None;
     }
-    let unit = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.0), Point2::new(1.0, 1.0), Point2::new(0.0, 1.0)];
-    let h = homography(&unit, &r)?;
+    let h = square_to_quad(&r)?;
     let means = cell_means(img, &h, cells)?;
     let white = classify(&means, cells, params)?;
     let (hamming, id, rot) = identify(&white, codes)?;
     let corners_px = [r[rot], r[(rot + 1) % 4], r[(rot + 2) % 4], r[(rot + 3) % 4]];
     let perimeter = (0..4).map(|i| (r[(i + 1) % 4] - r[i]).norm()).sum();
     Some(Decoded { marker: MarkerDetection { id, corners_px }, hamming, perimeter })
+}
+
+/// The homography of the unit square (corners (0, 0), (1, 0), (1, 1), (0, 1)) onto `q`, in
+/// closed form (P. Heckbert, "Fundamentals of texture mapping and image warping", 1989, sec.
+/// 2.2.3): the exact four-point case of [`crate::math::homography::homography`], without its SVD.
+pub(super) fn square_to_quad(q: &Quad) -> Option<Matrix3<f64>> {
+    let [p0, p1, p2, p3] = *q;
+    let s = p0.coords - p1.coords + p2.coords - p3.coords;
+    let (d1, d2) = (p1 - p2, p3 - p2);
+    let den = d1.perp(&d2);
+    if !(den.abs() > 1e-12) {
+        return None;
+    }
+    let (g, h) = (s.perp(&d2) / den, d1.perp(&s) / den);
+    let m = Matrix3::new(p1.x - p0.x + g * p1.x, p3.x - p0.x + h * p3.x, p0.x, p1.y - p0.y + g * p1.y, p3.y - p0.y + h * p3.y, p0.y, g, h, 1.0);
+    m.iter().all(|v| v.is_finite()).then_some(m)
 }
 
 /// Mean grey of each cell, row-major; `None` when a sample leaves the image or is not finite.
@@ -121,7 +135,7 @@ fn classify(means: &[f64; 81], cells: usize, params: &CharucoParams) -> Option<[
     for (w, v) in white.iter_mut().zip(&means[..m]) {
         *w = *v > t;
     }
-    let border = |i: usize| i % cells == 0 || i / cells == 0 || i % cells == cells - 1 || i / cells == cells - 1;
+    let border = |i: usize| i.is_multiple_of(cells) || i / cells == 0 || i % cells == cells - 1 || i / cells == cells - 1;
     let errors = (0..m).filter(|&i| border(i) && white[i]).count();
     (errors as f64 <= params.max_border_error_rate * (4 * (cells - 1)) as f64).then_some(white)
 }
@@ -171,4 +185,41 @@ pub(super) fn best_per_id(mut found: Vec<Decoded>) -> Vec<MarkerDetection> {
     found.sort_by(|a, b| a.marker.id.cmp(&b.marker.id).then(a.hamming.cmp(&b.hamming)).then(b.perimeter.total_cmp(&a.perimeter)));
     found.dedup_by_key(|d| d.marker.id);
     found.into_iter().map(|d| d.marker).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::homography::homography;
+
+    #[test]
+    fn closed_form_square_to_quad_matches_the_dlt() {
+        let unit = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.0), Point2::new(1.0, 1.0), Point2::new(0.0, 1.0)];
+        for q in [
+            [Point2::new(10.0, 20.0), Point2::new(50.0, 22.0), Point2::new(47.0, 70.0), Point2::new(12.0, 60.0)],
+            [Point2::new(0.0, 0.0), Point2::new(2.0, 0.0), Point2::new(2.0, 2.0), Point2::new(0.0, 2.0)],
+        ] {
+            let (a, b) = (square_to_quad(&q).unwrap(), homography(&unit, &q).unwrap());
+            assert!((a - b).norm() < 1e-9 * b.norm(), "{a} vs {b}");
+        }
+        let flat = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.0), Point2::new(2.0, 0.0), Point2::new(3.0, 0.0)];
+        assert!(square_to_quad(&flat).is_none());
+    }
+
+    #[test]
+    fn rotations_read_the_code_from_each_corner() {
+        // a 4x4 code whose cells are all distinct under rotation: bit k set for k in {0, 1, 5}
+        let cells = 6;
+        let mut white = [false; 81];
+        for (x, y) in [(0, 0), (1, 0), (1, 1)] {
+            white[(y + 1) * cells + x + 1] = true;
+        }
+        assert_eq!(read_bits(&white, cells, 0), 0b10_0011);
+        // rotation 1 reads from quad corner 1 (the grid's top-right) with x down the right edge
+        // and y towards corner 0: frame bit (x, y) is grid bit (3 - y, x), so grid bits (0, 0),
+        // (1, 0), (1, 1) are frame bits (0, 3), (0, 2), (1, 2): 12, 8, 9
+        assert_eq!(read_bits(&white, cells, 1), 0b1_0011_0000_0000);
+        // rotation 2: frame bit (x, y) is grid bit (3 - x, 3 - y): bits 15, 14, 10
+        assert_eq!(read_bits(&white, cells, 2), 0b1100_0100_0000_0000);
+    }
 }

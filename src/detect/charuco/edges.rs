@@ -14,7 +14,9 @@ use crate::detect::xcorner::bilinear;
 use crate::detect::ImageF32;
 
 /// Profile sample spacing of the two passes, pixels.
-const STEPS: [f64; 2] = [0.5, 0.25];
+const STEPS: [f64; 2] = [1.0, 0.5];
+/// Most profiles per side in the two passes.
+const PROFILES: [usize; 2] = [6, 10];
 /// Largest reach of the second pass's profiles to either side of the first pass's line, pixels.
 const SECOND_REACH_PX: f64 = 2.5;
 /// Crossings farther than this from their side's line are dropped before the refit, pixels.
@@ -40,7 +42,7 @@ pub(super) fn refine(img: &ImageF32, q: &Quad, cells: usize, margin_rate: f64, m
         let outside = (0.8 * side * margin_rate).clamp(1.0, cap);
         let mut lines = [Line { p: Point2::origin(), d: Vector2::zeros() }; 4];
         for (i, l) in lines.iter_mut().enumerate() {
-            *l = side_line(img, cur[i], cur[(i + 1) % 4], (inside, outside, step), min_contrast)?;
+            *l = side_line(img, cur[i], cur[(i + 1) % 4], (inside, outside, step), (PROFILES[pass], min_contrast))?;
         }
         let next: Vec<Point2<f64>> = (0..4).filter_map(|i| intersect(&lines[(i + 3) % 4], &lines[i])).collect();
         let next: Quad = next.try_into().ok()?;
@@ -54,14 +56,14 @@ pub(super) fn refine(img: &ImageF32, q: &Quad, cells: usize, margin_rate: f64, m
 }
 
 /// The fitted line of side `a -> b` (interior on its left in the positive orientation).
-fn side_line(img: &ImageF32, a: Point2<f64>, b: Point2<f64>, reach: (f64, f64, f64), min_contrast: f64) -> Option<Line> {
+fn side_line(img: &ImageF32, a: Point2<f64>, b: Point2<f64>, reach: (f64, f64, f64), (profiles, min_contrast): (usize, f64)) -> Option<Line> {
     let len = (b - a).norm();
     if !(len > 2.0) {
         return None;
     }
     let d = (b - a) / len;
     let out = Vector2::new(d.y, -d.x);
-    let n = ((len / 4.0) as usize).clamp(5, 12);
+    let n = ((len / 4.0) as usize).clamp(5, profiles.max(5));
     let mut profile = Vec::new();
     let pts: Vec<Point2<f64>> = (0..n)
         .filter_map(|k| {

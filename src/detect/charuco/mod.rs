@@ -20,8 +20,8 @@
 //!    with at least one detected marker in an adjacent square is predicted by the homography
 //!    fitted to that marker's corners and those of the nearest other detected marker(s) (the two
 //!    adjacent markers when both are found, else the adjacent one and the nearest marker within
-//!    two squares), and refined with [`refine_saddle`] in a window that stays inside the white
-//!    margin around the corner.
+//!    two squares), and refined with [`refine_saddle`](super::refine_saddle) in a window that
+//!    stays inside the white margin around the corner.
 //!
 //! References: S. Garrido-Jurado, R. Munoz-Salinas, F. J. Madrid-Cuevas, M. J. Marin-Jimenez,
 //! "Automatic generation and detection of highly reliable fiducial markers under occlusion",
@@ -34,7 +34,9 @@
 use std::borrow::Cow;
 
 use nalgebra::Point2;
+use rayon::prelude::*;
 
+use super::par::worth_parallel;
 use super::{DetectError, ImageF32, SaddleFitParams};
 use crate::target::Charuco;
 
@@ -46,6 +48,9 @@ mod edges;
 mod quads;
 mod threshold;
 
+/// Candidates are decoded in parallel (rayon) when there are at least this many.
+const PARALLEL_MIN_QUADS: usize = 8;
+
 /// Parameters of [`find_charuco`]. Grey-level thresholds are on the 0-255 scale of 8-bit images.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CharucoParams {
@@ -56,7 +61,9 @@ pub struct CharucoParams {
     /// `adaptiveThreshConstant`).
     pub threshold_offset: f32,
     /// Images with at least this many pixels are searched for candidates at half resolution
-    /// (markers then need sides of about `4 (n + 2)` pixels); `usize::MAX` never downsamples.
+    /// (decoding and all fits stay at full resolution); markers then need sides of about 16
+    /// full-resolution pixels (5x5 dictionary, 1280 x 1024: all 44 found at 20 px, 43 at 16 px,
+    /// 25 at 14 px). `usize::MAX` never downsamples.
     pub downsample_min_pixels: usize,
     /// Smallest marker perimeter, full-resolution pixels.
     pub min_marker_perimeter_px: f64,
@@ -77,6 +84,11 @@ pub struct CharucoParams {
     /// A refined corner may move at most this fraction of the margin's image size from its
     /// local-homography prediction.
     pub max_corner_shift_rate: f64,
+    /// ... and at most this many pixels.
+    pub max_corner_shift_px: f64,
+    /// Largest RMS residual of the saddle fit as a fraction of its amplitude (half the contrast);
+    /// exact renders give up to about 0.2 at small windows, clutter in the window more.
+    pub max_fit_residual_rate: f64,
     /// Largest RMS residual of a local homography, as a fraction of the marker side in pixels.
     pub max_homography_rms_rate: f64,
     /// Base parameters of the saddle fit (`half_window` and `max_shift_px` are set per corner).
@@ -99,6 +111,8 @@ impl Default for CharucoParams {
             error_correction_rate: 0.6,
             max_half_window: 6,
             max_corner_shift_rate: 0.5,
+            max_corner_shift_px: 1.0,
+            max_fit_residual_rate: 0.3,
             max_homography_rms_rate: 0.02,
             refine: SaddleFitParams::default(),
             parallel_min_corners: 16,
@@ -129,6 +143,10 @@ impl CharucoParams {
         }
         if !(self.min_contrast >= 0.0 && self.min_contrast.is_finite()) {
             return bad("min_contrast must be finite and non-negative");
+        }
+        let finite_non_negative = |v: f64| v >= 0.0 && v.is_finite();
+        if !(finite_non_negative(self.max_corner_shift_px) && finite_non_negative(self.max_fit_residual_rate)) {
+            return bad("max_corner_shift_px and max_fit_residual_rate must be finite and non-negative");
         }
         if self.max_half_window < 2 || self.max_half_window > 50 {
             return bad("max_half_window must be in 2..=50");
@@ -180,7 +198,9 @@ pub fn find_charuco(img: &ImageF32, board: &Charuco, params: &CharucoParams) -> 
     let (search, scale) = search_image(img, params);
     let quads = quads::candidates(&search, scale, params);
     let codes = decode::BoardCodes::new(board, params);
-    let found: Vec<decode::Decoded> = quads.iter().filter_map(|q| decode::marker(img, q, board, &codes, params)).collect();
+    let decode = |q: &quads::Quad| decode::marker(img, q, board, &codes, params);
+    let found: Vec<decode::Decoded> =
+        if worth_parallel(quads.len(), PARALLEL_MIN_QUADS) { quads.par_iter().filter_map(decode).collect() } else { quads.iter().filter_map(decode).collect() };
     let markers = consistency::filter(decode::best_per_id(found), board);
     let (ids, corners_px) = corners::interpolate(img, board, &markers, params);
     Ok(CharucoDetection { markers, ids, corners_px })

@@ -10,10 +10,12 @@
 //! (`_findMarkerContours`).
 
 use nalgebra::{Point2, Vector2};
+use rayon::prelude::*;
 
 use super::components::{components, Blob};
 use super::threshold::{dark_runs, Integral, Run};
 use super::CharucoParams;
+use crate::detect::par::{worth_parallel, PARALLEL_MIN_PIXELS};
 use crate::detect::ImageF32;
 
 /// A quadrilateral, corners in image order with a positive shoelace sum (clockwise on screen).
@@ -39,16 +41,26 @@ pub(super) fn candidates(img: &ImageF32, scale: f64, params: &CharucoParams) -> 
         let bbox_perimeter = 2.0 * f64::from(b.x1 - b.x0 + b.y1 - b.y0);
         b.x0 > 0 && b.y0 > 0 && b.x1 < w && b.y1 < h && bbox_perimeter >= min_perimeter && bbox_perimeter <= 1.5 * max_perimeter
     };
-    let mut runs = Vec::new();
-    let mut out: Vec<Quad> = Vec::new();
-    for &win in params.threshold_windows_px.iter().filter(|w| **w > 0) {
+    let per_window = |win: &usize| -> Vec<Quad> {
+        let mut runs = Vec::new();
         dark_runs(img, &integral, win / 2, params.threshold_offset, &mut runs);
-        for comp in components(&runs, keep) {
-            let Some(q) = fit_quad(&comp, params.polygon_accuracy_rate, (min_perimeter, max_perimeter)) else { continue };
-            let q = q.map(|p| Point2::new(scale * p.x + 0.5 * (scale - 1.0), scale * p.y + 0.5 * (scale - 1.0)));
-            if !out.iter().any(|o| same_quad(o, &q)) {
-                out.push(q);
-            }
+        let to_full = |p: Point2<f64>| Point2::new(scale * p.x + 0.5 * (scale - 1.0), scale * p.y + 0.5 * (scale - 1.0));
+        components(&runs, keep)
+            .iter()
+            .filter_map(|c| fit_quad(c, params.polygon_accuracy_rate, (min_perimeter, max_perimeter)))
+            .map(|q| q.map(to_full))
+            .collect()
+    };
+    let windows: Vec<usize> = params.threshold_windows_px.iter().copied().filter(|w| *w > 0).collect();
+    let found: Vec<Vec<Quad>> = if windows.len() > 1 && worth_parallel(img.data.len(), PARALLEL_MIN_PIXELS / 4) {
+        windows.par_iter().map(per_window).collect()
+    } else {
+        windows.iter().map(per_window).collect()
+    };
+    let mut out: Vec<Quad> = Vec::new();
+    for q in found.into_iter().flatten() {
+        if !out.iter().any(|o| same_quad(o, &q)) {
+            out.push(q);
         }
     }
     out
@@ -117,7 +129,7 @@ fn fit_quad(runs: &[Run], accuracy_rate: f64, (min_perimeter, max_perimeter): (f
     let idx = quad_corners(&h)?;
     let q = idx.map(|i| h[i]);
     let perimeter: f64 = (0..4).map(|i| (q[(i + 1) % 4] - q[i]).norm()).sum();
-    if !(perimeter >= min_perimeter && perimeter <= max_perimeter) || !well_shaped(&q, perimeter) {
+    if !(perimeter >= min_perimeter && perimeter <= max_perimeter && well_shaped(&q, perimeter)) {
         return None;
     }
     let tol = (accuracy_rate * perimeter).max(1.0);

@@ -25,6 +25,8 @@ struct Score {
     wrong_markers: usize,
     rms: f64,
     max: f64,
+    /// RMS error of the marker corners, pixels.
+    marker_rms: f64,
 }
 
 fn score(det: &CharucoDetection, board: &Charuco, cam: &Camera) -> Score {
@@ -39,9 +41,16 @@ fn score(det: &CharucoDetection, board: &Charuco, cam: &Camera) -> Score {
             e.corners_m.iter().zip(&m.corners_px).any(|(b, p)| (cam.project(*b) - p).norm() > 1.0)
         })
         .count();
+    let marker_errs: Vec<f64> = det
+        .markers
+        .iter()
+        .filter_map(|m| m.id.checked_sub(board.first_id).and_then(|k| layout.get(k as usize)).map(|e| (e, m)))
+        .flat_map(|(e, m)| e.corners_m.iter().zip(&m.corners_px).map(|(b, p)| (cam.project(*b) - p).norm_squared()).collect::<Vec<_>>())
+        .collect();
+    let marker_rms = (marker_errs.iter().sum::<f64>() / marker_errs.len().max(1) as f64).sqrt();
     let good: Vec<f64> = errs.iter().copied().filter(|e| *e <= 0.25).collect();
     let rms = (good.iter().map(|e| e * e).sum::<f64>() / good.len().max(1) as f64).sqrt();
-    Score { found: det.ids.len(), wrong: errs.len() - good.len(), wrong_markers, rms, max: good.iter().fold(0.0, |a, b| a.max(*b)) }
+    Score { found: det.ids.len(), wrong: errs.len() - good.len(), wrong_markers, rms, max: good.iter().fold(0.0, |a, b| a.max(*b)), marker_rms }
 }
 
 fn assert_sorted(det: &CharucoDetection) {
@@ -66,11 +75,12 @@ fn full_board_all_ids_and_accurate_corners() {
     let ms = t0.elapsed().as_secs_f64() * 1e3 / runs as f64;
     let s = score(&det, &b, &cam);
     eprintln!(
-        "full board 1280x1024: {} / 70 corners, {} / 44 markers, rms {:.4} px, max {:.4} px, {ms:.2} ms per image ({} rayon threads)",
+        "full board 1280x1024: {} / 70 corners, {} / 44 markers, rms {:.4} px, max {:.4} px (marker corners rms {:.3} px), {ms:.2} ms per image ({} rayon threads)",
         s.found,
         det.markers.len(),
         s.rms,
         s.max,
+        s.marker_rms,
         rayon::current_num_threads()
     );
     assert_sorted(&det);
@@ -93,7 +103,7 @@ fn rotated_boards_keep_their_ids() {
         assert_sorted(&det);
         assert_eq!((s.wrong, s.wrong_markers), (0, 0), "roll {roll_deg}");
         assert_eq!((s.found, det.markers.len()), (70, 44), "roll {roll_deg}");
-        assert!(s.rms < 0.02 && s.max < 0.06, "roll {roll_deg}: rms {} max {}", s.rms, s.max);
+        assert!(s.rms < 0.01 && s.max < 0.04, "roll {roll_deg}: rms {} max {}", s.rms, s.max);
     }
 }
 
@@ -135,13 +145,13 @@ fn barrel_distortion_k1() {
     let size = (1024, 768);
     let mut cam = Camera::looking_at(&b, size, 800.0, (0.0, 0.0, 0.3), (0.1, 0.2, -0.15));
     cam.k1 = -0.2;
-    let img = render(&b, &cam, size, 8);
+    let img = render(&b, &cam, size, 16);
     let det = find_charuco(&img, &b, &CharucoParams::default()).unwrap();
     let s = score(&det, &b, &cam);
     eprintln!("k1 = -0.2: {} corners, {} markers, rms {:.4} px, max {:.4} px", s.found, det.markers.len(), s.rms, s.max);
     assert_eq!((s.wrong, s.wrong_markers), (0, 0));
     assert_eq!((s.found, det.markers.len()), (70, 44));
-    assert!(s.rms < 0.02 && s.max < 0.06, "rms {} max {}", s.rms, s.max);
+    assert!(s.rms < 0.01 && s.max < 0.04, "rms {} max {}", s.rms, s.max);
 }
 
 #[test]
@@ -244,51 +254,102 @@ fn bad_parameters_and_boards_are_typed_errors() {
     assert!(matches!(find_charuco(&img, &bad_board, &d), Err(DetectError::BadParams { .. })));
 }
 
+/// Seeded standard normal samples (LCG + Box-Muller).
+fn normal_noise(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    let mut uniform = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    move || (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos()
+}
+
 #[test]
-fn debug_stages() {
+fn blurred_noisy_unevenly_lit_board() {
     let b = board();
     let size = (1280, 1024);
-    let cam = Camera::looking_at(&b, size, 1400.0, (0.01, -0.005, 0.45), (0.05, 0.25, -0.2));
-    let img = render(&b, &cam, size, 2);
-    let params = CharucoParams::default();
-    let t = Instant::now();
-    for _ in 0..300 {
-        std::hint::black_box(find_charuco(&img, &b, &params).unwrap());
+    let cam = Camera::looking_at(&b, size, 1400.0, (0.0, 0.01, 0.5), (-0.4, 0.3, 0.25));
+    let sharp = render(&b, &cam, size, 4);
+    let mut img = crate::detect::response::gaussian_blur(&sharp, 0.8);
+    let mut noise = normal_noise(7);
+    for (k, v) in img.data.iter_mut().enumerate() {
+        let x = (k % size.0) as f64 / size.0 as f64;
+        *v = (f64::from(*v) * (0.55 + 0.45 * x) + 3.0 * noise()) as f32;
     }
-    eprintln!("find_charuco {:.2} ms", t.elapsed().as_secs_f64() * 1e3 / 300.0);
-    for _ in 0..3 {
-        let t = Instant::now();
-        let (search, scale) = search_image(&img, &params);
-        let t1 = t.elapsed().as_secs_f64() * 1e3;
-        let integral = threshold::Integral::new(&search);
-        let t2 = t.elapsed().as_secs_f64() * 1e3;
-        let mut runs = Vec::new();
-        threshold::dark_runs(&search, &integral, 4, 7.0, &mut runs);
-        let t3 = t.elapsed().as_secs_f64() * 1e3;
-        let comps = components::components(&runs, |_| true);
-        let t4 = t.elapsed().as_secs_f64() * 1e3;
-        let quads = quads::candidates(&search, scale, &params);
-        let t5 = t.elapsed().as_secs_f64() * 1e3;
-        let codes = decode::BoardCodes::new(&b, &params);
-        let found: Vec<decode::Decoded> = quads.iter().filter_map(|q| decode::marker(&img, q, &b, &codes, &params)).collect();
-        let t6 = t.elapsed().as_secs_f64() * 1e3;
-        let markers = consistency::filter(decode::best_per_id(found), &b);
-        let t7 = t.elapsed().as_secs_f64() * 1e3;
-        let (ids, _) = corners::interpolate(&img, &b, &markers, &params);
-        let t8 = t.elapsed().as_secs_f64() * 1e3;
-        eprintln!(
-            "half {t1:.2} integral {:.2} runs {:.2} ({}) comps {:.2} ({}) candidates {:.2} ({} quads) decode {:.2} consistency {:.2} corners {:.2} ({})",
-            t2 - t1,
-            t3 - t2,
-            runs.len(),
-            t4 - t3,
-            comps.len(),
-            t5 - t4,
-            quads.len(),
-            t6 - t5,
-            t7 - t6,
-            t8 - t7,
-            ids.len()
-        );
+    let det = find_charuco(&img, &b, &CharucoParams::default()).unwrap();
+    let s = score(&det, &b, &cam);
+    eprintln!("blur 0.8 px, noise 3 grey levels, light 55-100 %: {} corners, {} markers, rms {:.4} px, max {:.4} px", s.found, det.markers.len(), s.rms, s.max);
+    assert_eq!((s.wrong, s.wrong_markers), (0, 0));
+    assert!(s.found >= 66 && det.markers.len() >= 42, "{} corners, {} markers", s.found, det.markers.len());
+    assert!(s.rms < 0.05, "rms {}", s.rms);
+}
+
+#[test]
+fn small_and_large_markers() {
+    // 11 x 8 board with markers 20 px wide, 5 x 4 board with markers 120 px wide, 1280 x 1024
+    // (searched at half resolution)
+    let size = (1280, 1024);
+    let small = board();
+    let large = Charuco { squares: [5, 4], square_m: 0.04, marker_m: 0.03, dictionary: Dictionary::Dict4x4_50, legacy: false, first_id: 0 };
+    for (b, side_px, expect) in [(small, 20.0, (70, 44)), (large, 120.0, (12, 10))] {
+        let cam = Camera::looking_at(&b, size, 1400.0, (0.0, 0.0, 1400.0 * b.marker_m / side_px), (0.3, 0.2, -0.2));
+        let img = render(&b, &cam, size, 8);
+        let p = CharucoParams { min_marker_perimeter_px: 20.0, ..CharucoParams::default() };
+        let det = find_charuco(&img, &b, &p).unwrap();
+        let s = score(&det, &b, &cam);
+        eprintln!("{side_px} px markers: {} corners, {} markers, rms {:.4} px, max {:.4} px", s.found, det.markers.len(), s.rms, s.max);
+        assert_eq!((s.wrong, s.wrong_markers), (0, 0));
+        assert_eq!((s.found, det.markers.len()), expect);
+        assert!(s.rms < 0.03, "rms {}", s.rms);
     }
+}
+
+/// Corrupted renders (noise blocks, constant blocks, inverted patches, contrast changes):
+/// whatever is detected carries the right id (within 2 px of its truth, as the acceptance counts
+/// wrong ids); a clutter block that covers part of a fit window may bias a corner, rarely.
+#[test]
+fn corrupted_boards_give_no_wrong_ids() {
+    let b = board();
+    let size = (1280, 1024);
+    let mut cam = Camera::looking_at(&b, size, 1500.0, (0.0, 0.0, 0.6), (0.5, 0.2, 0.4));
+    cam.k1 = -0.2;
+    let base = render(&b, &cam, size, 4);
+    let truth: Vec<Point2<f64>> = b.chessboard_corners_m().iter().map(|p| cam.project(*p)).collect();
+    let (w, h) = size;
+    let mut seed = 1717u64;
+    let mut rnd = move |n: usize| {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((seed >> 33) as usize) % n.max(1)
+    };
+    let (mut corners, mut wrong, mut biased, mut markers, mut wrong_markers) = (0, 0, 0, 0, 0);
+    for _ in 0..150 {
+        let mut img = base.clone();
+        for _ in 0..1 + rnd(11) {
+            let (bw, bh) = (4 + rnd(156), 4 + rnd(156));
+            let (x0, y0) = (rnd(w - bw), rnd(h - bh));
+            let (style, level) = (rnd(4), rnd(256) as f32);
+            for y in y0..y0 + bh {
+                for x in x0..x0 + bw {
+                    let v = &mut img.data[y * w + x];
+                    *v = match style {
+                        0 => rnd(256) as f32,
+                        1 => level,
+                        2 => 255.0 - *v,
+                        _ => *v * 0.3 + level * 0.7,
+                    };
+                }
+            }
+        }
+        let det = find_charuco(&img, &b, &CharucoParams::default()).unwrap();
+        let errors: Vec<f64> = det.ids.iter().zip(&det.corners_px).map(|(id, p)| (p - truth[*id as usize]).norm()).collect();
+        corners += errors.len();
+        wrong += errors.iter().filter(|e| **e > 2.0).count();
+        biased += errors.iter().filter(|e| **e > 0.25).count();
+        markers += det.markers.len();
+        wrong_markers += score(&det, &b, &cam).wrong_markers;
+    }
+    eprintln!("150 corrupted boards: {corners} corners ({wrong} wrong ids, {biased} off by > 0.25 px), {markers} markers ({wrong_markers} off by > 1 px)");
+    assert_eq!((wrong, wrong_markers), (0, 0));
+    assert!(biased * 1000 <= corners, "{biased} of {corners} corners biased");
+    assert!(corners > 150 * 55, "{corners}");
 }

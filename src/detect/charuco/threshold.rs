@@ -53,14 +53,25 @@ pub(super) fn dark_runs(img: &ImageF32, integral: &Integral, r: usize, offset: f
     let lo: Vec<usize> = (0..w).map(|x| x.saturating_sub(r)).collect();
     let hi: Vec<usize> = (0..w).map(|x| (x + r + 1).min(w)).collect();
     let inv_cols: Vec<f64> = lo.iter().zip(&hi).map(|(a, b)| 1.0 / (b - a) as f64).collect();
+    // columns whose window is not clamped: x in r..w - r - 1
+    let inner = r..w.saturating_sub(r + 1).max(r);
     for (y, row) in img.data.chunks_exact(w.max(1)).take(h).enumerate() {
         let (y0, y1) = (y.saturating_sub(r), (y + r + 1).min(h));
         let top = &integral.sum[y0 * (w + 1)..][..=w];
         let bot = &integral.sum[y1 * (w + 1)..][..=w];
         let inv_rows = 1.0 / (y1 - y0) as f64;
-        for (((t, a), b), inv) in thr.iter_mut().zip(&lo).zip(&hi).zip(&inv_cols) {
-            let s = bot[*b] - bot[*a] - top[*b] + top[*a];
-            *t = (s * inv * inv_rows) as f32 - offset;
+        for x in (0..inner.start.min(w)).chain(inner.end..w) {
+            let (a, b) = (lo[x], hi[x]);
+            thr[x] = ((bot[b] - bot[a] - top[b] + top[a]) * inv_cols[x] * inv_rows) as f32 - offset;
+        }
+        // the unclamped columns in one vectorisable pass: window [x - r, x + r + 1)
+        let scale = inv_rows / (2 * r + 1) as f64;
+        let n = inner.len();
+        if n > 0 {
+            let (b0, b1, t0, t1) = (&bot[..n], &bot[2 * r + 1..][..n], &top[..n], &top[2 * r + 1..][..n]);
+            for ((((t, p), q), u), v) in thr[inner.clone()].iter_mut().zip(b1).zip(b0).zip(t1).zip(t0) {
+                *t = ((p - q - u + v) * scale) as f32 - offset;
+            }
         }
         push_runs(row, &thr, y as u32, runs);
     }

@@ -56,7 +56,7 @@ impl Camera {
     }
 
     /// Board point `(x, y)` seen at pixel position `(u, v)`; `None` when the ray misses the plane.
-    pub fn to_board(&self, u: f64, v: f64) -> Option<(f64, f64)> {
+    pub fn board_point_at(&self, u: f64, v: f64) -> Option<(f64, f64)> {
         let (xd, yd) = ((u - self.c[0]) / self.f, (v - self.c[1]) / self.f);
         let (mut x, mut y) = (xd, yd);
         if self.k1 != 0.0 {
@@ -146,12 +146,12 @@ impl Colouring {
 /// colour changes inside it.
 pub fn render(board: &Charuco, cam: &Camera, (w, h): (usize, usize), n: usize) -> ImageF32 {
     let col = Colouring::new(board, 0.6 * board.square_m);
-    let grey = |u: f64, v: f64| cam.to_board(u, v).map_or(BACKGROUND, |(x, y)| col.grey_at(col.cell(x, y)));
+    let grey = |u: f64, v: f64| cam.board_point_at(u, v).map_or(BACKGROUND, |(x, y)| col.grey_at(col.cell(x, y)));
     let pixel = |x: usize, y: usize| -> f32 {
         let (x, y) = (x as f64, y as f64);
         // the rectangles under the pixel's corners (and centre); one colour -> one sample
         let probe = [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)];
-        let cells: Option<Vec<(usize, usize)>> = probe.iter().map(|(dx, dy)| cam.to_board(x + dx, y + dy).map(|(bx, by)| col.cell(bx, by))).collect();
+        let cells: Option<Vec<(usize, usize)>> = probe.iter().map(|(dx, dy)| cam.board_point_at(x + dx, y + dy).map(|(bx, by)| col.cell(bx, by))).collect();
         if let Some(c) = cells {
             let (i0, i1) = (c.iter().map(|c| c.0).min().unwrap_or(0), c.iter().map(|c| c.0).max().unwrap_or(0));
             let (j0, j1) = (c.iter().map(|c| c.1).min().unwrap_or(0), c.iter().map(|c| c.1).max().unwrap_or(0));
