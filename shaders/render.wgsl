@@ -395,71 +395,6 @@ fn coded_lines(lo: f32, hi: f32, end: f32, cells: f32) -> Lines {
     return l;
 }
 
-// Coded board, coarse: flat pixels and pixels crossed by one line (closed-form coverage); the
-// rest are hard.
-fn coded_coarse(ray: Ray) -> Coarse {
-    var out: Coarse;
-    let pc = plane_point(ray_d(ray));
-    let ext = footprint_extent(board_jacobian(pc, ray));
-    let small = max(ext.x, ext.y) < 0.25 * P.lat2.z;
-    let lx = coded_lines(pc.x - ext.x, pc.x + ext.x, P.lat2.x, P.board.x);
-    let ly = coded_lines(pc.y - ext.y, pc.y + ext.y, P.lat2.y, P.board.y);
-    let hasx = lx.count == 1u;
-    let line = board_line(select(1u, 0u, hasx), select(ly.first, lx.first, hasx), pc, ray);
-    let area = halfplane_area(line.xy, line.z);
-    let e = select(ext.y, ext.x, hasx);
-    let l0 = select(ly.first, lx.first, hasx);
-    let cen = select(pc.y, pc.x, hasx);
-    let plus = 0.5 * (l0 + cen + e);
-    let minus = 0.5 * (l0 + cen - e);
-    let vp = select(coded_value(pc.x, plus), coded_value(plus, pc.y), hasx);
-    let vm = select(coded_value(pc.x, minus), coded_value(minus, pc.y), hasx);
-    let nlines = lx.count + ly.count;
-    let v = select(vp * area + vm * (1.0 - area), coded_value(pc.x, pc.y), nlines == 0u);
-    out.value = select(P.grey.w, v, pc.z > 0.0 && ray.ok);
-    out.hard = ray.ok && pc.z > 0.0 && (!small || nlines > 1u || (nlines > 0u && ray.parts > 1u));
-    return out;
-}
-
-// Coded board, fine: the exact area of the pixel square in the border's outline, on the board
-// and in every dark cell it meets (rect_area); supersampled when it meets more than MAX_CELLS
-// cells per axis.
-fn coded_fine(ray: Ray) -> f32 {
-    let pc = plane_point(ray_d(ray));
-    let ext = footprint_extent(board_jacobian(pc, ray));
-    let o = P.lat.y; let m = P.board.w;
-    let gx0 = clamp(lat_index(pc.x - ext.x), 0, i32(P.board.x) - 1);
-    let gx1 = clamp(lat_index(pc.x + ext.x), 0, i32(P.board.x) - 1);
-    let gy0 = clamp(lat_index(pc.y - ext.y), 0, i32(P.board.y) - 1);
-    let gy1 = clamp(lat_index(pc.y + ext.y), 0, i32(P.board.y) - 1);
-    let exact = f32(gx1 - gx0) < MAX_CELLS && f32(gy1 - gy0) < MAX_CELLS;
-    let ni = u32(gx1 - gx0) + 1u;
-    let cells = select(0u, ni * (u32(gy1 - gy0) + 1u), exact);
-    // Rectangle 0: the border's outline; 1: the board; 2..: the cells (dark ones only).
-    var a_margin = 0.0; var a_board = 0.0; var dark = 0.0;
-    for (var k = 0u; k < 2u + cells; k = k + 1u) {
-        let c = k - 2u;
-        let gx = gx0 + i32(c % ni);
-        let gy = gy0 + i32(c / ni);
-        let bx = lat_bounds(gx);
-        let by = lat_bounds(gy);
-        var lo = vec2<f32>(bx.x, by.x);
-        var hi = vec2<f32>(bx.y, by.y);
-        lo = select(lo, vec2<f32>(o, o), k == 1u);
-        hi = select(hi, P.lat2.xy, k == 1u);
-        lo = select(lo, vec2<f32>(o - m, o - m), k == 0u);
-        hi = select(hi, P.lat2.xy + vec2<f32>(m, m), k == 0u);
-        let is_dark = k < 2u || coded_dark(gx, gy);
-        var area = 0.0;
-        if (is_dark) { area = rect_area(lo, hi, pc, ray); }
-        a_margin = select(a_margin, area, k == 0u);
-        a_board = select(a_board, area, k == 1u);
-        dark = dark + select(0.0, area, k >= 2u);
-    }
-    let v = P.grey.w * (1.0 - a_margin) + P.grey.z * (a_margin - a_board) + P.grey.x * dark + P.grey.y * (a_board - dark);
-    let sup = plane_supersample(ray, select(P.size.w, 0u, exact));
-    return select(sup, v, exact);
-}
 
 // Target-plane point of the ray d (any length and direction: H is linear); z < 0 when the ray
 // misses (plane behind).
@@ -700,19 +635,61 @@ fn footprint_extent(a: mat2x2<f32>) -> vec2<f32> {
 
 struct Coarse { value: f32, hard: bool, };
 
-// Chessboard, coarse: flat pixels and pixels crossed by one line (exact closed-form coverage);
-// corners, several lines or a large footprint are hard.
-fn chess_coarse(ray: Ray) -> Coarse {
+// Boards of axis-aligned cells, each dark or light: the chessboard (cells: its squares; P.board
+// nx, ny, square, margin) and coded boards (cells: the lattice's; P.board cells x, y, per period,
+// margin). `coded` is a literal at each call, so each entry point compiles one kind.
+
+fn cell_value(x: f32, y: f32, coded: bool) -> f32 {
+    if (coded) { return coded_value(x, y); }
+    return chess_value(x, y);
+}
+
+// The narrowest cell, board units.
+fn min_cell(coded: bool) -> f32 { return select(P.board.z, P.lat2.z, coded); }
+
+// The board's extent (the margin lies around it).
+fn board_lo(coded: bool) -> vec2<f32> { return select(vec2<f32>(0.0, 0.0), vec2<f32>(P.lat.y, P.lat.y), coded); }
+fn board_hi(coded: bool) -> vec2<f32> { return select(vec2<f32>(P.board.x * P.board.z, P.board.y * P.board.z), P.lat2.xy, coded); }
+
+// The board's lines along `axis` in [lo, hi].
+fn board_lines(lo: f32, hi: f32, axis: u32, coded: bool) -> Lines {
+    let n = select(P.board.x, P.board.y, axis == 1u);
+    if (coded) { return coded_lines(lo, hi, select(P.lat2.x, P.lat2.y, axis == 1u), n); }
+    return chess_lines(lo, hi, n);
+}
+
+// The cell holding board coordinate v along `axis`, clamped to the board.
+fn cell_of(v: f32, axis: u32, coded: bool) -> i32 {
+    let n = select(P.board.x, P.board.y, axis == 1u);
+    if (coded) { return clamp(lat_index(v), 0, i32(n) - 1); }
+    return i32(clamp(floor(v / P.board.z), 0.0, n - 1.0));
+}
+
+// [lo, hi] of cell g along an axis.
+fn cell_bounds(g: i32, coded: bool) -> vec2<f32> {
+    if (coded) { return lat_bounds(g); }
+    let lo = f32(g) * P.board.z;
+    return vec2<f32>(lo, lo + P.board.z);
+}
+
+fn cell_dark(gx: i32, gy: i32, coded: bool) -> bool {
+    if (coded) { return coded_dark(gx, gy); }
+    return ((u32(gx) + u32(gy)) & 1u) == 0u;
+}
+
+// Coarse: flat pixels and pixels crossed by one line (exact closed-form coverage); corners,
+// several lines or a large footprint are hard.
+fn cells_coarse(ray: Ray, coded: bool) -> Coarse {
     var out: Coarse;
     let pc = plane_point(ray_d(ray));
     let a = board_jacobian(pc, ray);
     let ext = footprint_extent(a);
     let ex = ext.x;
     let ey = ext.y;
-    let s = P.board.z;
+    let s = min_cell(coded);
     let small = ex < 0.25 * s && ey < 0.25 * s;
-    let lx = chess_lines(pc.x - ex, pc.x + ex, P.board.x);
-    let ly = chess_lines(pc.y - ey, pc.y + ey, P.board.y);
+    let lx = board_lines(pc.x - ex, pc.x + ex, 0u, coded);
+    let ly = board_lines(pc.y - ey, pc.y + ey, 1u, coded);
     let hasx = lx.count == 1u;
     let line = board_line(select(1u, 0u, hasx), select(ly.first, lx.first, hasx), pc, ray);
     let area = halfplane_area(line.xy, line.z);
@@ -722,46 +699,47 @@ fn chess_coarse(ray: Ray) -> Coarse {
     let cen = select(pc.y, pc.x, hasx);
     let plus = 0.5 * (l0 + cen + e);
     let minus = 0.5 * (l0 + cen - e);
-    let vp = select(chess_value(pc.x, plus), chess_value(plus, pc.y), hasx);
-    let vm = select(chess_value(pc.x, minus), chess_value(minus, pc.y), hasx);
+    let vp = select(cell_value(pc.x, plus, coded), cell_value(plus, pc.y, coded), hasx);
+    let vm = select(cell_value(pc.x, minus, coded), cell_value(minus, pc.y, coded), hasx);
     let nlines = lx.count + ly.count;
-    let v = select(vp * area + vm * (1.0 - area), chess_value(pc.x, pc.y), nlines == 0u);
+    let v = select(vp * area + vm * (1.0 - area), cell_value(pc.x, pc.y, coded), nlines == 0u);
     out.value = select(P.grey.w, v, pc.z > 0.0 && ray.ok);
     out.hard = ray.ok && pc.z > 0.0 && (!small || nlines > 1u || (nlines > 0u && ray.parts > 1u));
     return out;
 }
 
-// Chessboard, fine: the exact area of the pixel square whose board points fall in the margin, on
-// the board and in every dark square it meets (rect_area); supersampled only when the pixel
-// meets more than MAX_CELLS squares per axis. One loop over the rectangles keeps the code small.
-fn chess_fine(ray: Ray) -> f32 {
+// Fine: the exact area of the pixel square whose board points fall in the margin, on the board
+// and in every dark cell it meets (rect_area); supersampled only when the pixel meets more than
+// MAX_CELLS cells per axis. One loop over the rectangles keeps the code small.
+fn cells_fine(ray: Ray, coded: bool) -> f32 {
     let pc = plane_point(ray_d(ray));
     let a = board_jacobian(pc, ray);
     let ext = footprint_extent(a);
-    let ex = ext.x;
-    let ey = ext.y;
-    let s = P.board.z; let m = P.board.w;
-    let w = P.board.x * s; let h = P.board.y * s;
-    let i0 = clamp(floor((pc.x - ex) / s), 0.0, P.board.x - 1.0);
-    let i1 = clamp(floor((pc.x + ex) / s), 0.0, P.board.x - 1.0);
-    let j0 = clamp(floor((pc.y - ey) / s), 0.0, P.board.y - 1.0);
-    let j1 = clamp(floor((pc.y + ey) / s), 0.0, P.board.y - 1.0);
-    let exact = i1 - i0 < MAX_CELLS && j1 - j0 < MAX_CELLS;
+    let m = P.board.w;
+    let blo = board_lo(coded);
+    let bhi = board_hi(coded);
+    let i0 = cell_of(pc.x - ext.x, 0u, coded);
+    let i1 = cell_of(pc.x + ext.x, 0u, coded);
+    let j0 = cell_of(pc.y - ext.y, 1u, coded);
+    let j1 = cell_of(pc.y + ext.y, 1u, coded);
+    let exact = f32(i1 - i0) < MAX_CELLS && f32(j1 - j0) < MAX_CELLS;
     let ni = u32(i1 - i0) + 1u;
     let cells = select(0u, ni * (u32(j1 - j0) + 1u), exact);
-    // Rectangle 0: the margin's outline; 1: the board; 2..: the squares (dark ones only).
+    // Rectangle 0: the margin's outline; 1: the board; 2..: the cells (dark ones only).
     var a_margin = 0.0; var a_board = 0.0; var dark = 0.0;
     for (var k = 0u; k < 2u + cells; k = k + 1u) {
         let c = k - 2u;
-        let i = i0 + f32(c % ni);
-        let j = j0 + f32(c / ni);
-        var lo = vec2<f32>(i * s, j * s);
-        var hi = lo + vec2<f32>(s, s);
-        lo = select(lo, vec2<f32>(0.0, 0.0), k == 1u);
-        hi = select(hi, vec2<f32>(w, h), k == 1u);
-        lo = select(lo, vec2<f32>(-m, -m), k == 0u);
-        hi = select(hi, vec2<f32>(w + m, h + m), k == 0u);
-        let is_dark = k < 2u || ((u32(i) + u32(j)) & 1u) == 0u;
+        let i = i0 + i32(c % ni);
+        let j = j0 + i32(c / ni);
+        let bx = cell_bounds(i, coded);
+        let by = cell_bounds(j, coded);
+        var lo = vec2<f32>(bx.x, by.x);
+        var hi = vec2<f32>(bx.y, by.y);
+        lo = select(lo, blo, k == 1u);
+        hi = select(hi, bhi, k == 1u);
+        lo = select(lo, blo - vec2<f32>(m, m), k == 0u);
+        hi = select(hi, bhi + vec2<f32>(m, m), k == 0u);
+        let is_dark = k < 2u || cell_dark(i, j, coded);
         var area = 0.0;
         if (is_dark) { area = rect_area(lo, hi, pc, ray); }
         a_margin = select(a_margin, area, k == 0u);
@@ -1431,7 +1409,7 @@ fn write_coarse(wg: vec3<u32>, lid: vec3<u32>, c: Coarse) {
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_chessboard(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    write_coarse(wg, lid, chess_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
+    write_coarse(wg, lid, cells_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), false));
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -1462,7 +1440,7 @@ fn fine_item(gid: vec3<u32>) -> vec3<u32> {
     return vec3<u32>(x, y, (y >> 3u) * P.tiles.x + (x >> 3u));
 }
 
-// The fine value of a planar target's pixel at q: chess_fine, grid_fine or coded_fine (`kind` is a
+// The fine value of a planar target's pixel at q: cells_fine (chessboard, coded board) or grid_fine (`kind` is a
 // literal at each call, so the compiler keeps one). A fisheye far off its axis bends the rays across the pixel
 // (src/render/bend.rs): the mean of its sub-pixels, each with its own ray (a sub-pixel beyond the
 // lens's reach or the plane's horizon: background).
@@ -1481,8 +1459,8 @@ fn planar_fine(q: vec2<f32>, kind: u32) -> f32 {
 
 // The fine value of pass kind `kind` (a literal at each call) along `r`.
 fn planar_fine_ray(r: Ray, kind: u32) -> f32 {
-    if (kind == 4u) { return coded_fine(r); }
-    if (kind == 0u) { return chess_fine(r); }
+    if (kind == 4u) { return cells_fine(r, true); }
+    if (kind == 0u) { return cells_fine(r, false); }
     return grid_fine(r);
 }
 
@@ -1507,7 +1485,7 @@ fn cs_fine_spath(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_coded(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    write_coarse(wg, lid, coded_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
+    write_coarse(wg, lid, cells_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), true));
 }
 
 @compute @workgroup_size(64, 1, 1)

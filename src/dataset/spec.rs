@@ -355,7 +355,7 @@ pub fn parse_dataset_spec(text: &str) -> Result<DatasetPlan, SpecError> {
 mod tests {
     use super::*;
 
-    const EXAMPLES: [(&str, &str); 9] = [
+    const EXAMPLES: [(&str, &str); 11] = [
         ("tiny", include_str!("../../assets/specs/tiny.toml")),
         ("chessboard_1280", include_str!("../../assets/specs/chessboard_1280.toml")),
         ("course_calibration", include_str!("../../assets/specs/course_calibration.toml")),
@@ -365,6 +365,8 @@ mod tests {
         ("fisheye_wide_1280", include_str!("../../assets/specs/fisheye_wide_1280.toml")),
         ("charuco_full_1280", include_str!("../../assets/specs/charuco_full_1280.toml")),
         ("charuco_partial_1280", include_str!("../../assets/specs/charuco_partial_1280.toml")),
+        ("aprilgrid_full_1280", include_str!("../../assets/specs/aprilgrid_full_1280.toml")),
+        ("aprilgrid_partial_1280", include_str!("../../assets/specs/aprilgrid_partial_1280.toml")),
     ];
 
     #[test]

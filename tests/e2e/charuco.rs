@@ -214,3 +214,28 @@ fn corrupted_boards_give_no_wrong_ids() {
     assert!(corners > 300 * 20, "the corruptions should leave most corners: {corners}");
     assert_eq!(wrong, 0);
 }
+
+/// OpenCV's two layouts of a board with an even number of rows (`setLegacyPattern`): each
+/// decodes to OpenCV's corner ids with its own flag; read with the other flag, no corner gets a
+/// wrong id.
+#[test]
+fn legacy_and_new_layouts_decode_to_opencvs_ids() {
+    for legacy in [false, true] {
+        let mut scene = example_scene();
+        let board = Charuco { squares: [12, 8], square_m: 0.036, marker_m: 0.027, dictionary: Dictionary::Dict4x4_50, legacy, first_id: 0 };
+        scene.target = Target::Charuco(CharucoTarget { board, look: BoardLook::default() });
+        let img = renderer().render(&scene).unwrap().to_detector_image().unwrap();
+        let truth = synthcam::scene::truth_labels(&scene);
+        for flag in [false, true] {
+            let spec = format!("charuco:12x8:DICT_4X4_50:0.75{}", if flag { ":legacy" } else { "" });
+            let d = detect_spec(&img, &spec);
+            let ids = d.ids.unwrap_or_default();
+            let wrong = ids.iter().zip(&d.points_px).filter(|(id, p)| (p.x - truth.features[**id as usize].pixel_px[0]).hypot(p.y - truth.features[**id as usize].pixel_px[1]) > 2.0).count();
+            eprintln!("rendered legacy {legacy}, read legacy {flag}: {} of 77 corners, {wrong} wrong", ids.len());
+            assert_eq!(wrong, 0, "rendered legacy {legacy}, read legacy {flag}");
+            if flag == legacy {
+                assert_eq!(ids.len(), 77, "rendered and read legacy {legacy}");
+            }
+        }
+    }
+}

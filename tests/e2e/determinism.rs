@@ -26,7 +26,19 @@ fn scenes() -> Vec<(&'static str, synthcam::scene::Scene)> {
         -0.2, 0.05, 0.001, -0.002, 0.01, 0.03, -0.01, 0.002, 1e-3, -2e-4, 5e-4, 3e-4, 0.02, -0.015,
     ]));
     let wide = parse_scene(include_str!("../../assets/scenes/fisheye_wide_chessboard.toml")).expect("scene");
-    vec![("chessboard", board), ("s-path", spath), ("fisheye", fisheye), ("double-sphere", ds), ("opencv14", opencv14), ("fisheye-wide", wide)]
+    let charuco = parse_scene(include_str!("../../assets/scenes/charuco_k1.toml")).expect("scene");
+    let mut aprilgrid = parse_scene(include_str!("../../assets/scenes/aprilgrid_k1.toml")).expect("scene");
+    aprilgrid.camera.lens = fisheye.camera.lens;
+    vec![
+        ("chessboard", board),
+        ("s-path", spath),
+        ("fisheye", fisheye),
+        ("double-sphere", ds),
+        ("opencv14", opencv14),
+        ("fisheye-wide", wide),
+        ("charuco", charuco),
+        ("aprilgrid-fisheye", aprilgrid),
+    ]
 }
 
 #[test]

@@ -52,7 +52,11 @@ fn cases() -> Vec<Case> {
     grid.target = synthcam::target::Target::DotGrid(synthcam::target::DotGrid { n: 5, edge_m: 0.4, dot_radius_m: 0.02, margin_m: 0.05, ..Default::default() });
     grid.cam_from_target.translation.vector = nalgebra::Vector3::new(0.0, 0.0, 0.8);
     let grid = small(grid, 240, 192);
+    let charuco = small(parse_scene(include_str!("../../assets/scenes/charuco_k1.toml")).expect("scene"), 320, 256);
+    let aprilgrid = small(parse_scene(include_str!("../../assets/scenes/aprilgrid_k1.toml")).expect("scene"), 320, 256);
     vec![
+        Case { name: "charuco_k1_320", scene: charuco, max_abs: 1, max_mean: 0.01 },
+        Case { name: "aprilgrid_k1_320", scene: aprilgrid, max_abs: 1, max_mean: 0.01 },
         Case { name: "chessboard_k1_320", scene: board, max_abs: 1, max_mean: 0.01 },
         Case { name: "s_path_320", scene: spath, max_abs: 1, max_mean: 0.01 },
         Case { name: "chessboard_noise_blur_203", scene: noisy, max_abs: 1, max_mean: 0.01 },

@@ -154,3 +154,29 @@ fn the_course_runs_as_an_open_scenario_with_the_course_figures() {
     let err = Sim::new(strict.to_scenario().expect("valid"), robot, Box::new(IdealSensor::new(0.1, 0).expect("sensor"))).expect_err("start out of limits");
     assert!(err.to_string().contains("joint 2"), "{err}");
 }
+
+/// The UR5e scenario with coded boards in place of the chessboard (issue 17, item 5): hand-eye
+/// and PBVS on the decoded corners, each matched to the board by its id
+/// (`assets/scenarios/ur5e_charuco.toml`, `ur5e_aprilgrid.toml`).
+#[test]
+fn coded_boards_run_hand_eye_and_pbvs_by_id() {
+    use synthcam::sim::open_run::{run_open, OpenRunOptions};
+    use synthcam::sim::servo_run::Law;
+    let scenarios = [("charuco", include_str!("../../assets/scenarios/ur5e_charuco.toml")), ("aprilgrid", include_str!("../../assets/scenarios/ur5e_aprilgrid.toml"))];
+    for (name, text) in scenarios {
+        let spec = ScenarioSpec::parse(text).expect("scenario parses");
+        let sc = spec.to_scenario().expect("valid");
+        let mut sim = sim(&spec, &sc);
+        let start = sim.observe().expect("observe");
+        let n = sc.target.feature_points_m().len();
+        assert!(start.features.len() * 10 >= n * 9, "{name}: {} of {n} features at the start ({:?})", start.features.len(), start.note);
+        let worst = start.features.iter().map(|f| (start.truth.projected_px[f.id].expect("visible") - f.pixel_px).norm()).fold(0.0, f64::max);
+        assert!(worst < 0.1, "{name}: corner vs projection {worst} px");
+        let run = run_open(&mut sim, &OpenRunOptions { law: Law::Pbvs, ..Default::default() }).expect("open run");
+        let (he_mm, he_deg) = run.handeye_error_mm_deg;
+        let (mm, deg) = run.trace.steps.last().expect("steps").goal_error_mm_deg;
+        eprintln!("{name}: {} features, worst {worst:.4} px; hand-eye {he_mm:.4} mm {he_deg:.5} deg; PBVS {} steps, {mm:.4} mm {deg:.5} deg", start.features.len(), run.trace.steps.len());
+        assert!(he_mm < 0.5 && he_deg < 0.05, "{name}: hand-eye {he_mm} mm {he_deg} deg");
+        assert!(run.trace.stopped && mm < 1.0 && deg < 0.1, "{name}: PBVS {mm} mm {deg} deg");
+    }
+}

@@ -1,4 +1,5 @@
-//! Detector robustness: 10 000 random or corrupted images through every target kind, no panic;
+//! Detector robustness: 10 000 random or corrupted images through every target kind (coded boards
+//! included), no panic;
 //! "not found" where there is nothing to find.
 
 use rand::{Rng, SeedableRng};
@@ -42,7 +43,8 @@ fn random_image(rng: &mut ChaCha8Rng, k: usize) -> ImageF32 {
 fn ten_thousand_random_images_do_not_panic() {
     let mut rng = ChaCha8Rng::seed_from_u64(2026);
     let charuco = "charuco:11x8:DICT_4X4_50:0.75".parse::<TargetSpec>().unwrap();
-    let targets = [TargetSpec::Chessboard { cols: 9, rows: 6 }, TargetSpec::DotGrid { n: 3 }, TargetSpec::SPath { points: 101 }, charuco];
+    let aprilgrid = "aprilgrid:6x6:tag16h5:0.3:border_bits=1".parse::<TargetSpec>().unwrap();
+    let targets = [TargetSpec::Chessboard { cols: 9, rows: 6 }, TargetSpec::DotGrid { n: 3 }, TargetSpec::SPath { points: 101 }, charuco, aprilgrid];
     let mut found = 0;
     for k in 0..10_000 {
         let img = random_image(&mut rng, k);
@@ -52,8 +54,9 @@ fn ten_thousand_random_images_do_not_panic() {
             Err(e) => panic!("image {k}: bad input reported for a valid buffer: {e}"),
         }
     }
-    // A 9x6 board, a 3x3 grid, a 101-dot S or two neighbouring markers of the ChArUco board
-    // (DICT_4X4_50, the smallest codes) cannot appear in these images.
+    // A 9x6 board, a 3x3 grid, a 101-dot S, two neighbouring markers of the ChArUco board
+    // (DICT_4X4_50) or a tag of the AprilGrid (tag16h5 with a 1-bit border: the smallest codes)
+    // cannot appear in these images.
     assert_eq!(found, 0);
     // A buffer that does not match its size is an error, not a panic.
     let bad = ImageF32 { width: 10, height: 10, data: vec![0.0; 7] };
