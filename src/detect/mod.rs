@@ -4,11 +4,14 @@
 //! saddle-model fit [`refine_saddle`]), the chessboard detector [`find_chessboard`] (saddle
 //! response in `response`, grid growing in [`grid`], X-junction test in `xcorner`), the dot
 //! detector and orderings (S-path: chain from the start dot in [`s_path_order`], indexing by the
-//! known 3-D path in [`s_path_fit`]), and the target dispatch.
+//! known 3-D path in [`s_path_fit`]), the square-marker detector [`find_markers`] with the
+//! ChArUco ([`find_charuco`]) and Kalibr AprilGrid ([`find_aprilgrid`]) detectors built on it,
+//! and the target dispatch.
 //!
 //! Reference: OpenCV `findChessboardCorners` / `cornerSubPix`; Geiger et al. 2012, "Automatic
 //! camera and range sensor calibration using a single shot".
 
+pub mod aprilgrid;
 pub mod charuco;
 pub mod chessboard;
 pub mod dots;
@@ -17,6 +20,7 @@ pub(crate) mod filters;
 pub mod grid;
 pub mod grid_order;
 pub mod image;
+pub mod markers;
 pub mod outline;
 pub(crate) mod par;
 pub(crate) mod pool;
@@ -29,8 +33,10 @@ pub mod target;
 pub(crate) mod xcorner;
 
 pub use self::image::{GreyWindow, ImageF32, ImageU8};
-pub use charuco::{find_charuco, CharucoDetection, CharucoParams, MarkerDetection};
+pub use aprilgrid::{find_aprilgrid, AprilGridDetection, AprilGridParams};
+pub use charuco::{find_charuco, CharucoDetection, CharucoParams};
 pub use chessboard::{find_chessboard, ChessboardCorners, ChessboardParams};
+pub use markers::{find_markers, CornerParams, MarkerDetection, MarkerParams, MarkerSet};
 pub use saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};
 pub use subpixel::{refine_corner, SubpixelParams};
 

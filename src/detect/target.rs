@@ -5,6 +5,7 @@ use std::str::FromStr;
 
 use nalgebra::Point2;
 
+use super::aprilgrid::{find_aprilgrid, AprilGridParams};
 use super::charuco::{find_charuco, CharucoParams};
 use super::chessboard::{find_chessboard, find_chessboard_u8, ChessboardCorners, ChessboardParams};
 use super::dots::{find_dots, DotParams};
@@ -256,7 +257,12 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
             let note = found.ids.is_empty().then(|| format!("{} markers decoded, no ChArUco corner", found.markers.len()));
             Ok(Detection { found: !found.ids.is_empty(), points_px: found.corners_px, ids: Some(found.ids), note, ..Default::default() })
         }
-        TargetSpec::Aprilgrid { .. } => Ok(Detection { note: Some("AprilGrid detection is not built yet".into()), ..Default::default() }),
+        TargetSpec::Aprilgrid { .. } => {
+            let Some(grid) = spec.aprilgrid(1.0) else { return Err(DetectError::BadParams { reason: "not an AprilGrid target" }) };
+            let found = find_aprilgrid(img, &grid, &AprilGridParams::default())?;
+            let note = found.ids.is_empty().then(|| format!("{} tags decoded, no AprilGrid corner", found.tags.len()));
+            Ok(Detection { found: !found.ids.is_empty(), points_px: found.corners_px, ids: Some(found.ids), note, ..Default::default() })
+        }
     }
 }
 
@@ -325,7 +331,7 @@ mod tests {
             "charuco:11x8:DICT_5X5_100",
             "charuco:11x8:DICT_9X9:0.7",
             "charuco:11x8:DICT_5X5_100:1.2",
-            "charuco:11x8:DICT_4X4_50:0.7",
+            "charuco:12x10:DICT_4X4_50:0.7",
             "charuco:1x8:DICT_5X5_100:0.7",
             "charuco:5x5:DICT_5X5_100:0.7:mirror",
         ] {

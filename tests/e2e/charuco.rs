@@ -230,7 +230,11 @@ fn legacy_and_new_layouts_decode_to_opencvs_ids() {
             let spec = format!("charuco:12x8:DICT_4X4_50:0.75{}", if flag { ":legacy" } else { "" });
             let d = detect_spec(&img, &spec);
             let ids = d.ids.unwrap_or_default();
-            let wrong = ids.iter().zip(&d.points_px).filter(|(id, p)| (p.x - truth.features[**id as usize].pixel_px[0]).hypot(p.y - truth.features[**id as usize].pixel_px[1]) > 2.0).count();
+            let wrong = ids
+                .iter()
+                .zip(&d.points_px)
+                .filter(|(id, p)| (p.x - truth.features[**id as usize].pixel_px[0]).hypot(p.y - truth.features[**id as usize].pixel_px[1]) > 2.0)
+                .count();
             eprintln!("rendered legacy {legacy}, read legacy {flag}: {} of 77 corners, {wrong} wrong", ids.len());
             assert_eq!(wrong, 0, "rendered legacy {legacy}, read legacy {flag}");
             if flag == legacy {

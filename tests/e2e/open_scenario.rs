@@ -162,7 +162,8 @@ fn the_course_runs_as_an_open_scenario_with_the_course_figures() {
 fn coded_boards_run_hand_eye_and_pbvs_by_id() {
     use synthcam::sim::open_run::{run_open, OpenRunOptions};
     use synthcam::sim::servo_run::Law;
-    let scenarios = [("charuco", include_str!("../../assets/scenarios/ur5e_charuco.toml")), ("aprilgrid", include_str!("../../assets/scenarios/ur5e_aprilgrid.toml"))];
+    let scenarios =
+        [("charuco", include_str!("../../assets/scenarios/ur5e_charuco.toml")), ("aprilgrid", include_str!("../../assets/scenarios/ur5e_aprilgrid.toml"))];
     for (name, text) in scenarios {
         let spec = ScenarioSpec::parse(text).expect("scenario parses");
         let sc = spec.to_scenario().expect("valid");
@@ -175,7 +176,11 @@ fn coded_boards_run_hand_eye_and_pbvs_by_id() {
         let run = run_open(&mut sim, &OpenRunOptions { law: Law::Pbvs, ..Default::default() }).expect("open run");
         let (he_mm, he_deg) = run.handeye_error_mm_deg;
         let (mm, deg) = run.trace.steps.last().expect("steps").goal_error_mm_deg;
-        eprintln!("{name}: {} features, worst {worst:.4} px; hand-eye {he_mm:.4} mm {he_deg:.5} deg; PBVS {} steps, {mm:.4} mm {deg:.5} deg", start.features.len(), run.trace.steps.len());
+        eprintln!(
+            "{name}: {} features, worst {worst:.4} px; hand-eye {he_mm:.4} mm {he_deg:.5} deg; PBVS {} steps, {mm:.4} mm {deg:.5} deg",
+            start.features.len(),
+            run.trace.steps.len()
+        );
         assert!(he_mm < 0.5 && he_deg < 0.05, "{name}: hand-eye {he_mm} mm {he_deg} deg");
         assert!(run.trace.stopped && mm < 1.0 && deg < 0.1, "{name}: PBVS {mm} mm {deg} deg");
     }

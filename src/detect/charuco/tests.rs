@@ -5,10 +5,8 @@ use std::time::Instant;
 use nalgebra::{Point2, Point3};
 
 use super::*;
+use crate::detect::markers::test_render::{render, render_two, Camera};
 use crate::target::Dictionary;
-use render::{render, render_two, Camera};
-
-mod render;
 
 /// 11 x 8 squares, 5x5 markers at 0.733 of the square.
 fn board() -> Charuco {
@@ -245,11 +243,12 @@ fn bad_parameters_and_boards_are_typed_errors() {
     let b = board();
     let bad = |p: CharucoParams| matches!(find_charuco(&img, &b, &p), Err(DetectError::BadParams { .. }));
     let d = CharucoParams::default();
-    assert!(bad(CharucoParams { threshold_windows_px: [0, 0, 0], ..d }));
-    assert!(bad(CharucoParams { min_marker_perimeter_px: f64::NAN, ..d }));
-    assert!(bad(CharucoParams { error_correction_rate: 1.5, ..d }));
-    assert!(bad(CharucoParams { max_half_window: 1, ..d }));
-    assert!(bad(CharucoParams { threshold_offset: f32::INFINITY, ..d }));
+    let m = |markers: MarkerParams| CharucoParams { markers, ..d };
+    assert!(bad(m(MarkerParams { threshold_windows_px: [0, 0, 0], ..d.markers })));
+    assert!(bad(m(MarkerParams { min_marker_perimeter_px: f64::NAN, ..d.markers })));
+    assert!(bad(m(MarkerParams { error_correction_rate: 1.5, ..d.markers })));
+    assert!(bad(CharucoParams { corners: CornerParams { max_half_window: 1, ..d.corners }, ..d }));
+    assert!(bad(m(MarkerParams { threshold_offset: f32::INFINITY, ..d.markers })));
     let bad_board = Charuco { marker_m: 0.05, ..b };
     assert!(matches!(find_charuco(&img, &bad_board, &d), Err(DetectError::BadParams { .. })));
 }
@@ -294,7 +293,7 @@ fn small_and_large_markers() {
     for (b, side_px, expect) in [(small, 20.0, (70, 44)), (large, 120.0, (12, 10))] {
         let cam = Camera::looking_at(&b, size, 1400.0, (0.0, 0.0, 1400.0 * b.marker_m / side_px), (0.3, 0.2, -0.2));
         let img = render(&b, &cam, size, 8);
-        let p = CharucoParams { min_marker_perimeter_px: 20.0, ..CharucoParams::default() };
+        let p = CharucoParams { markers: MarkerParams { min_marker_perimeter_px: 20.0, ..MarkerParams::default() }, ..CharucoParams::default() };
         let det = find_charuco(&img, &b, &p).unwrap();
         let s = score(&det, &b, &cam);
         eprintln!("{side_px} px markers: {} corners, {} markers, rms {:.4} px, max {:.4} px", s.found, det.markers.len(), s.rms, s.max);

@@ -1,7 +1,9 @@
 //! Adaptive mean threshold, as OpenCV's `adaptiveThreshold(ADAPTIVE_THRESH_MEAN_C,
 //! THRESH_BINARY_INV)` in the ArUco detector: a pixel is dark when it lies more than an offset
 //! below the mean of the square window around it (clamped to the image). The dark pixels come
-//! out as horizontal runs, the input of the run-based component labelling.
+//! out as horizontal runs, the input of the run-based component labelling; `erode` removes the
+//! dark pixels with a light 4-neighbour (binary erosion by a cross), which cuts dark shapes that
+//! touch only at a corner.
 //!
 //! Reference: OpenCV `modules/objdetect/src/aruco/aruco_detector.cpp` (`_threshold`); F. C. Crow,
 //! "Summed-area tables for texture mapping", SIGGRAPH 1984.
@@ -92,5 +94,64 @@ fn push_runs(row: &[f32], thr: &[f32], y: u32, runs: &mut Vec<Run>) {
     }
     if let Some(s) = start {
         runs.push(Run { y, x0: s as u32, x1: row.len() as u32 });
+    }
+}
+
+/// The runs of `runs` (row order) eroded by the 3 x 3 cross: a pixel stays dark when it and its
+/// four neighbours are dark (pixels outside the image count as light).
+pub(super) fn erode(runs: &[Run]) -> Vec<Run> {
+    // each row's runs as a slice
+    let mut rows: Vec<(u32, usize, usize)> = Vec::new();
+    for (i, r) in runs.iter().enumerate() {
+        match rows.last_mut() {
+            Some(last) if last.0 == r.y => last.2 = i + 1,
+            _ => rows.push((r.y, i, i + 1)),
+        }
+    }
+    let mut out = Vec::new();
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for (k, &(y, s, e)) in rows.iter().enumerate() {
+        let above = k.checked_sub(1).map(|j| rows[j]).filter(|r| r.0 + 1 == y);
+        let below = rows.get(k + 1).copied().filter(|r| r.0 == y + 1);
+        let (Some(above), Some(below)) = (above, below) else { continue };
+        a.clear();
+        a.extend(runs[s..e].iter().filter(|r| r.x1 > r.x0 + 2).map(|r| (r.x0 + 1, r.x1 - 1)));
+        intersect(&a, &runs[above.1..above.2], &mut b);
+        intersect(&b, &runs[below.1..below.2], &mut a);
+        out.extend(a.iter().map(|&(x0, x1)| Run { y, x0, x1 }));
+    }
+    out
+}
+
+/// `out` = the intersection of the sorted disjoint intervals `a` with the runs `b` of one row.
+fn intersect(a: &[(u32, u32)], b: &[Run], out: &mut Vec<(u32, u32)>) {
+    out.clear();
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        let (x0, x1) = (a[i].0.max(b[j].x0), a[i].1.min(b[j].x1));
+        if x0 < x1 {
+            out.push((x0, x1));
+        }
+        if a[i].1 < b[j].x1 {
+            i += 1;
+        } else {
+            j += 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn erosion_by_a_cross() {
+        let run = |y, x0, x1| Run { y, x0, x1 };
+        // a 5 x 3 block and a diagonal neighbour: only the block's middle row survives, shrunk
+        let runs = [run(0, 0, 5), run(1, 0, 5), run(2, 0, 5), run(3, 5, 6)];
+        assert_eq!(erode(&runs), vec![run(1, 1, 4)]);
+        // a hole above splits the eroded row (the pixel below the gap goes)
+        let runs = [run(0, 0, 3), run(0, 4, 9), run(1, 0, 9), run(2, 0, 9)];
+        assert_eq!(erode(&runs), vec![run(1, 1, 3), run(1, 4, 8)]);
     }
 }

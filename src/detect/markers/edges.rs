@@ -31,14 +31,14 @@ struct Line {
     d: Vector2<f64>,
 }
 
-/// Refine `q` (cells: marker cells per side incl. the border; margin_rate: white margin width
+/// Refine `q` (border_rate: black border width over marker side; margin_rate: white margin width
 /// over marker side), with at least `min_contrast` grey levels across each profile.
-pub(super) fn refine(img: &ImageF32, q: &Quad, cells: usize, margin_rate: f64, min_contrast: f64) -> Option<Quad> {
+pub(super) fn refine(img: &ImageF32, q: &Quad, border_rate: f64, margin_rate: f64, min_contrast: f64) -> Option<Quad> {
     let mut cur = *q;
     for (pass, step) in STEPS.into_iter().enumerate() {
         let side = (0..4).map(|i| (cur[(i + 1) % 4] - cur[i]).norm()).fold(f64::INFINITY, f64::min);
         let cap = if pass == 0 { f64::INFINITY } else { SECOND_REACH_PX };
-        let inside = (0.8 * side / cells as f64).clamp(1.0, cap);
+        let inside = (0.8 * side * border_rate).clamp(1.0, cap);
         let outside = (0.8 * side * margin_rate).clamp(1.0, cap);
         let mut lines = [Line { p: Point2::origin(), d: Vector2::zeros() }; 4];
         for (i, l) in lines.iter_mut().enumerate() {

@@ -13,8 +13,8 @@ use nalgebra::{Point2, Vector2};
 use rayon::prelude::*;
 
 use super::components::{components, Blob};
-use super::threshold::{dark_runs, Integral, Run};
-use super::CharucoParams;
+use super::threshold::{dark_runs, erode, Integral, Run};
+use super::MarkerParams;
 use crate::detect::par::{worth_parallel, PARALLEL_MIN_PIXELS};
 use crate::detect::ImageF32;
 
@@ -27,8 +27,10 @@ const MIN_CORNER_SINE: f64 = 0.25;
 const MIN_SIDE_RATE: f64 = 0.08;
 
 /// Candidate quads of `img` (the search image, `scale` times smaller than the full image), in
-/// full-resolution pixels.
-pub(super) fn candidates(img: &ImageF32, scale: f64, params: &CharucoParams) -> Vec<Quad> {
+/// full-resolution pixels. With `split_corners` (dark shapes touch the markers' corners), the
+/// components are 4-connected and each window is searched twice: as is, and eroded by one pixel
+/// (then each hull is grown back by that pixel).
+pub(super) fn candidates(img: &ImageF32, scale: f64, params: &MarkerParams, split_corners: bool) -> Vec<Quad> {
     let (w, h) = (img.width as u32, img.height as u32);
     if w < 4 || h < 4 {
         return Vec::new();
@@ -45,11 +47,21 @@ pub(super) fn candidates(img: &ImageF32, scale: f64, params: &CharucoParams) -> 
         let mut runs = Vec::new();
         dark_runs(img, &integral, win / 2, params.threshold_offset, &mut runs);
         let to_full = |p: Point2<f64>| Point2::new(scale * p.x + 0.5 * (scale - 1.0), scale * p.y + 0.5 * (scale - 1.0));
-        components(&runs, keep)
-            .iter()
-            .filter_map(|c| fit_quad(c, params.polygon_accuracy_rate, (min_perimeter, max_perimeter)))
-            .map(|q| q.map(to_full))
-            .collect()
+        let quads = |runs: &[Run], grow: f64| -> Vec<Quad> {
+            components(runs, !split_corners, keep)
+                .iter()
+                .filter_map(|c| fit_quad(c, grow, params.polygon_accuracy_rate, (min_perimeter, max_perimeter)))
+                .map(|q| q.map(to_full))
+                .collect()
+        };
+        if !split_corners {
+            return quads(&runs, 0.5);
+        }
+        // the eroded quads first: duplicates of them (which may have a corner square attached)
+        // are dropped
+        let mut out = quads(&erode(&runs), 1.5);
+        out.extend(quads(&runs, 0.5));
+        out
     };
     let windows: Vec<usize> = params.threshold_windows_px.iter().copied().filter(|w| *w > 0).collect();
     let found: Vec<Vec<Quad>> = if windows.len() > 1 && worth_parallel(img.data.len(), PARALLEL_MIN_PIXELS / 4) {
@@ -105,8 +117,9 @@ fn hull(mut pts: Vec<Point2<f64>>) -> Vec<Point2<f64>> {
     h
 }
 
-/// The quad of a component's runs, search-image pixels; `None` when the outline is not one.
-fn fit_quad(runs: &[Run], accuracy_rate: f64, (min_perimeter, max_perimeter): (f64, f64)) -> Option<Quad> {
+/// The quad of a component's runs, search-image pixels, each pixel taken as the square of
+/// half-size `grow` around its centre (0.5: the pixel itself); `None` when the outline is not one.
+fn fit_quad(runs: &[Run], grow: f64, accuracy_rate: f64, (min_perimeter, max_perimeter): (f64, f64)) -> Option<Quad> {
     // the pixel corners at either end of each row of the component
     let mut pts: Vec<Point2<f64>> = Vec::with_capacity(4 * runs.len());
     let mut row: Option<Run> = None;
@@ -115,8 +128,8 @@ fn fit_quad(runs: &[Run], accuracy_rate: f64, (min_perimeter, max_perimeter): (f
             Some(ref mut cur) if cur.y == r.y => (cur.x0, cur.x1) = (cur.x0.min(r.x0), cur.x1.max(r.x1)),
             _ => {
                 if let Some(cur) = row {
-                    let (x0, x1, y) = (f64::from(cur.x0) - 0.5, f64::from(cur.x1) - 0.5, f64::from(cur.y));
-                    pts.extend([Point2::new(x0, y - 0.5), Point2::new(x0, y + 0.5), Point2::new(x1, y - 0.5), Point2::new(x1, y + 0.5)]);
+                    let (x0, x1, y) = (f64::from(cur.x0) - grow, f64::from(cur.x1) - 1.0 + grow, f64::from(cur.y));
+                    pts.extend([Point2::new(x0, y - grow), Point2::new(x0, y + grow), Point2::new(x1, y - grow), Point2::new(x1, y + grow)]);
                 }
                 row = Some(*r);
             }
@@ -196,7 +209,7 @@ mod tests {
                 runs.push(Run { y, x0: *a, x1: b + 1 });
             }
         }
-        let q = fit_quad(&runs, 0.03, (40.0, 1000.0)).unwrap();
+        let q = fit_quad(&runs, 0.5, 0.03, (40.0, 1000.0)).unwrap();
         assert!(shoelace(&q) > 0.0);
         for (u, v) in [(-20.0, -20.0), (20.0, -20.0), (20.0, 20.0), (-20.0, 20.0)] {
             let p = Point2::new(50.0 + c * u - s * v, 50.0 + s * u + c * v);
@@ -204,6 +217,6 @@ mod tests {
         }
         // an L shape is no quad
         let l: Vec<Run> = (0..40).map(|y| Run { y, x0: 0, x1: if y < 30 { 10 } else { 40 } }).collect();
-        assert!(fit_quad(&l, 0.03, (40.0, 1000.0)).is_none());
+        assert!(fit_quad(&l, 0.5, 0.03, (40.0, 1000.0)).is_none());
     }
 }

@@ -1,30 +1,38 @@
 //! Marker decoding: the perspective map of the unit square onto the refined quad samples the
-//! `(n + 2) x (n + 2)` cells (the mean of 2 x 2 bilinear samples in the inner part of each), Otsu's
-//! threshold splits the cell means, the border cells must read black (up to a share), and the
-//! `n x n` bits are matched against the board's codes in the four rotations by Hamming distance
-//! within the dictionary's (scaled) correction capacity. The rotation fixes which corner is the
-//! marker's top-left.
+//! `(n + 2 b) x (n + 2 b)` cells (`b` border bits; the mean of 2 x 2 bilinear samples in the inner
+//! part of each), Otsu's threshold splits the cell means, the border cells must read black (up to
+//! a share), and the `n x n` bits are matched against the wanted codes in the four rotations by
+//! Hamming distance within the dictionary's (scaled) correction capacity. The rotation fixes which
+//! corner is the marker's top-left.
 //!
 //! Reference: S. Garrido-Jurado et al., "Automatic generation and detection of highly reliable
-//! fiducial markers under occlusion", Pattern Recognition 47(6), 2014, sec. 3; OpenCV
-//! `aruco_detector.cpp` (`_extractBits`, `_identifyOneCandidate`); N. Otsu, IEEE SMC 9(1), 1979.
+//! fiducial markers under occlusion", Pattern Recognition 47(6), 2014, sec. 3; E. Olson,
+//! "AprilTag: A robust and flexible visual fiducial system", ICRA 2011 (sec. III-D, decoding
+//! under rotation by Hamming distance); OpenCV `aruco_detector.cpp` (`_extractBits`,
+//! `_identifyOneCandidate`); N. Otsu, IEEE SMC 9(1), 1979.
 
 use nalgebra::{Matrix3, Point2};
 
 use super::edges;
 use super::quads::{shoelace, Quad};
-use super::{CharucoParams, MarkerDetection};
+use super::{MarkerDetection, MarkerParams, MarkerSet};
 use crate::detect::xcorner::bilinear;
 use crate::detect::ImageF32;
-use crate::target::Charuco;
+
+/// Most cells of a marker (12 x 12: 8 x 8 bits with a 2-bit border).
+const MAX_CELLS: usize = 144;
 
 /// Positions of the samples inside a cell, as fractions of the cell.
 const SAMPLES: [f64; 2] = [0.35, 0.65];
 
-/// The board's codes, packed: bit `y n + x` is cell `(x, y)` of the code, set for white.
-pub(super) struct BoardCodes {
+/// The wanted codes, packed: bit `y n + x` is cell `(x, y)` of the code, set for white.
+pub(super) struct Codes {
     /// Bits per marker side.
     n: usize,
+    /// Border bits.
+    border: usize,
+    /// White margin over marker side.
+    margin_rate: f64,
     /// Code of marker `first_id + k`.
     codes: Vec<u64>,
     /// First id.
@@ -33,15 +41,20 @@ pub(super) struct BoardCodes {
     max_correction: u32,
 }
 
-impl BoardCodes {
-    /// The codes of `board`'s markers.
-    pub(super) fn new(board: &Charuco, params: &CharucoParams) -> Self {
-        let n = board.dictionary.marker_bits();
-        let count = board.markers().len();
+impl Codes {
+    /// The codes of `set`.
+    pub(super) fn new(set: &MarkerSet, params: &MarkerParams) -> Self {
+        let n = set.dictionary.marker_bits();
+        let count = (set.count as usize).min(set.dictionary.len().saturating_sub(set.first_id as usize));
         let pack = |bits: Vec<bool>| bits.iter().enumerate().fold(0u64, |acc, (k, b)| acc | (u64::from(*b) << k));
-        let codes = (0..count).filter_map(|k| board.dictionary.code(board.first_id as usize + k).map(pack)).collect();
-        let max_correction = (params.error_correction_rate * f64::from(board.dictionary.max_correction_bits())).floor() as u32;
-        Self { n, codes, first_id: board.first_id, max_correction }
+        let codes = (0..count).map_while(|k| set.dictionary.code(set.first_id as usize + k).map(pack)).collect();
+        let max_correction = (params.error_correction_rate * f64::from(set.dictionary.max_correction_bits())).floor() as u32;
+        Self { n, border: set.border_bits as usize, margin_rate: set.margin_rate, codes, first_id: set.first_id, max_correction }
+    }
+
+    /// Cells per marker side, border included.
+    fn cells(&self) -> usize {
+        self.n + 2 * self.border
     }
 }
 
@@ -56,20 +69,19 @@ pub(super) struct Decoded {
     pub perimeter: f64,
 }
 
-/// Refine and decode candidate `q`; `None` when it is not one of the board's markers.
-pub(super) fn marker(img: &ImageF32, q: &Quad, board: &Charuco, codes: &BoardCodes, params: &CharucoParams) -> Option<Decoded> {
-    let cells = codes.n + 2;
-    if cells * cells > 81 || codes.n * codes.n > 64 {
+/// Refine and decode candidate `q`; `None` when it is not one of the wanted markers.
+pub(super) fn marker(img: &ImageF32, q: &Quad, codes: &Codes, params: &MarkerParams) -> Option<Decoded> {
+    let cells = codes.cells();
+    if cells * cells > MAX_CELLS || codes.n * codes.n > 64 || codes.codes.is_empty() {
         return None;
     }
-    let margin_rate = 0.5 * (board.square_m - board.marker_m) / board.marker_m;
-    let r = edges::refine(img, q, cells, margin_rate, params.min_contrast)?;
+    let r = edges::refine(img, q, codes.border as f64 / cells as f64, codes.margin_rate, params.min_contrast)?;
     if !(shoelace(&r) > 0.0) {
         return None;
     }
     let h = square_to_quad(&r)?;
     let means = cell_means(img, &h, cells)?;
-    let white = classify(&means, cells, params)?;
+    let white = classify(&means, cells, codes.border, params)?;
     let (hamming, id, rot) = identify(&white, codes)?;
     let corners_px = [r[rot], r[(rot + 1) % 4], r[(rot + 2) % 4], r[(rot + 3) % 4]];
     let perimeter = (0..4).map(|i| (r[(i + 1) % 4] - r[i]).norm()).sum();
@@ -79,7 +91,7 @@ pub(super) fn marker(img: &ImageF32, q: &Quad, board: &Charuco, codes: &BoardCod
 /// The homography of the unit square (corners (0, 0), (1, 0), (1, 1), (0, 1)) onto `q`, in
 /// closed form (P. Heckbert, "Fundamentals of texture mapping and image warping", 1989, sec.
 /// 2.2.3): the exact four-point case of [`crate::math::homography::homography`], without its SVD.
-pub(super) fn square_to_quad(q: &Quad) -> Option<Matrix3<f64>> {
+pub(crate) fn square_to_quad(q: &Quad) -> Option<Matrix3<f64>> {
     let [p0, p1, p2, p3] = *q;
     let s = p0.coords - p1.coords + p2.coords - p3.coords;
     let (d1, d2) = (p1 - p2, p3 - p2);
@@ -93,8 +105,8 @@ pub(super) fn square_to_quad(q: &Quad) -> Option<Matrix3<f64>> {
 }
 
 /// Mean grey of each cell, row-major; `None` when a sample leaves the image or is not finite.
-fn cell_means(img: &ImageF32, h: &Matrix3<f64>, cells: usize) -> Option<[f64; 81]> {
-    let mut means = [0.0f64; 81];
+fn cell_means(img: &ImageF32, h: &Matrix3<f64>, cells: usize) -> Option<[f64; MAX_CELLS]> {
+    let mut means = [0.0f64; MAX_CELLS];
     let k = cells as f64;
     for (i, m) in means.iter_mut().take(cells * cells).enumerate() {
         let (cx, cy) = ((i % cells) as f64, (i / cells) as f64);
@@ -111,8 +123,8 @@ fn cell_means(img: &ImageF32, h: &Matrix3<f64>, cells: usize) -> Option<[f64; 81
 }
 
 /// White cells by Otsu's threshold on the cell means; `None` when the contrast is too low or
-/// too many border cells read white.
-fn classify(means: &[f64; 81], cells: usize, params: &CharucoParams) -> Option<[bool; 81]> {
+/// too many of the border cells (`border` deep) read white.
+fn classify(means: &[f64; MAX_CELLS], cells: usize, border: usize, params: &MarkerParams) -> Option<[bool; MAX_CELLS]> {
     let m = cells * cells;
     let mut sorted: Vec<f64> = means[..m].to_vec();
     sorted.sort_by(f64::total_cmp);
@@ -131,23 +143,26 @@ fn classify(means: &[f64; 81], cells: usize, params: &CharucoParams) -> Option<[
         return None;
     }
     let t = 0.5 * (sorted[split - 1] + sorted[split]);
-    let mut white = [false; 81];
+    let mut white = [false; MAX_CELLS];
     for (w, v) in white.iter_mut().zip(&means[..m]) {
         *w = *v > t;
     }
-    let border = |i: usize| i.is_multiple_of(cells) || i / cells == 0 || i % cells == cells - 1 || i / cells == cells - 1;
-    let errors = (0..m).filter(|&i| border(i) && white[i]).count();
-    (errors as f64 <= params.max_border_error_rate * (4 * (cells - 1)) as f64).then_some(white)
+    let inner = border..cells - border;
+    let is_border = |i: usize| !(inner.contains(&(i % cells)) && inner.contains(&(i / cells)));
+    let errors = (0..m).filter(|&i| is_border(i) && white[i]).count();
+    let border_cells = m - (cells - 2 * border) * (cells - 2 * border);
+    (errors as f64 <= params.max_border_error_rate * border_cells as f64).then_some(white)
 }
 
-/// The inner bits read with corner `rot` of the quad as the top-left, packed as the codes.
-fn read_bits(white: &[bool; 81], cells: usize, rot: usize) -> u64 {
-    let n = cells - 2;
+/// The inner bits (inside a border `border` deep) read with corner `rot` of the quad as the
+/// top-left, packed as the codes.
+fn read_bits(white: &[bool; MAX_CELLS], cells: usize, border: usize, rot: usize) -> u64 {
+    let n = cells - 2 * border;
     let mut bits = 0u64;
     for y in 0..n {
         for x in 0..n {
             // frame rot -> frame 0: (x, y) -> (cells - 1 - y, x), rot times
-            let (mut u, mut v) = (x + 1, y + 1);
+            let (mut u, mut v) = (x + border, y + border);
             for _ in 0..rot {
                 (u, v) = (cells - 1 - v, u);
             }
@@ -157,14 +172,14 @@ fn read_bits(white: &[bool; 81], cells: usize, rot: usize) -> u64 {
     bits
 }
 
-/// Best (Hamming distance, id, rotation) over the board's codes; `None` when it exceeds the
+/// Best (Hamming distance, id, rotation) over the wanted codes; `None` when it exceeds the
 /// correction capacity or two matches tie.
-fn identify(white: &[bool; 81], codes: &BoardCodes) -> Option<(u32, u32, usize)> {
-    let cells = codes.n + 2;
+fn identify(white: &[bool; MAX_CELLS], codes: &Codes) -> Option<(u32, u32, usize)> {
+    let cells = codes.cells();
     let mut best: Option<(u32, u32, usize)> = None;
     let mut tie = false;
     for rot in 0..4 {
-        let bits = read_bits(white, cells, rot);
+        let bits = read_bits(white, cells, codes.border, rot);
         for (k, c) in codes.codes.iter().enumerate() {
             let d = (bits ^ c).count_ones();
             match best {
@@ -210,16 +225,16 @@ mod tests {
     fn rotations_read_the_code_from_each_corner() {
         // a 4x4 code whose cells are all distinct under rotation: bit k set for k in {0, 1, 5}
         let cells = 6;
-        let mut white = [false; 81];
+        let mut white = [false; MAX_CELLS];
         for (x, y) in [(0, 0), (1, 0), (1, 1)] {
             white[(y + 1) * cells + x + 1] = true;
         }
-        assert_eq!(read_bits(&white, cells, 0), 0b10_0011);
+        assert_eq!(read_bits(&white, cells, 1, 0), 0b10_0011);
         // rotation 1 reads from quad corner 1 (the grid's top-right) with x down the right edge
         // and y towards corner 0: frame bit (x, y) is grid bit (3 - y, x), so grid bits (0, 0),
         // (1, 0), (1, 1) are frame bits (0, 3), (0, 2), (1, 2): 12, 8, 9
-        assert_eq!(read_bits(&white, cells, 1), 0b1_0011_0000_0000);
+        assert_eq!(read_bits(&white, cells, 1, 1), 0b1_0011_0000_0000);
         // rotation 2: frame bit (x, y) is grid bit (3 - x, 3 - y): bits 15, 14, 10
-        assert_eq!(read_bits(&white, cells, 2), 0b1100_0100_0000_0000);
+        assert_eq!(read_bits(&white, cells, 1, 2), 0b1100_0100_0000_0000);
     }
 }

@@ -1,5 +1,6 @@
-//! 8-connected components of the dark runs by union-find over the runs of adjacent rows (one
-//! pass, no label image).
+//! 8- or 4-connected components of the dark runs by union-find over the runs of adjacent rows
+//! (one pass, no label image). With 4-connectivity dark shapes that only touch diagonally stay
+//! apart (as AprilTag 3 connects dark pixels 4-wise).
 //!
 //! Reference: K. Wu, E. Otoo, K. Suzuki, "Optimizing two-pass connected-component labeling
 //! algorithms", Pattern Analysis and Applications 12(2), 2009 (run-based union-find).
@@ -38,9 +39,10 @@ fn union(parent: &mut [u32], a: usize, b: usize) {
     }
 }
 
-/// Union-find forest over `runs` (in row order): runs of consecutive rows that touch, diagonals
-/// included, share a root.
-fn link(runs: &[Run]) -> Vec<u32> {
+/// Union-find forest over `runs` (in row order): runs of consecutive rows that overlap in a
+/// column (or, with `diagonal`, touch diagonally) share a root.
+fn link(runs: &[Run], diagonal: bool) -> Vec<u32> {
+    let reach = u32::from(diagonal);
     let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
     // runs of the previous row not yet passed (`j..prev_end`), start of the current row
     let (mut j, mut prev_end, mut row_start) = (0, 0, 0);
@@ -52,11 +54,11 @@ fn link(runs: &[Run]) -> Vec<u32> {
         }
         let r = runs[i];
         // runs ending left of this one end left of every later one in the row too
-        while j < prev_end && runs[j].x1 < r.x0 {
+        while j < prev_end && runs[j].x1 + reach <= r.x0 {
             j += 1;
         }
         for (k, p) in runs.iter().enumerate().take(prev_end).skip(j) {
-            if p.x0 > r.x1 {
+            if p.x0 >= r.x1 + reach {
                 break;
             }
             union(&mut parent, i, k);
@@ -65,9 +67,10 @@ fn link(runs: &[Run]) -> Vec<u32> {
     parent
 }
 
-/// The components whose bounding box `keep` accepts, each as its runs (row order).
-pub(super) fn components(runs: &[Run], keep: impl Fn(&Blob) -> bool) -> Vec<Vec<Run>> {
-    let mut parent = link(runs);
+/// The components (8-connected with `diagonal`, else 4-connected) whose bounding box `keep`
+/// accepts, each as its runs (row order).
+pub(super) fn components(runs: &[Run], diagonal: bool, keep: impl Fn(&Blob) -> bool) -> Vec<Vec<Run>> {
+    let mut parent = link(runs, diagonal);
     let mut blob: Vec<Blob> = runs.iter().map(|r| Blob { x0: r.x0, y0: r.y, x1: r.x1, y1: r.y + 1 }).collect();
     let mut root = vec![0u32; runs.len()];
     for i in 0..runs.len() {
@@ -104,17 +107,23 @@ mod tests {
     }
 
     #[test]
-    fn diagonal_runs_join_and_gaps_split() {
+    fn runs_join_by_connectivity() {
         // a ring, a diagonal neighbour of it, and a separate blob two rows down
         let runs = [run(0, 0, 3), run(1, 0, 1), run(1, 2, 3), run(2, 0, 3), run(3, 3, 4), run(5, 0, 2)];
-        let c = components(&runs, |_| true);
+        let c = components(&runs, true, |_| true);
         assert_eq!(c.len(), 2);
         assert_eq!(c[0].len(), 5);
-        assert_eq!(c[1], vec![run(5, 0, 2)]);
-        let c = components(&runs, |b| b.y1 - b.y0 > 1);
+        let c = components(&runs, false, |_| true);
+        assert_eq!(c.len(), 3);
+        assert_eq!(c[0].len(), 4);
+        assert_eq!(c[1], vec![run(3, 3, 4)]);
+        assert_eq!(c[2], vec![run(5, 0, 2)]);
+        let c = components(&runs, false, |b| b.y1 - b.y0 > 1);
         assert_eq!(c.len(), 1);
-        // a gap of one column in the next row does not join
-        let runs = [run(0, 0, 2), run(1, 3, 4)];
-        assert_eq!(components(&runs, |_| true).len(), 2);
+        // runs sharing one column join, a gap of one column does not
+        assert_eq!(components(&[run(0, 0, 2), run(1, 1, 4)], false, |_| true).len(), 1);
+        assert_eq!(components(&[run(0, 0, 2), run(1, 2, 4)], false, |_| true).len(), 2);
+        assert_eq!(components(&[run(0, 0, 2), run(1, 2, 4)], true, |_| true).len(), 1);
+        assert_eq!(components(&[run(0, 0, 2), run(1, 3, 4)], true, |_| true).len(), 2);
     }
 }
