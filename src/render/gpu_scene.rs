@@ -321,8 +321,12 @@ fn classify_tiles(scene: &Scene, grid: &TileCornerRays, tiles_x: u32, tiles_y: u
 /// What [`classify_tiles`] tests each tile against, computed once per frame.
 struct FlatTest {
     target_from_cam: Isometry3<f64>,
-    /// Chessboard: the board's lines (squares and margin) along x and y, metres.
+    /// Chessboard: the board's lines (squares and margin) along x and y; coded boards: the
+    /// board's and its border's outline, metres.
     lines_m: [Vec<f64>; 2],
+    /// Coded boards: the cell lattice (a tile inside the board is flat when its cells are all
+    /// of one colour, also across lattice lines).
+    lattice: Option<crate::target::CellLattice>,
     /// S-path: the sphere's centre in the camera frame and its radius in pixels.
     sphere: Option<(Vector3<f64>, f64)>,
 }
@@ -334,11 +338,12 @@ impl FlatTest {
                 let along = |n: u32| (0..=n).map(|j| f64::from(j) * b.square_m).chain([-b.margin_m, f64::from(n) * b.square_m + b.margin_m]).collect();
                 [along(b.squares[0]), along(b.squares[1])]
             }
-            Target::Charuco(_) | Target::AprilGrid(_) => match (scene.target.lattice(), scene.target.coded_look()) {
-                (Some(l), Some((look, _))) => {
-                    [0, 1].map(|a| l.lines_m(a).into_iter().chain([l.origin_m - look.margin_m, l.end_m(a) + look.margin_m]).collect())
+            Target::Charuco(_) | Target::AprilGrid(_) => match scene.target.coded_look() {
+                Some((look, [x0, y0, x1, y1])) => {
+                    let m = look.margin_m;
+                    [vec![x0 - m, x0, x1, x1 + m], vec![y0 - m, y0, y1, y1 + m]]
                 }
-                _ => Default::default(),
+                None => Default::default(),
             },
             _ => Default::default(),
         };
@@ -351,7 +356,7 @@ impl FlatTest {
             }
             _ => None,
         };
-        Self { target_from_cam: scene.cam_from_target.inverse(), lines_m, sphere }
+        Self { target_from_cam: scene.cam_from_target.inverse(), lines_m, lattice: scene.target.lattice(), sphere }
     }
 
     /// The grey level of the tile seen along the corner `rays` when it is one flat region;
@@ -363,9 +368,9 @@ impl FlatTest {
             }
             Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
                 let [xl, yl] = &self.lines_m;
-                (!any_in(xl, bb[0], bb[2]) && !any_in(yl, bb[1], bb[3]))
-                    .then(|| scene.target.plane_intensity(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
-                    .flatten()
+                let crossed = any_in(xl, bb[0], bb[2]) || any_in(yl, bb[1], bb[3]);
+                let uniform = self.lattice.as_ref().is_none_or(|l| l.uniform_over(bb));
+                (!crossed && uniform).then(|| scene.target.plane_intensity(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3]))).flatten()
             }),
             Target::DotGrid(g) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
                 let outer = 0.5 * g.edge_m + g.margin_m;

@@ -76,6 +76,31 @@ impl CellLattice {
         self.dark_bits.get(k / 32).is_some_and(|w| w >> (k % 32) & 1 == 1)
     }
 
+    /// The sub-interval holding `v` along an axis (below 0 before the board; `cells` and beyond
+    /// past it); the CPU twin of the shader's `lat_index`.
+    pub fn index(&self, v: f64) -> i64 {
+        let per = i64::from(self.per_period);
+        let t = ((v - self.origin_m) / self.period_m).floor();
+        let u = v - self.origin_m - t * self.period_m;
+        let sub = if u < self.first_m { 0 } else { (1 + ((u - self.first_m) / self.cell_m).floor() as i64).min(per - 1) };
+        t as i64 * per + sub
+    }
+
+    /// Whether every cell meeting the box `[x0, y0, x1, y1]` (metres) has one colour: `true`
+    /// for a box wholly off the board, `false` for one that straddles its outline.
+    pub fn uniform_over(&self, [x0, y0, x1, y1]: [f64; 4]) -> bool {
+        let (gx0, gx1, gy0, gy1) = (self.index(x0), self.index(x1), self.index(y0), self.index(y1));
+        let (nx, ny) = (i64::from(self.cells[0]), i64::from(self.cells[1]));
+        if gx1 < 0 || gy1 < 0 || gx0 >= nx || gy0 >= ny {
+            return true;
+        }
+        if gx0 < 0 || gy0 < 0 || gx1 >= nx || gy1 >= ny {
+            return false;
+        }
+        let first = self.is_dark(gx0 as u32, gy0 as u32);
+        (gy0..=gy1).all(|gy| (gx0..=gx1).all(|gx| self.is_dark(gx as u32, gy as u32) == first))
+    }
+
     /// The narrowest sub-interval, metres.
     pub fn min_cell_m(&self) -> f64 {
         let last = self.period_m - self.first_m - f64::from(self.per_period.saturating_sub(2)) * self.cell_m;
@@ -102,5 +127,14 @@ mod tests {
         assert!((l.end_m(0) - 0.08).abs() < 1e-15);
         assert!(l.is_dark(0, 0) && !l.is_dark(9, 0) && !l.is_dark(18, 0));
         assert!((l.min_cell_m() - 0.03 / 7.0).abs() < 1e-15);
+        // index inverts bounds; the dark half (x < 0.02: cells 0..=4) is uniform.
+        for g in 0..18 {
+            let (lo, hi) = l.bounds(g);
+            assert_eq!(l.index(0.5 * (lo + hi)), i64::from(g));
+        }
+        assert_eq!(l.index(-0.001), -1);
+        assert!(l.uniform_over([0.001, 0.001, 0.015, 0.3]) && !l.uniform_over([0.001, 0.001, 0.025, 0.01]));
+        assert!(!l.uniform_over([-0.001, 0.001, 0.002, 0.002]));
+        assert!(l.uniform_over([-0.01, 0.001, -0.002, 0.002]) && l.uniform_over([0.001, 0.5, 0.002, 0.6]));
     }
 }
