@@ -228,3 +228,45 @@ fn fisheye_renders_calibrate_with_their_model_and_export_for_other_tools() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("mrcal"), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(!dir.join("cal2.json").exists() && !dir.join("m.cameramodel").exists());
 }
+
+/// Coded boards through the command line (issue 17): `dataset` renders partial ChArUco views,
+/// `detect` writes each point's id, `calibrate` reads them back by id; bad target strings and
+/// views with too few points are explained, not fatal.
+#[test]
+fn charuco_partial_views_detect_and_calibrate_by_id() {
+    let dir = std::env::temp_dir().join(format!("synthcam-charuco-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let spec = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/specs/charuco_partial_1280.toml");
+    let o = Command::new(bin()).arg("dataset").arg(spec).arg("-o").arg(&dir).output().expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let target = "charuco:11x8:DICT_5X5_100:0.733";
+    let det = dir.join("det.json");
+    let o = Command::new(bin()).arg("detect").arg(dir.join("images")).args(["--target", target, "--json"]).arg(&det).output().expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&det).expect("json")).expect("parses");
+    assert_eq!(v["target"]["kind"], "charuco");
+    for im in v["images"].as_array().expect("images") {
+        let (ids, pts) = (im["ids"].as_array().expect("ids"), im["points_px"].as_array().expect("points"));
+        assert!(ids.len() == pts.len() && ids.len() > 20 && ids.len() < 70, "{}: {} ids", im["file"], ids.len());
+    }
+    // A view reduced to 5 points is skipped with its reason; the others calibrate.
+    let mut v2 = v.clone();
+    v2["images"][0]["ids"] = serde_json::json!(v["images"][0]["ids"].as_array().expect("ids")[..5]);
+    v2["images"][0]["points_px"] = serde_json::json!(v["images"][0]["points_px"].as_array().expect("points")[..5]);
+    let det2 = dir.join("det2.json");
+    std::fs::write(&det2, serde_json::to_vec(&v2).expect("json")).expect("write");
+    let cal = dir.join("cal.json");
+    let o = Command::new(bin()).arg("calibrate").arg(&det2).args(["--target", target, "--square", "0.04", "--json"]).arg(&cal).output().expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let c: serde_json::Value = serde_json::from_slice(&std::fs::read(&cal).expect("json")).expect("parses");
+    assert_eq!(c["used"], 5);
+    assert!(c["skipped"][0]["reason"].as_str().expect("reason").contains("only 5 points"), "{}", c["skipped"]);
+    let k = &c["K"];
+    let err = [k[0][0].as_f64().expect("fx") - 1500.0, k[1][1].as_f64().expect("fy") - 1500.0, k[0][2].as_f64().expect("cx") - 639.5, k[1][2].as_f64().expect("cy") - 511.5];
+    assert!(err.iter().all(|e| e.abs() < 0.3), "{err:?}");
+    for bad in ["charuco:11x8:DICT_5X5_100", "charuco:11x8:DICT_9X9_1:0.7", "aprilgrid:6x6:tag36h11:2.0", "charuco:11x8:DICT_5X5_100:0.7:upside-down"] {
+        let o = Command::new(bin()).arg("detect").arg(dir.join("images")).args(["--target", bad]).output().expect("run");
+        assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--target"), "{bad}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
