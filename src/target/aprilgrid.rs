@@ -165,7 +165,7 @@ impl AprilGrid {
 }
 
 /// An AprilGrid as a scene target: the grid and how it is printed (its frame's z points out of
-/// the page, towards the viewer: [`Self::front_from_target`]).
+/// the page, towards the viewer: [`super::Target::front_from_target`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AprilGridTarget {
     /// The grid's geometry and codes.
