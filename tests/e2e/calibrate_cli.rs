@@ -262,7 +262,12 @@ fn charuco_partial_views_detect_and_calibrate_by_id() {
     assert_eq!(c["used"], 5);
     assert!(c["skipped"][0]["reason"].as_str().expect("reason").contains("only 5 points"), "{}", c["skipped"]);
     let k = &c["K"];
-    let err = [k[0][0].as_f64().expect("fx") - 1500.0, k[1][1].as_f64().expect("fy") - 1500.0, k[0][2].as_f64().expect("cx") - 639.5, k[1][2].as_f64().expect("cy") - 511.5];
+    let err = [
+        k[0][0].as_f64().expect("fx") - 1500.0,
+        k[1][1].as_f64().expect("fy") - 1500.0,
+        k[0][2].as_f64().expect("cx") - 639.5,
+        k[1][2].as_f64().expect("cy") - 511.5,
+    ];
     assert!(err.iter().all(|e| e.abs() < 0.3), "{err:?}");
     for bad in ["charuco:11x8:DICT_5X5_100", "charuco:11x8:DICT_9X9_1:0.7", "aprilgrid:6x6:tag36h11:2.0", "charuco:11x8:DICT_5X5_100:0.7:upside-down"] {
         let o = Command::new(bin()).arg("detect").arg(dir.join("images")).args(["--target", bad]).output().expect("run");

@@ -2,7 +2,7 @@
 //! border, or 1 bit), then each tag corner refined as the X-junction it forms with the black
 //! square at its gap crossing.
 //!
-//! 1. Tags ([`find_markers`](super::markers::find_markers) with the grid's border width and id
+//! 1. Tags ([`find_markers`] with the grid's border width and id
 //!    range; `detect::markers`): adaptive threshold, 4-connected dark components (a tag touches
 //!    the black gap squares only diagonally, so they stay apart), quads, sub-pixel outline,
 //!    decoding. Kalibr prints tag `k` as OpenCV's marker image of id `first_id + k` turned by 180

@@ -1,7 +1,7 @@
 //! ChArUco board detection: the ArUco markers of a [`Charuco`] board, then its chessboard
 //! corners by local-homography interpolation and an unbiased saddle-model fit.
 //!
-//! 1. Markers ([`find_markers`](super::markers::find_markers), 1-bit border): adaptive
+//! 1. Markers ([`find_markers`], 1-bit border): adaptive
 //!    threshold, dark components, quads, sub-pixel outline, decoding of the board's ids (see
 //!    `detect::markers`).
 //! 2. Consistency: markers that disagree with every detected neighbour on the board are dropped.

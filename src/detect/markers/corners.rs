@@ -60,7 +60,7 @@ pub struct CornerParams {
 impl Default for CornerParams {
     fn default() -> Self {
         Self {
-            max_half_window: 6,
+            max_half_window: 5,
             max_corner_shift_rate: 0.5,
             max_corner_shift_px: 1.0,
             max_predicted_shift_px: 2.5,

@@ -1,4 +1,6 @@
-//! Marker decoding: the perspective map of the unit square onto the refined quad samples the
+//! Marker decoding: a candidate whose cell-centre samples (unrefined quad) span less than half
+//! the minimum contrast is dropped before the sub-pixel outline (a uniform dark shape); then the
+//! perspective map of the unit square onto the refined quad samples the
 //! `(n + 2 b) x (n + 2 b)` cells (`b` border bits; the mean of 2 x 2 bilinear samples in the inner
 //! part of each), Otsu's threshold splits the cell means, the border cells must read black (up to
 //! a share), and the `n x n` bits are matched against the wanted codes in the four rotations by
@@ -75,6 +77,9 @@ pub(super) fn marker(img: &ImageF32, q: &Quad, codes: &Codes, params: &MarkerPar
     if cells * cells > MAX_CELLS || codes.n * codes.n > 64 || codes.codes.is_empty() {
         return None;
     }
+    if !has_contrast(img, q, cells, params.min_contrast) {
+        return None;
+    }
     let r = edges::refine(img, q, codes.border as f64 / cells as f64, codes.margin_rate, params.min_contrast)?;
     if !(shoelace(&r) > 0.0) {
         return None;
@@ -86,6 +91,26 @@ pub(super) fn marker(img: &ImageF32, q: &Quad, codes: &Codes, params: &MarkerPar
     let corners_px = [r[rot], r[(rot + 1) % 4], r[(rot + 2) % 4], r[(rot + 3) % 4]];
     let perimeter = (0..4).map(|i| (r[(i + 1) % 4] - r[i]).norm()).sum();
     Some(Decoded { marker: MarkerDetection { id, corners_px }, hamming, perimeter })
+}
+
+/// Cheap test before the sub-pixel outline: the samples at the cell centres of the unrefined
+/// quad `q` must span at least half of `min_contrast` (a marker has black and white cells; a
+/// uniform dark shape, such as a ChArUco board's black square, does not, and [`classify`] would
+/// refuse it after the costlier refinement anyway). Samples outside the image are skipped.
+fn has_contrast(img: &ImageF32, q: &Quad, cells: usize, min_contrast: f64) -> bool {
+    let Some(h) = square_to_quad(q) else { return false };
+    let k = cells as f64;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for i in 0..cells * cells {
+        let (u, v) = (((i % cells) as f64 + 0.5) / k, ((i / cells) as f64 + 0.5) / k);
+        let p = h * nalgebra::Vector3::new(u, v, 1.0);
+        if let Some(s) = bilinear(img, Point2::new(p.x / p.z, p.y / p.z)) {
+            let s = f64::from(s);
+            (lo, hi) = (lo.min(s), hi.max(s));
+        }
+    }
+    // NaN samples never raise `hi - lo`; the refinement then decides
+    hi - lo >= 0.5 * min_contrast || !(hi >= lo)
 }
 
 /// The homography of the unit square (corners (0, 0), (1, 0), (1, 1), (0, 1)) onto `q`, in

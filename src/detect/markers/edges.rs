@@ -7,7 +7,7 @@
 //! Reference: OpenCV `aruco_detector.cpp` (`_refineCandidateLines`, CORNER_REFINE_CONTOUR: line
 //! fits to the contour points of each side, corners as intersections).
 
-use nalgebra::{Matrix2, Point2, SymmetricEigen, Vector2};
+use nalgebra::{Point2, Vector2};
 
 use super::quads::Quad;
 use crate::detect::xcorner::bilinear;
@@ -102,13 +102,13 @@ fn fit_line(pts: &[Point2<f64>]) -> Option<Line> {
         return None;
     }
     let c = pts.iter().fold(Vector2::zeros(), |s, p| s + p.coords) / pts.len() as f64;
-    let m = pts.iter().fold(Matrix2::zeros(), |s, p| {
+    let (sxx, sxy, syy) = pts.iter().fold((0.0, 0.0, 0.0), |(a, b, e), p| {
         let r = p.coords - c;
-        s + r * r.transpose()
+        (a + r.x * r.x, b + r.x * r.y, e + r.y * r.y)
     });
-    let e = SymmetricEigen::new(m);
-    let k = if e.eigenvalues[0] > e.eigenvalues[1] { 0 } else { 1 };
-    let d: Vector2<f64> = e.eigenvectors.column(k).into_owned();
+    // principal axis of the scatter matrix in closed form
+    let t = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let d = Vector2::new(t.cos(), t.sin());
     d.iter().all(|x| x.is_finite()).then_some(Line { p: Point2::from(c), d })
 }
 

@@ -11,7 +11,8 @@
 //!    components are 4-connected (as AprilTag 3 connects dark pixels) and also taken from the
 //!    dark pixels eroded by one pixel, which cuts such contacts. Large images are searched at
 //!    half resolution.
-//! 2. Sub-pixel quad (`edges`): on the full-resolution image each side is located by the
+//! 2. Sub-pixel quad (`edges`): candidates whose cell centres show no contrast are dropped
+//!    first (`decode`); on the full-resolution image each side is located by the
 //!    mid-level crossings of intensity profiles across it; a line fit per side, adjacent lines
 //!    intersected.
 //! 3. Decoding (`decode`): the perspective map of the unit square onto the quad samples the

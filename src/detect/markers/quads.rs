@@ -95,12 +95,12 @@ fn cross(a: Point2<f64>, b: Point2<f64>, c: Point2<f64>) -> f64 {
     (b - a).perp(&(c - a))
 }
 
-/// Convex hull (Andrew), positive orientation, no collinear vertices.
-fn hull(mut pts: Vec<Point2<f64>>) -> Vec<Point2<f64>> {
-    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-    pts.dedup();
+/// Convex hull (Andrew), positive orientation, no collinear vertices, of points sorted
+/// lexicographically (by x then y, or by y then x: the chains only need a monotone order),
+/// without duplicates.
+fn hull_of_sorted(pts: &[Point2<f64>]) -> Vec<Point2<f64>> {
     if pts.len() < 3 {
-        return pts;
+        return pts.to_vec();
     }
     let mut h: Vec<Point2<f64>> = Vec::with_capacity(2 * pts.len());
     for pass in 0..2 {
@@ -117,25 +117,52 @@ fn hull(mut pts: Vec<Point2<f64>>) -> Vec<Point2<f64>> {
     h
 }
 
+/// Each row's extent `(y, x0, x1)` of a component's runs (row order).
+fn row_extents(runs: &[Run]) -> Vec<(u32, u32, u32)> {
+    let mut rows: Vec<(u32, u32, u32)> = Vec::with_capacity(runs.len());
+    for r in runs {
+        match rows.last_mut() {
+            Some(cur) if cur.0 == r.y => (cur.1, cur.2) = (cur.1.min(r.x0), cur.2.max(r.x1)),
+            _ => rows.push((r.y, r.x0, r.x1)),
+        }
+    }
+    rows
+}
+
+/// The outline's extreme points of pixel squares of half-size `grow` around the row extents, in
+/// an order [`hull_of_sorted`] accepts: with `grow` 0.5 and consecutive rows (a connected
+/// component) the extreme points of each pixel boundary line, already sorted by y then x; else
+/// the four corners of each row, sorted by x then y.
+fn outline_points(rows: &[(u32, u32, u32)], grow: f64) -> Vec<Point2<f64>> {
+    let consecutive = rows.windows(2).all(|p| p[1].0 == p[0].0 + 1);
+    if grow == 0.5 && consecutive {
+        let y0 = rows.first().map_or(0.0, |r| f64::from(r.0) - 0.5);
+        let mut pts = Vec::with_capacity(2 * rows.len() + 2);
+        for k in 0..=rows.len() {
+            let (x0, x1) = match (k.checked_sub(1).and_then(|i| rows.get(i)), rows.get(k)) {
+                (Some(p), Some(n)) => (p.1.min(n.1), p.2.max(n.2)),
+                (Some(e), None) | (None, Some(e)) => (e.1, e.2),
+                (None, None) => continue,
+            };
+            let y = y0 + k as f64;
+            pts.extend([Point2::new(f64::from(x0) - 0.5, y), Point2::new(f64::from(x1) - 0.5, y)]);
+        }
+        return pts;
+    }
+    let mut pts: Vec<Point2<f64>> = Vec::with_capacity(4 * rows.len());
+    for &(y, x0, x1) in rows {
+        let (x0, x1, y) = (f64::from(x0) - grow, f64::from(x1) - 1.0 + grow, f64::from(y));
+        pts.extend([Point2::new(x0, y - grow), Point2::new(x0, y + grow), Point2::new(x1, y - grow), Point2::new(x1, y + grow)]);
+    }
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    pts
+}
+
 /// The quad of a component's runs, search-image pixels, each pixel taken as the square of
 /// half-size `grow` around its centre (0.5: the pixel itself); `None` when the outline is not one.
 fn fit_quad(runs: &[Run], grow: f64, accuracy_rate: f64, (min_perimeter, max_perimeter): (f64, f64)) -> Option<Quad> {
-    // the pixel corners at either end of each row of the component
-    let mut pts: Vec<Point2<f64>> = Vec::with_capacity(4 * runs.len());
-    let mut row: Option<Run> = None;
-    for r in runs.iter().chain(std::iter::once(&Run { y: u32::MAX, x0: 0, x1: 0 })) {
-        match row {
-            Some(ref mut cur) if cur.y == r.y => (cur.x0, cur.x1) = (cur.x0.min(r.x0), cur.x1.max(r.x1)),
-            _ => {
-                if let Some(cur) = row {
-                    let (x0, x1, y) = (f64::from(cur.x0) - grow, f64::from(cur.x1) - 1.0 + grow, f64::from(cur.y));
-                    pts.extend([Point2::new(x0, y - grow), Point2::new(x0, y + grow), Point2::new(x1, y - grow), Point2::new(x1, y + grow)]);
-                }
-                row = Some(*r);
-            }
-        }
-    }
-    let h = hull(pts);
+    let h = hull_of_sorted(&outline_points(&row_extents(runs), grow));
     if h.len() < 4 {
         return None;
     }

@@ -10,28 +10,62 @@
 
 use crate::detect::ImageF32;
 
-/// Summed-area table of an image, `(w + 1) x (h + 1)`, f64 (exact for 8-bit sums).
+/// Summed-area table of an image, `(w + 1) x (h + 1)`, f64 (exact for 8-bit sums). Its buffer
+/// is reused by the next table built on the same thread (a fresh one of a few megabytes costs a
+/// page fault per 4 KiB written, more than the sums themselves).
 pub(super) struct Integral {
     w: usize,
     h: usize,
     sum: Vec<f64>,
 }
 
+thread_local! {
+    /// The buffer of the last dropped [`Integral`] of this thread.
+    static SPARE: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// Row segments summed as independent chains in [`Integral::new`] (latency of the additions).
+const CHAINS: usize = 4;
+
 impl Integral {
     /// The table of `img` (whose samples must be finite).
     pub(super) fn new(img: &ImageF32) -> Self {
         let (w, h) = (img.width, img.height);
-        let mut sum = vec![0.0f64; (w + 1) * (h + 1)];
+        let mut sum = SPARE.try_with(std::cell::Cell::take).unwrap_or_default();
+        sum.clear();
+        sum.resize((w + 1) * (h + 1), 0.0);
+        // each row's prefix sums as CHAINS independent running sums over equal segments, then
+        // the segments' offsets and the row above added
+        let seg = w.div_ceil(CHAINS).max(1);
+        let mut acc = vec![0.0f64; w];
         for (y, src) in img.data.chunks_exact(w.max(1)).take(h).enumerate() {
+            let mut run = [0.0f64; CHAINS];
+            for k in 0..seg {
+                for (c, r) in run.iter_mut().enumerate() {
+                    if let Some(v) = src.get(c * seg + k).filter(|_| k < seg) {
+                        *r += f64::from(*v);
+                        acc[c * seg + k] = *r;
+                    }
+                }
+            }
             let (prev, cur) = sum.split_at_mut((y + 1) * (w + 1));
-            let prev = &prev[y * (w + 1)..];
-            let mut acc = 0.0;
-            for ((o, p), v) in cur[1..=w].iter_mut().zip(&prev[1..]).zip(src) {
-                acc += f64::from(*v);
-                *o = p + acc;
+            let prev = &prev[y * (w + 1)..][1..=w];
+            let mut offset = 0.0;
+            for ((o, p), a) in cur[1..=w].chunks_mut(seg).zip(prev.chunks(seg)).zip(acc.chunks(seg)) {
+                for ((o, p), a) in o.iter_mut().zip(p).zip(a) {
+                    *o = p + (offset + a);
+                }
+                offset += a.last().copied().unwrap_or(0.0);
             }
         }
         Self { w, h, sum }
+    }
+}
+
+impl Drop for Integral {
+    fn drop(&mut self) {
+        let sum = std::mem::take(&mut self.sum);
+        let _ = SPARE.try_with(|s| s.set(sum));
     }
 }
 
@@ -47,53 +81,48 @@ pub(super) struct Run {
 }
 
 /// The dark runs of `img` (row by row, left to right) into `runs`: pixels below the mean of the
-/// `(2 r + 1)^2` window minus `offset`.
+/// `(2 r + 1)^2` window minus `offset` (compared as `(v + offset) * count < sum`, exact for 8-bit
+/// levels).
 pub(super) fn dark_runs(img: &ImageF32, integral: &Integral, r: usize, offset: f32, runs: &mut Vec<Run>) {
     runs.clear();
     let (w, h) = (integral.w, integral.h);
-    let mut thr = vec![0.0f32; w];
+    let offset = f64::from(offset);
+    let mut dark = vec![false; w];
     let lo: Vec<usize> = (0..w).map(|x| x.saturating_sub(r)).collect();
     let hi: Vec<usize> = (0..w).map(|x| (x + r + 1).min(w)).collect();
-    let inv_cols: Vec<f64> = lo.iter().zip(&hi).map(|(a, b)| 1.0 / (b - a) as f64).collect();
     // columns whose window is not clamped: x in r..w - r - 1
     let inner = r..w.saturating_sub(r + 1).max(r);
     for (y, row) in img.data.chunks_exact(w.max(1)).take(h).enumerate() {
         let (y0, y1) = (y.saturating_sub(r), (y + r + 1).min(h));
         let top = &integral.sum[y0 * (w + 1)..][..=w];
         let bot = &integral.sum[y1 * (w + 1)..][..=w];
-        let inv_rows = 1.0 / (y1 - y0) as f64;
+        let rows = (y1 - y0) as f64;
         for x in (0..inner.start.min(w)).chain(inner.end..w) {
             let (a, b) = (lo[x], hi[x]);
-            thr[x] = ((bot[b] - bot[a] - top[b] + top[a]) * inv_cols[x] * inv_rows) as f32 - offset;
+            dark[x] = (f64::from(row[x]) + offset) * ((b - a) as f64 * rows) < bot[b] - bot[a] - top[b] + top[a];
         }
         // the unclamped columns in one vectorisable pass: window [x - r, x + r + 1)
-        let scale = inv_rows / (2 * r + 1) as f64;
+        let count = rows * (2 * r + 1) as f64;
         let n = inner.len();
         if n > 0 {
             let (b0, b1, t0, t1) = (&bot[..n], &bot[2 * r + 1..][..n], &top[..n], &top[2 * r + 1..][..n]);
-            for ((((t, p), q), u), v) in thr[inner.clone()].iter_mut().zip(b1).zip(b0).zip(t1).zip(t0) {
-                *t = ((p - q - u + v) * scale) as f32 - offset;
+            let src = &row[inner.clone()];
+            for (((((d, v), p), q), u), t) in dark[inner.clone()].iter_mut().zip(src).zip(b1).zip(b0).zip(t1).zip(t0) {
+                *d = (f64::from(*v) + offset) * count < p - q - u + t;
             }
         }
-        push_runs(row, &thr, y as u32, runs);
+        push_runs(&dark, y as u32, runs);
     }
 }
 
-/// Append the runs of `row[x] < thr[x]` in row `y`.
-fn push_runs(row: &[f32], thr: &[f32], y: u32, runs: &mut Vec<Run>) {
-    let mut start: Option<usize> = None;
-    for (x, (v, t)) in row.iter().zip(thr).enumerate() {
-        match (v < t, start) {
-            (true, None) => start = Some(x),
-            (false, Some(s)) => {
-                runs.push(Run { y, x0: s as u32, x1: x as u32 });
-                start = None;
-            }
-            _ => {}
-        }
-    }
-    if let Some(s) = start {
-        runs.push(Run { y, x0: s as u32, x1: row.len() as u32 });
+/// Append the runs of dark pixels of row `y`.
+fn push_runs(dark: &[bool], y: u32, runs: &mut Vec<Run>) {
+    let mut x = 0;
+    while let Some(k) = dark[x..].iter().position(|d| *d) {
+        let x0 = x + k;
+        let x1 = dark[x0..].iter().position(|d| !*d).map_or(dark.len(), |k| x0 + k);
+        runs.push(Run { y, x0: x0 as u32, x1: x1 as u32 });
+        x = x1;
     }
 }
 
