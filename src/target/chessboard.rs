@@ -10,7 +10,7 @@
 
 use nalgebra::Point3;
 
-use super::{require_grey, require_positive, TargetError};
+use super::{require_positive, BoardLook, TargetError};
 
 /// A planar chessboard.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,13 +64,7 @@ impl Chessboard {
             return Err(TargetError::InvalidField { field: "squares", reason: format!("needs 2..=4096 squares per side, got {:?}", self.squares) });
         }
         require_positive("square_m", self.square_m)?;
-        if !self.margin_m.is_finite() || self.margin_m < 0.0 {
-            return Err(TargetError::InvalidField { field: "margin_m", reason: format!("must be finite and >= 0, got {}", self.margin_m) });
-        }
-        require_grey("dark", self.dark)?;
-        require_grey("light", self.light)?;
-        require_grey("margin", self.margin)?;
-        require_grey("background", self.background)
+        BoardLook { margin_m: self.margin_m, dark: self.dark, light: self.light, margin: self.margin, background: self.background }.validate()
     }
 
     /// Grey level at (x, y) on the board plane (board frame, metres).

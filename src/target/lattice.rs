@@ -133,7 +133,8 @@ mod tests {
             assert_eq!(l.index(0.5 * (lo + hi)), i64::from(g));
         }
         assert_eq!(l.index(-0.001), -1);
-        assert!(l.uniform_over([0.001, 0.001, 0.015, 0.3]) && !l.uniform_over([0.001, 0.001, 0.025, 0.01]));
+        assert!(l.uniform_over([0.001, 0.001, 0.015, 0.035]) && !l.uniform_over([0.001, 0.001, 0.025, 0.01]));
+        assert!(!l.uniform_over([0.001, 0.001, 0.015, 0.3]), "a box that leaves the board");
         assert!(!l.uniform_over([-0.001, 0.001, 0.002, 0.002]));
         assert!(l.uniform_over([-0.01, 0.001, -0.002, 0.002]) && l.uniform_over([0.001, 0.5, 0.002, 0.6]));
     }
