@@ -1,7 +1,7 @@
 //! Scene to GPU inputs: the uniform block and, for the S-path, the dots (camera frame) and their
 //! 16x16-pixel tile lists. Pure CPU code, f64 to f32 at the last step.
 
-use nalgebra::{Isometry3, Matrix3, Point2, Vector3};
+use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
 
 use crate::camera::{CameraModel, Lens};
@@ -95,7 +95,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         }
         Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
     };
-    let tile_flat = classify_tiles(scene, grid, tiles_x, tiles_y, &tile_start);
+    let tile_flat = super::flat::classify_tiles(scene, grid, tiles_x, tiles_y, &tile_start);
     // Storage buffers may not be empty.
     if dots.is_empty() {
         dots.push([0.0; 4]);
@@ -244,7 +244,7 @@ impl TileCornerRays {
     }
 
     /// The four corner rays of tile (tx, ty), or `None` if one is missing.
-    fn tile(&self, tx: u32, ty: u32) -> Option<[Vector3<f64>; 4]> {
+    pub(super) fn tile(&self, tx: u32, ty: u32) -> Option<[Vector3<f64>; 4]> {
         let c = self.corners(tx, ty);
         Some([c[0]?, c[1]?, c[2]?, c[3]?])
     }
@@ -259,154 +259,7 @@ impl TileCornerRays {
     /// the region is an ellipse in the image (fisheye, Double Sphere: a disc of distorted radii),
     /// convex and hundreds of pixels across, so it cannot reach a pixel centre of the tile (half a
     /// pixel inside its edges) between corners outside it.
-    fn beyond_lens(&self, tx: u32, ty: u32) -> bool {
+    pub(super) fn beyond_lens(&self, tx: u32, ty: u32) -> bool {
         matches!(self.camera.lens, Lens::Fisheye(_) | Lens::DoubleSphere(_)) && self.corners(tx, ty).iter().all(Option::is_none)
-    }
-}
-
-/// Bounding box `[xmin, ymin, xmax, ymax]` of the plane points seen along `rays`, grown by 10 % of
-/// its size to cover the bending of the tile's edges by the distortion (a straight pixel edge stays
-/// straight under the homography; the lens bends it by far less than 10 %); `None` if a ray misses the plane.
-fn plane_bbox(target_from_cam: &Isometry3<f64>, rays: &[Vector3<f64>]) -> Option<[f64; 4]> {
-    let o = target_from_cam.translation.vector;
-    let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
-    for r in rays {
-        let d = target_from_cam.rotation * r;
-        let t = -o.z / d.z;
-        if !(t > 0.0) || !t.is_finite() {
-            return None;
-        }
-        let (x, y) = (o.x + t * d.x, o.y + t * d.y);
-        bb = [bb[0].min(x), bb[1].min(y), bb[2].max(x), bb[3].max(y)];
-    }
-    let gx = 0.1 * (bb[2] - bb[0]) + 1e-9;
-    let gy = 0.1 * (bb[3] - bb[1]) + 1e-9;
-    Some([bb[0] - gx, bb[1] - gy, bb[2] + gx, bb[3] + gy])
-}
-
-/// Whether every ray of a tile provably misses the target plane (it sees the background): each
-/// corner ray points away from the plane by more than a tenth of the tile's angular size (the
-/// rays meeting the plane form a hemisphere of directions; the lens bends a tile's edges by far
-/// less than that margin). A wide lens looks past the plane's horizon over much of its image.
-fn plane_missed(target_from_cam: &Isometry3<f64>, rays: &[Vector3<f64>; 4]) -> bool {
-    let side = -target_from_cam.translation.vector.z.signum();
-    let units = rays.map(|r| target_from_cam.rotation * r.normalize());
-    let size = (units[0] - units[2]).norm().max((units[1] - units[3]).norm());
-    units.iter().all(|d| d.z * side < -(0.1 * size + 1e-9))
-}
-
-/// Whether a line of the ascending `lines` lies in `[lo, hi]`.
-fn any_in(lines: &[f64], lo: f64, hi: f64) -> bool {
-    lines.get(lines.partition_point(|l| *l < lo)).is_some_and(|l| *l <= hi)
-}
-
-/// Grey level of each tile that is provably one flat region (no edge of the target inside), else
-/// -1. Flat tiles skip all per-pixel work on the GPU. Conservative: a tile is flat only when the
-/// region bounded by its outline's image holds no discontinuity of the target.
-fn classify_tiles(scene: &Scene, grid: &TileCornerRays, tiles_x: u32, tiles_y: u32, tile_start: &[u32]) -> Vec<f32> {
-    let flat = FlatTest::new(scene);
-    (0..tiles_x * tiles_y)
-        .into_par_iter()
-        .map(|t| {
-            let (tx, ty) = (t % tiles_x, t / tiles_x);
-            let has_dots = tile_start[t as usize + 1] > tile_start[t as usize];
-            if grid.beyond_lens(tx, ty) {
-                return scene.target.background() as f32;
-            }
-            grid.tile(tx, ty).and_then(|rays| flat.value(scene, &rays, has_dots)).map_or(-1.0, |v| v as f32)
-        })
-        .collect()
-}
-
-/// What [`classify_tiles`] tests each tile against, computed once per frame.
-struct FlatTest {
-    target_from_cam: Isometry3<f64>,
-    /// Chessboard: the board's lines (squares and margin) along x and y; coded boards: the
-    /// board's and its border's outline, metres.
-    lines_m: [Vec<f64>; 2],
-    /// Coded boards: the cell lattice (a tile inside the board is flat when its cells are all
-    /// of one colour, also across lattice lines).
-    lattice: Option<crate::target::CellLattice>,
-    /// S-path: the sphere's centre in the camera frame and its radius in pixels.
-    sphere: Option<(Vector3<f64>, f64)>,
-}
-
-impl FlatTest {
-    fn new(scene: &Scene) -> Self {
-        let mut lines_m: [Vec<f64>; 2] = match &scene.target {
-            Target::Chessboard(b) => {
-                let along = |n: u32| (0..=n).map(|j| f64::from(j) * b.square_m).chain([-b.margin_m, f64::from(n) * b.square_m + b.margin_m]).collect();
-                [along(b.squares[0]), along(b.squares[1])]
-            }
-            Target::Charuco(_) | Target::AprilGrid(_) => match scene.target.coded_look() {
-                Some((look, [x0, y0, x1, y1])) => {
-                    let m = look.margin_m;
-                    [vec![x0 - m, x0, x1, x1 + m], vec![y0 - m, y0, y1, y1 + m]]
-                }
-                None => Default::default(),
-            },
-            _ => Default::default(),
-        };
-        lines_m.iter_mut().for_each(|l| l.sort_by(f64::total_cmp));
-        let sphere = match &scene.target {
-            Target::SPath(s) => {
-                let c = (scene.cam_from_target * s.path.sphere_center_m).coords;
-                let f = scene.camera.intrinsics.fx.min(scene.camera.intrinsics.fy);
-                Some((c, f * s.path.sphere_radius_m / c.norm()))
-            }
-            _ => None,
-        };
-        Self { target_from_cam: scene.cam_from_target.inverse(), lines_m, lattice: scene.target.lattice(), sphere }
-    }
-
-    /// The grey level of the tile seen along the corner `rays` when it is one flat region;
-    /// `has_dots`: S-path dots reach the tile.
-    fn value(&self, scene: &Scene, rays: &[Vector3<f64>; 4], has_dots: bool) -> Option<f64> {
-        match &scene.target {
-            Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) if plane_missed(&self.target_from_cam, rays) => {
-                Some(scene.target.background())
-            }
-            Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
-                let [xl, yl] = &self.lines_m;
-                let crossed = any_in(xl, bb[0], bb[2]) || any_in(yl, bb[1], bb[3]);
-                let uniform = self.lattice.as_ref().is_none_or(|l| l.uniform_over(bb));
-                (!crossed && uniform).then(|| scene.target.plane_intensity(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3]))).flatten()
-            }),
-            Target::DotGrid(g) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
-                let outer = 0.5 * g.edge_m + g.margin_m;
-                if any_in(&[-outer, outer], bb[0], bb[2]) || any_in(&[-outer, outer], bb[1], bb[3]) {
-                    return None;
-                }
-                let r = g.dot_radius_m;
-                let near = g.dot_centres_m().iter().any(|c| {
-                    let dx = (bb[0] - c.x).max(c.x - bb[2]).max(0.0);
-                    let dy = (bb[1] - c.y).max(c.y - bb[3]).max(0.0);
-                    dx * dx + dy * dy <= r * r
-                });
-                (!near).then(|| g.intensity_at(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3])))
-            }),
-            Target::SPath(s) => {
-                let (c, sphere_px) = self.sphere?;
-                let r = s.path.sphere_radius_m;
-                // Two pixels of angle at the sphere's distance.
-                let margin = 2.0 * c.norm() / scene.camera.intrinsics.fx.min(scene.camera.intrinsics.fy);
-                let dist = |d: &Vector3<f64>| {
-                    let n = d.normalize();
-                    (c - n * n.dot(&c)).norm()
-                };
-                // The sphere's outline is convex and, when it is over 100 px in radius, cannot
-                // reach more than 16^2 / 800 px between two tile corners: corners all inside
-                // (or all outside) by 2 px make the tile flat.
-                if has_dots || c.z <= r || sphere_px < 100.0 {
-                    None
-                } else if rays.iter().all(|d| dist(d) < r - margin) {
-                    Some(s.light)
-                } else if rays.iter().all(|d| dist(d) > r + margin && d.dot(&c) > 0.0) {
-                    Some(s.background)
-                } else {
-                    None
-                }
-            }
-        }
     }
 }

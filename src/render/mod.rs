@@ -9,6 +9,7 @@
 pub mod bend;
 mod buffers;
 pub mod context;
+mod flat;
 pub(crate) mod gpu_scene;
 pub(crate) mod post;
 pub mod renderer;
