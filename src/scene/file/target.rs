@@ -4,7 +4,9 @@ use serde::Deserialize;
 
 use crate::target::{AprilGrid, AprilGridTarget, BoardLook, Charuco, CharucoTarget, Chessboard, Dictionary, DotGrid, DotStyle, SPathDots, Target};
 
-/// `[target]` table.
+/// `[target]` table. The boards' look fields (`margin_m`, `dark`, `light`, `margin`,
+/// `background`) repeat in each variant: serde's `flatten` does not combine with
+/// `deny_unknown_fields`, and a typo must stay an error.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum TargetSpec {
