@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::gpu_scene::TileCornerRays;
 use crate::scene::Scene;
-use crate::target::Target;
+use crate::target::{CellLattice, Target};
 
 /// Bounding box `[xmin, ymin, xmax, ymax]` of the plane points seen along `rays`, grown by 10 % of
 /// its size to cover the bending of the tile's edges by the distortion (a straight pixel edge stays
@@ -49,8 +49,14 @@ fn any_in(lines: &[f64], lo: f64, hi: f64) -> bool {
 /// Grey level of each tile that is provably one flat region (no edge of the target inside), else
 /// -1. Flat tiles skip all per-pixel work on the GPU. Conservative: a tile is flat only when the
 /// region bounded by its outline's image holds no discontinuity of the target.
-pub(super) fn classify_tiles(scene: &Scene, grid: &TileCornerRays, tiles_x: u32, tiles_y: u32, tile_start: &[u32]) -> Vec<f32> {
-    let flat = FlatTest::new(scene);
+pub(super) fn classify_tiles(
+    scene: &Scene,
+    grid: &TileCornerRays,
+    (tiles_x, tiles_y): (u32, u32),
+    tile_start: &[u32],
+    lattice: Option<&CellLattice>,
+) -> Vec<f32> {
+    let flat = FlatTest::new(scene, lattice);
     (0..tiles_x * tiles_y)
         .into_par_iter()
         .map(|t| {
@@ -65,20 +71,20 @@ pub(super) fn classify_tiles(scene: &Scene, grid: &TileCornerRays, tiles_x: u32,
 }
 
 /// What [`classify_tiles`] tests each tile against, computed once per frame.
-struct FlatTest {
+struct FlatTest<'a> {
     target_from_cam: Isometry3<f64>,
     /// Chessboard: the board's lines (squares and margin) along x and y; coded boards: the
     /// board's and its border's outline, metres.
     lines_m: [Vec<f64>; 2],
     /// Coded boards: the cell lattice (a tile inside the board is flat when its cells are all
     /// of one colour, also across lattice lines).
-    lattice: Option<crate::target::CellLattice>,
+    lattice: Option<&'a CellLattice>,
     /// S-path: the sphere's centre in the camera frame and its radius in pixels.
     sphere: Option<(Vector3<f64>, f64)>,
 }
 
-impl FlatTest {
-    fn new(scene: &Scene) -> Self {
+impl<'a> FlatTest<'a> {
+    fn new(scene: &Scene, lattice: Option<&'a CellLattice>) -> Self {
         let mut lines_m: [Vec<f64>; 2] = match &scene.target {
             Target::Chessboard(b) => {
                 let along = |n: u32| (0..=n).map(|j| f64::from(j) * b.square_m).chain([-b.margin_m, f64::from(n) * b.square_m + b.margin_m]).collect();
@@ -102,7 +108,7 @@ impl FlatTest {
             }
             _ => None,
         };
-        Self { target_from_cam: scene.cam_from_target.inverse(), lines_m, lattice: scene.target.lattice(), sphere }
+        Self { target_from_cam: scene.cam_from_target.inverse(), lines_m, lattice, sphere }
     }
 
     /// The grey level of the tile seen along the corner `rays` when it is one flat region;
@@ -115,7 +121,7 @@ impl FlatTest {
             Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
                 let [xl, yl] = &self.lines_m;
                 let crossed = any_in(xl, bb[0], bb[2]) || any_in(yl, bb[1], bb[3]);
-                let uniform = self.lattice.as_ref().is_none_or(|l| l.uniform_over(bb));
+                let uniform = self.lattice.is_none_or(|l| l.uniform_over(bb));
                 (!crossed && uniform).then(|| scene.target.plane_intensity(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3]))).flatten()
             }),
             Target::DotGrid(g) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {

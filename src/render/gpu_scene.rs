@@ -10,7 +10,7 @@ use super::uniforms::Params;
 use super::RenderError;
 use crate::scene::trace::dot_bbox_px;
 use crate::scene::Scene;
-use crate::target::{DotStyle, SPathDots, Target};
+use crate::target::{CellLattice, DotStyle, SPathDots, Target};
 
 /// Tile edge, pixels. Fixed at 8: the shader's coarse pass runs one 8 x 8 workgroup per tile.
 pub const TILE_PX: u32 = 8;
@@ -88,14 +88,16 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         ..Default::default()
     };
     lens_params(&mut p, cam, grid.split_radii);
+    // A coded board's lattice, built once per frame for the uniforms and the flat tiles.
+    let lattice = scene.target.lattice();
     let (mut dots, tile_start, mut tile_items) = match &scene.target {
         Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) => {
-            let bits = planar_params(&mut p, scene)?;
+            let bits = planar_params(&mut p, scene, lattice.as_ref())?;
             (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], bits)
         }
         Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
     };
-    let tile_flat = super::flat::classify_tiles(scene, grid, tiles_x, tiles_y, &tile_start);
+    let tile_flat = super::flat::classify_tiles(scene, grid, (tiles_x, tiles_y), &tile_start, lattice.as_ref());
     // Storage buffers may not be empty.
     if dots.is_empty() {
         dots.push([0.0; 4]);
@@ -132,8 +134,8 @@ fn lens_params(p: &mut Params, cam: &CameraModel, split: [f64; 2]) {
 }
 
 /// The plane homography and the board's or grid's parameters (chessboard, dot grid, coded
-/// boards); for a coded board its dark-cell bits.
-fn planar_params(p: &mut Params, scene: &Scene) -> Result<Vec<u32>, RenderError> {
+/// boards); for a coded board (its `lattice`) its dark-cell bits.
+fn planar_params(p: &mut Params, scene: &Scene, lattice: Option<&CellLattice>) -> Result<Vec<u32>, RenderError> {
     let r = scene.cam_from_target.rotation.to_rotation_matrix();
     let t = scene.cam_from_target.translation.vector;
     let m = r.matrix();
@@ -158,12 +160,12 @@ fn planar_params(p: &mut Params, scene: &Scene) -> Result<Vec<u32>, RenderError>
             p.grey = [g.dark as f32, g.light as f32, g.light as f32, g.background as f32];
         }
         Target::Charuco(_) | Target::AprilGrid(_) => {
-            let (Some(l), Some((look, _))) = (scene.target.lattice(), scene.target.coded_look()) else { return Ok(Vec::new()) };
+            let (Some(l), Some((look, _))) = (lattice, scene.target.coded_look()) else { return Ok(Vec::new()) };
             p.board = [l.cells[0] as f32, l.cells[1] as f32, l.per_period as f32, look.margin_m as f32];
             p.grey = [look.dark as f32, look.light as f32, look.margin as f32, look.background as f32];
             p.lat = [l.period_m as f32, l.origin_m as f32, l.first_m as f32, l.cell_m as f32];
             p.lat2 = [l.end_m(0) as f32, l.end_m(1) as f32, l.min_cell_m() as f32, 0.0];
-            return Ok(l.dark_bits);
+            return Ok(l.dark_bits.clone());
         }
         Target::SPath(_) => {}
     }

@@ -94,6 +94,17 @@ impl Charuco {
         (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y])).filter(|&[x, y]| self.has_marker(x, y))
     }
 
+    /// The rank of marker square `(x, y)` among the marker squares, row by row (its id less
+    /// `first_id`), counted per row without walking the board: the renderer's lattice asks this
+    /// for every cell of every frame.
+    fn marker_index(&self, x: u32, y: u32) -> usize {
+        let nx = self.squares[0];
+        // Marker squares in row r: the x of one parity, `(nx + 1) / 2` even ones or `nx / 2` odd.
+        let odd_first = |r: u32| !self.has_marker(0, r);
+        let in_row = |r: u32, before: u32| if odd_first(r) { before / 2 } else { before.div_ceil(2) };
+        ((0..y).map(|r| in_row(r, nx)).sum::<u32>() + in_row(y, x)) as usize
+    }
+
     /// The markers in id order.
     pub fn markers(&self) -> Vec<Marker> {
         let (s, m) = (self.square_m, self.marker_m);
@@ -134,7 +145,7 @@ impl Charuco {
         if cx == 0 || cy == 0 || cx == n + 1 || cy == n + 1 {
             return Some(true);
         }
-        let k = self.marker_squares().position(|q| q == [i, j])?;
+        let k = self.marker_index(i, j);
         let code = self.dictionary.code(self.first_id as usize + k)?;
         Some(!code[(cy - 1) * n + (cx - 1)])
     }
@@ -319,6 +330,16 @@ mod tests {
         }
         assert_eq!(b.is_dark(-0.001, 0.01), None);
         assert_eq!(b.is_dark(0.01, 0.18), None);
+    }
+
+    #[test]
+    fn marker_index_counts_the_marker_squares_before() {
+        for (squares, legacy) in [([5, 4], false), ([5, 4], true), ([4, 5], false), ([6, 6], true), ([7, 3], false)] {
+            let b = Charuco { squares, ..board(legacy) };
+            for (k, m) in b.markers().iter().enumerate() {
+                assert_eq!(b.marker_index(m.square[0], m.square[1]), k, "{squares:?} legacy {legacy}");
+            }
+        }
     }
 
     #[test]
