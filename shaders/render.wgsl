@@ -378,23 +378,17 @@ fn coded_value(x: f32, y: f32) -> f32 {
     return P.grey.w;
 }
 
-// Lines of the coded board along one axis in [lo, hi]: the lattice's on the board, and the
-// border's outer edges. Count and the first (the only one when the count is 1).
+// The lattice's lines of the coded board along one axis in [lo, hi] (the board's edges
+// included): count and the first (the only one when the count is 1).
 fn coded_lines(lo: f32, hi: f32, end: f32, cells: f32) -> Lines {
     var l: Lines;
-    let o = P.lat.y; let m = P.board.w;
     // Index -1: before the board; cells: after it (lines o and end between them and the board).
     let g0 = clamp(lat_index(lo), -1, i32(cells));
     let g1 = clamp(lat_index(hi), -1, i32(cells));
     l.count = u32(g1 - g0);
     l.first = select(lat_bounds(max(g1, 0)).x, end, g1 == i32(cells));
-    if (m > 0.0) {
-        if (o - m >= lo && o - m <= hi) { l.count = l.count + 1u; l.first = o - m; }
-        if (end + m >= lo && end + m <= hi) { l.count = l.count + 1u; l.first = end + m; }
-    }
     return l;
 }
-
 
 // Target-plane point of the ray d (any length and direction: H is linear); z < 0 when the ray
 // misses (plane behind).
@@ -447,20 +441,16 @@ fn halfplane_area(n: vec2<f32>, c: f32) -> f32 {
     return select(1.0 - g, g, c >= 0.0);
 }
 
-// The line positions of the chessboard along one axis that fall in [lo, hi]: count and the first.
+// The square lines of the chessboard along one axis that fall in [lo, hi]: count and the first.
 struct Lines { count: u32, first: f32, };
 
 fn chess_lines(lo: f32, hi: f32, n_squares: f32) -> Lines {
     var l: Lines;
-    let s = P.board.z; let m = P.board.w; let w = n_squares * s;
+    let s = P.board.z;
     let j0 = max(ceil(lo / s), 0.0);
     let j1 = min(floor(hi / s), n_squares);
     l.count = u32(max(j1 - j0 + 1.0, 0.0));
     l.first = j0 * s;
-    if (m > 0.0) {
-        if (-m >= lo && -m <= hi) { l.count = l.count + 1u; l.first = -m; }
-        if (w + m >= lo && w + m <= hi) { l.count = l.count + 1u; l.first = w + m; }
-    }
     return l;
 }
 
@@ -651,11 +641,20 @@ fn min_cell(coded: bool) -> f32 { return select(P.board.z, P.lat2.z, coded); }
 fn board_lo(coded: bool) -> vec2<f32> { return select(vec2<f32>(0.0, 0.0), vec2<f32>(P.lat.y, P.lat.y), coded); }
 fn board_hi(coded: bool) -> vec2<f32> { return select(vec2<f32>(P.board.x * P.board.z, P.board.y * P.board.z), P.lat2.xy, coded); }
 
-// The board's lines along `axis` in [lo, hi].
+// The board's lines along `axis` in [lo, hi], and its margin's outer edges: count and the first
+// (the only one when the count is 1).
 fn board_lines(lo: f32, hi: f32, axis: u32, coded: bool) -> Lines {
     let n = select(P.board.x, P.board.y, axis == 1u);
-    if (coded) { return coded_lines(lo, hi, select(P.lat2.x, P.lat2.y, axis == 1u), n); }
-    return chess_lines(lo, hi, n);
+    let start = select(board_lo(coded).x, board_lo(coded).y, axis == 1u);
+    let end = select(board_hi(coded).x, board_hi(coded).y, axis == 1u);
+    var l: Lines;
+    if (coded) { l = coded_lines(lo, hi, end, n); } else { l = chess_lines(lo, hi, n); }
+    let m = P.board.w;
+    if (m > 0.0) {
+        if (start - m >= lo && start - m <= hi) { l.count = l.count + 1u; l.first = start - m; }
+        if (end + m >= lo && end + m <= hi) { l.count = l.count + 1u; l.first = end + m; }
+    }
+    return l;
 }
 
 // The cell holding board coordinate v along `axis`, clamped to the board.
