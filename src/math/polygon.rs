@@ -48,7 +48,9 @@ pub fn area(poly: &[Vector2<f64>]) -> f64 {
     signed_area(poly).abs()
 }
 
-fn signed_area(poly: &[Vector2<f64>]) -> f64 {
+/// Signed area of a polygon (shoelace): positive for vertices in counter-clockwise order in a
+/// y-up frame (clockwise on screen, y down).
+pub fn signed_area(poly: &[Vector2<f64>]) -> f64 {
     let mut s = 0.0;
     for (i, a) in poly.iter().enumerate() {
         let b = poly[(i + 1) % poly.len()];

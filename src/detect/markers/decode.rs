@@ -16,7 +16,7 @@
 use nalgebra::{Matrix3, Point2};
 
 use super::edges;
-use super::quads::{shoelace, Quad};
+use super::quads::{signed_area, Quad};
 use super::{MarkerDetection, MarkerParams, MarkerSet};
 use crate::detect::xcorner::bilinear;
 use crate::detect::ImageF32;
@@ -81,7 +81,7 @@ pub(super) fn marker(img: &ImageF32, q: &Quad, codes: &Codes, params: &MarkerPar
         return None;
     }
     let r = edges::refine(img, q, codes.border as f64 / cells as f64, codes.margin_rate, params.min_contrast)?;
-    if !(shoelace(&r) > 0.0) {
+    if !(signed_area(&r) > 0.0) {
         return None;
     }
     let h = square_to_quad(&r)?;
