@@ -252,7 +252,7 @@ fn measure(
         pixel_rms_px: (dist.iter().map(|d| d * d).sum::<f64>() / dist.len().max(1) as f64).sqrt(),
         pixel_max_px: dist.iter().copied().fold(0.0, f64::max),
         sigma_min_robot: j_robot.clone().singular_values().min(),
-        sigma_min_image: l.clone().singular_values().min(),
+        sigma_min_image: sigma_min(&l),
         dots: obs.features.len(),
         within_limits: sim.robot().check_limits(&q).is_ok(),
         source,
@@ -306,5 +306,15 @@ fn increment(plan: &Plan, s: &Step, options: &ServoOptions) -> Option<(nalgebra:
             pbvs_increment(&s.j_robot, &pbvs_error(&tool_est, &goal_tool), &options.pbvs).map(|dq| (dq, options.pbvs.gain))
         }
         Law::Ibvs => ibvs_increment(s.rec.sigma_min_robot, &s.l, &s.measured, &s.desired, &options.ibvs),
+    }
+}
+
+/// Smallest singular value of the image Jacobian; 0 when it has no rows (no detected feature
+/// matches a desired one: nalgebra's SVD panics on an empty matrix).
+fn sigma_min(l: &nalgebra::DMatrix<f64>) -> f64 {
+    if l.is_empty() {
+        0.0
+    } else {
+        l.clone().singular_values().min()
     }
 }
