@@ -43,6 +43,7 @@ struct Params {
     sphere: vec4<f32>,   // s-path: sphere centre (camera frame), radius
     lat: vec4<f32>,      // coded boards: lattice period, origin, first sub-interval, cell
     lat2: vec4<f32>,     // coded boards: board end x, end y, narrowest cell, 0
+    vw: vec4<u32>,       // planar targets: views per pixel, one set per row (1) or one for all (0), 0, 0
 };
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -55,6 +56,22 @@ struct Params {
 @group(0) @binding(5) var<storage, read> work: array<u32>;
 // Coarse pass: 1 where the pixel needs the fine pass.
 @group(0) @binding(6) var<storage, read_write> out_hard: array<u32>;
+// Planar targets: the views a pixel integrates (exposure time and aperture samples, per row under
+// a rolling shutter), each the three rows of its plane homography H (src/render/views.rs).
+@group(0) @binding(7) var<storage, read> views: array<vec4<f32>>;
+
+// The homography of the view being shaded (set_view): rows of H, (X, Y, W) = H d.
+var<private> H0: vec4<f32>;
+var<private> H1: vec4<f32>;
+var<private> H2: vec4<f32>;
+
+// Make view s of the views of row y the current one.
+fn set_view(y: u32, s: u32) {
+    let k = 3u * (select(0u, y * P.vw.x, P.vw.y == 1u) + s);
+    H0 = views[k];
+    H1 = views[k + 1u];
+    H2 = views[k + 2u];
+}
 
 // ---------------------------------------------------------------- exact-order arithmetic
 // The built-in dot/length/normalize are lowered differently by Mesa's SPIR-V (Vulkan) and GLSL (GL)
@@ -394,14 +411,14 @@ fn coded_lines(lo: f32, hi: f32, end: f32, cells: f32) -> Lines {
 // misses (plane behind).
 fn plane_point(d: vec3<f32>) -> vec3<f32> {
     if (wide()) {
-        let hw = P.h2.x * d.x + P.h2.y * d.y + P.h2.z * d.z;
-        let hx = P.h0.x * d.x + P.h0.y * d.y + P.h0.z * d.z;
-        let hy = P.h1.x * d.x + P.h1.y * d.y + P.h1.z * d.z;
+        let hw = H2.x * d.x + H2.y * d.y + H2.z * d.z;
+        let hx = H0.x * d.x + H0.y * d.y + H0.z * d.z;
+        let hy = H1.x * d.x + H1.y * d.y + H1.z * d.z;
         return vec3<f32>(hx / hw, hy / hw, hw);
     }
-    let hw = P.h2.x * d.x + P.h2.y * d.y + P.h2.z;
-    let hx = P.h0.x * d.x + P.h0.y * d.y + P.h0.z;
-    let hy = P.h1.x * d.x + P.h1.y * d.y + P.h1.z;
+    let hw = H2.x * d.x + H2.y * d.y + H2.z;
+    let hx = H0.x * d.x + H0.y * d.y + H0.z;
+    let hy = H1.x * d.x + H1.y * d.y + H1.z;
     return vec3<f32>(hx / hw, hy / hw, hw);
 }
 
@@ -458,10 +475,10 @@ fn chess_lines(lo: f32, hi: f32, n_squares: f32) -> Lines {
 // with d(d)/d(q). Columns: d(board)/d(qx), d(board)/d(qy).
 fn board_jacobian(pc: vec3<f32>, ray: Ray) -> mat2x2<f32> {
     let dbdxy = mat2x2<f32>(
-        vec2<f32>(P.h0.x - pc.x * P.h2.x, P.h1.x - pc.y * P.h2.x) / pc.z,
-        vec2<f32>(P.h0.y - pc.x * P.h2.y, P.h1.y - pc.y * P.h2.y) / pc.z);
+        vec2<f32>(H0.x - pc.x * H2.x, H1.x - pc.y * H2.x) / pc.z,
+        vec2<f32>(H0.y - pc.x * H2.y, H1.y - pc.y * H2.y) / pc.z);
     if (!wide()) { return dbdxy * jac2(ray); }
-    let dbdz = vec2<f32>(P.h0.z - pc.x * P.h2.z, P.h1.z - pc.y * P.h2.z) / pc.z;
+    let dbdz = vec2<f32>(H0.z - pc.x * H2.z, H1.z - pc.y * H2.z) / pc.z;
     let j0 = ray_col(ray, 0u);
     let j1 = ray_col(ray, 1u);
     return dbdxy * jac2(ray) + mat2x2<f32>(dbdz * j0.z, dbdz * j1.z);
@@ -480,8 +497,8 @@ fn board_jacobian(pc: vec3<f32>, ray: Ray) -> mat2x2<f32> {
 // The board line {board coordinate `axis` = v} in pixel offsets d: board coordinate >= v where
 // dot(l.xy, d) >= l.z. (The affine footprint would put the centre's pc for v in the normal.)
 fn board_line(axis: u32, v: f32, pc: vec3<f32>, ray: Ray) -> vec3<f32> {
-    let h = select(P.h0, P.h1, axis == 1u);
-    let g = (h.xyz - v * P.h2.xyz) / pc.z;
+    let h = select(H0, H1, axis == 1u);
+    let g = (h.xyz - v * H2.xyz) / pc.z;
     return vec3<f32>(dot_step(g, ray_col(ray, 0u)), dot_step(g, ray_col(ray, 1u)), v - select(pc.x, pc.y, axis == 1u));
 }
 
@@ -817,7 +834,7 @@ fn grid_fine(ray: Ray) -> f32 {
     let j0 = clamp(ceil((pc.y - ey + hh - rad) / pitch), 0.0, n - 1.0);
     let j1 = clamp(floor((pc.y + ey + hh + rad) / pitch), 0.0, n - 1.0);
     var exact = i1 - i0 < MAX_CELLS && j1 - j0 < MAX_CELLS && pc.z > 0.0;
-    let g = vec2<f32>(dot_step(P.h2.xyz, ray_col(ray, 0u)), dot_step(P.h2.xyz, ray_col(ray, 1u))) / pc.z;
+    let g = vec2<f32>(dot_step(H2.xyz, ray_col(ray, 0u)), dot_step(H2.xyz, ray_col(ray, 1u))) / pc.z;
     let a_plate = rect_area(vec2<f32>(-outer, -outer), vec2<f32>(outer, outer), pc, ray);
     let ni = select(0u, u32(max(i1 - i0 + 1.0, 0.0)), exact);
     let nj = select(0u, u32(max(j1 - j0 + 1.0, 0.0)), exact);
@@ -1391,6 +1408,24 @@ fn spath_fine(ray: Ray, tile: u32) -> f32 {
 
 // ---------------------------------------------------------------- entry points
 
+// The coarse value of a planar target's pixel px of pass kind `kind` (a literal at each call):
+// the mean over the pixel's views (P.vw.x; one without motion or defocus), hard when any view is.
+fn planar_coarse(px: vec3<u32>, kind: u32) -> Coarse {
+    let ray = pixel_ray(vec2<f32>(f32(px.x), f32(px.y)));
+    var out: Coarse;
+    out.value = 0.0;
+    out.hard = false;
+    for (var s = 0u; s < P.vw.x; s = s + 1u) {
+        set_view(px.y, s);
+        var c: Coarse;
+        if (kind == 1u) { c = grid_coarse(ray); } else { c = cells_coarse(ray, kind == 4u); }
+        out.value = out.value + c.value;
+        out.hard = out.hard || c.hard;
+    }
+    out.value = out.value / f32(P.vw.x);
+    return out;
+}
+
 // Pixel and tile index of a coarse-pass invocation: tile work[workgroup] = tx | (ty << 16), 8 x 8 pixels.
 fn coarse_pixel(wg: vec3<u32>, lid: vec3<u32>) -> vec3<u32> {
     let packed = work[wg.y * 65535u + wg.x];
@@ -1408,13 +1443,13 @@ fn write_coarse(wg: vec3<u32>, lid: vec3<u32>, c: Coarse) {
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_chessboard(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    write_coarse(wg, lid, cells_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), false));
+    write_coarse(wg, lid, planar_coarse(px, 0u));
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_dot_grid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    write_coarse(wg, lid, grid_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
+    write_coarse(wg, lid, planar_coarse(px, 1u));
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -1444,6 +1479,16 @@ fn fine_item(gid: vec3<u32>) -> vec3<u32> {
 // (src/render/bend.rs): the mean of its sub-pixels, each with its own ray (a sub-pixel beyond the
 // lens's reach or the plane's horizon: background).
 fn planar_fine(q: vec2<f32>, kind: u32) -> f32 {
+    var acc = 0.0;
+    for (var s = 0u; s < P.vw.x; s = s + 1u) {
+        set_view(u32(q.y), s);
+        acc = acc + planar_fine_view(q, kind);
+    }
+    return acc / f32(P.vw.x);
+}
+
+// planar_fine for the current view.
+fn planar_fine_view(q: vec2<f32>, kind: u32) -> f32 {
     if (!wide()) {
         return planar_fine_ray(pixel_ray(q), kind);
     }
@@ -1484,7 +1529,7 @@ fn cs_fine_spath(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_coded(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    write_coarse(wg, lid, cells_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), true));
+    write_coarse(wg, lid, planar_coarse(px, 4u));
 }
 
 @compute @workgroup_size(64, 1, 1)

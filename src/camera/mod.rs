@@ -38,7 +38,9 @@ pub mod fisheye;
 pub mod formats;
 pub mod intrinsics;
 pub mod lens;
+pub mod optics;
 pub mod project;
+pub mod sensor;
 
 pub use distortion::Distortion;
 pub use double_sphere::DoubleSphere;

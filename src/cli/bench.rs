@@ -53,7 +53,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             let t0 = std::time::Instant::now();
             let linear = renderer.render_linear(&scene)?;
             let t1 = std::time::Instant::now();
-            let img = finish(&scene, &linear);
+            let img = finish(&scene, &linear)?;
             let _png = encode_png(&img)?;
             let t2 = std::time::Instant::now();
             render_ms.push((t1 - t0).as_secs_f64() * 1e3);

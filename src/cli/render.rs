@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use synthcam::dataset::write_image_and_truth;
+use synthcam::dataset::{encode_image, truth_json, write_png_and_json};
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::truth::truth_labels;
 
@@ -12,7 +12,8 @@ use synthcam::scene::truth::truth_labels;
 pub struct RenderArgs {
     /// Scene file (TOML, or JSON).
     pub scene: PathBuf,
-    /// Output PNG; the truth JSON goes beside it with the extension `.json`.
+    /// Output image (PNG, or JPEG when the scene's `[output] encoding` says so); the truth JSON
+    /// goes beside it with the extension `.json`.
     #[arg(short, long)]
     pub out: PathBuf,
     /// GPU backend: auto (Vulkan, then GL), vulkan or gl.
@@ -27,7 +28,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let renderer = super::open_renderer(&args.backend)?;
     let img = renderer.render(&scene).context("rendering")?;
     let truth = truth_labels(&scene);
-    write_image_and_truth(&args.out, &img, &truth)?;
+    // PNG or JPEG as the scene's [output] asks (the bytes go to --out whatever its extension).
+    write_png_and_json(&args.out, &encode_image(&img, &scene.render.effects.output)?, &truth_json(&truth)?)?;
     let visible = truth.features.iter().filter(|f| f.visible).count();
     println!("wrote {} and {} ({} of {} features visible)", args.out.display(), args.out.with_extension("json").display(), visible, truth.features.len());
     Ok(())

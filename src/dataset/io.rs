@@ -20,9 +20,43 @@ pub fn encode_png(img: &GreyImage) -> Result<Vec<u8>, DatasetError> {
         GreyImage::U8(i) => enc.write_image(i.as_raw(), i.width(), i.height(), image::ExtendedColorType::L8),
         // The encoder takes 16-bit samples in native byte order and writes PNG's big-endian.
         GreyImage::U16(i) => enc.write_image(bytemuck::cast_slice(i.as_raw()), i.width(), i.height(), image::ExtendedColorType::L16),
+        GreyImage::Rgb8(i) => enc.write_image(i.as_raw(), i.width(), i.height(), image::ExtendedColorType::Rgb8),
+        GreyImage::Rgb16(i) => enc.write_image(bytemuck::cast_slice(i.as_raw()), i.width(), i.height(), image::ExtendedColorType::Rgb16),
     };
     res.map_err(|e| DatasetError::Encode(e.to_string()))?;
     Ok(out)
+}
+
+/// Encode an image as JPEG (baseline, `quality` 1..=100) in memory; 16-bit images are reduced
+/// to 8 bits first (JPEG holds 8).
+///
+/// # Errors
+/// [`DatasetError::Encode`].
+pub fn encode_jpeg(img: &GreyImage, quality: u8) -> Result<Vec<u8>, DatasetError> {
+    let mut out = Vec::new();
+    let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality.clamp(1, 100));
+    let (w, h) = img.dimensions();
+    let res = match img {
+        GreyImage::Rgb8(i) => enc.encode(i.as_raw(), w, h, image::ExtendedColorType::Rgb8),
+        GreyImage::Rgb16(i) => {
+            let v: Vec<u8> = i.as_raw().iter().map(|v| (f64::from(*v) / 257.0).round() as u8).collect();
+            enc.encode(&v, w, h, image::ExtendedColorType::Rgb8)
+        }
+        _ => enc.encode(&img.to_u8(), w, h, image::ExtendedColorType::L8),
+    };
+    res.map_err(|e| DatasetError::Encode(e.to_string()))?;
+    Ok(out)
+}
+
+/// Encode `img` as the scene's output asks ([`crate::scene::effects::Encoding`]): PNG or JPEG.
+///
+/// # Errors
+/// [`DatasetError::Encode`].
+pub fn encode_image(img: &GreyImage, output: &crate::scene::effects::Output) -> Result<Vec<u8>, DatasetError> {
+    match output.encoding {
+        crate::scene::effects::Encoding::Png => encode_png(img),
+        crate::scene::effects::Encoding::Jpeg => encode_jpeg(img, output.jpeg_quality),
+    }
 }
 
 /// Write `bytes` to `path` through a temporary file in the same folder and a rename.

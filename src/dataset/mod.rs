@@ -7,7 +7,7 @@ pub mod manifest;
 pub mod poses;
 pub mod spec;
 
-pub use io::{encode_png, load_grey, load_grey_u8, write_atomic, write_image_and_truth, write_png_and_json};
+pub use io::{encode_image, encode_jpeg, encode_png, load_grey, load_grey_u8, truth_json, write_atomic, write_image_and_truth, write_png_and_json};
 pub use spec::SpecError;
 
 /// File errors.

@@ -9,5 +9,6 @@
 pub mod homography;
 pub mod numdiff;
 pub mod polygon;
+pub mod se3;
 pub mod so3;
 pub mod spline;

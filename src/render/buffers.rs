@@ -31,6 +31,7 @@ pub(super) struct Buffers {
     pub(super) tile_start: Slot,
     pub(super) tile_items: Slot,
     pub(super) work: Slot,
+    pub(super) views: Slot,
     pub(super) vals: Slot,
     pub(super) hard: Slot,
     pub(super) staging_vals: Slot,

@@ -7,38 +7,63 @@ use nalgebra::{Isometry3, Vector3};
 use rayon::prelude::*;
 
 use super::gpu_scene::TileCornerRays;
+use crate::scene::views::{View, ViewSet};
 use crate::scene::Scene;
 use crate::target::{CellLattice, Target};
 
-/// Bounding box `[xmin, ymin, xmax, ymax]` of the plane points seen along `rays`, grown by 10 % of
-/// its size to cover the bending of the tile's edges by the distortion (a straight pixel edge stays
-/// straight under the homography; the lens bends it by far less than 10 %); `None` if a ray misses the plane.
-fn plane_bbox(target_from_cam: &Isometry3<f64>, rays: &[Vector3<f64>]) -> Option<[f64; 4]> {
-    let o = target_from_cam.translation.vector;
+/// A view ([`crate::scene::views::View`]) as the flat test casts rays: its centre and its rays'
+/// directions in the target frame.
+struct RayFrame {
+    target_from_cam: Isometry3<f64>,
+    view: View,
+}
+
+impl RayFrame {
+    fn new(view: &View) -> Self {
+        Self { target_from_cam: view.cam_from_target.inverse(), view: *view }
+    }
+
+    /// The view's ray through pinhole direction `r`: origin and direction in the target frame.
+    fn ray(&self, r: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let (o, d) = self.view.ray(r);
+        ((self.target_from_cam * nalgebra::Point3::from(o)).coords, self.target_from_cam.rotation * d)
+    }
+}
+
+/// Bounding box `[xmin, ymin, xmax, ymax]` of the plane points seen along `rays` in all `frames`,
+/// grown by 10 % of its size to cover the bending of the tile's edges by the distortion (a
+/// straight pixel edge stays straight under the homography; the lens bends it by far less than
+/// 10 %); `None` if a ray misses the plane.
+fn plane_bbox(frames: &[RayFrame], rays: &[Vector3<f64>]) -> Option<[f64; 4]> {
     let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
-    for r in rays {
-        let d = target_from_cam.rotation * r;
-        let t = -o.z / d.z;
-        if !(t > 0.0) || !t.is_finite() {
-            return None;
+    for f in frames {
+        for r in rays {
+            let (o, d) = f.ray(r);
+            let t = -o.z / d.z;
+            if !(t > 0.0) || !t.is_finite() {
+                return None;
+            }
+            let (x, y) = (o.x + t * d.x, o.y + t * d.y);
+            bb = [bb[0].min(x), bb[1].min(y), bb[2].max(x), bb[3].max(y)];
         }
-        let (x, y) = (o.x + t * d.x, o.y + t * d.y);
-        bb = [bb[0].min(x), bb[1].min(y), bb[2].max(x), bb[3].max(y)];
     }
     let gx = 0.1 * (bb[2] - bb[0]) + 1e-9;
     let gy = 0.1 * (bb[3] - bb[1]) + 1e-9;
     Some([bb[0] - gx, bb[1] - gy, bb[2] + gx, bb[3] + gy])
 }
 
-/// Whether every ray of a tile provably misses the target plane (it sees the background): each
-/// corner ray points away from the plane by more than a tenth of the tile's angular size (the
-/// rays meeting the plane form a hemisphere of directions; the lens bends a tile's edges by far
-/// less than that margin). A wide lens looks past the plane's horizon over much of its image.
-fn plane_missed(target_from_cam: &Isometry3<f64>, rays: &[Vector3<f64>; 4]) -> bool {
-    let side = -target_from_cam.translation.vector.z.signum();
-    let units = rays.map(|r| target_from_cam.rotation * r.normalize());
-    let size = (units[0] - units[2]).norm().max((units[1] - units[3]).norm());
-    units.iter().all(|d| d.z * side < -(0.1 * size + 1e-9))
+/// Whether every ray of a tile provably misses the target plane (it sees the background) in
+/// every frame: each corner ray points away from the plane by more than a tenth of the tile's
+/// angular size (the rays meeting the plane form a hemisphere of directions; the lens bends a
+/// tile's edges by far less than that margin). A wide lens looks past the plane's horizon over
+/// much of its image.
+fn plane_missed(frames: &[RayFrame], rays: &[Vector3<f64>; 4]) -> bool {
+    frames.iter().all(|f| {
+        let side = -f.ray(&Vector3::z()).0.z.signum();
+        let units = rays.map(|r| f.ray(&r).1.normalize());
+        let size = (units[0] - units[2]).norm().max((units[1] - units[3]).norm());
+        units.iter().all(|d| d.z * side < -(0.1 * size + 1e-9))
+    })
 }
 
 /// Whether a line of the ascending `lines` lies in `[lo, hi]`.
@@ -55,8 +80,10 @@ pub(super) fn classify_tiles(
     (tiles_x, tiles_y): (u32, u32),
     tile_start: &[u32],
     lattice: Option<&CellLattice>,
+    views: &ViewSet,
 ) -> Vec<f32> {
     let flat = FlatTest::new(scene, lattice);
+    let frames = tile_row_frames(views, tiles_y, scene.camera.size.height);
     (0..tiles_x * tiles_y)
         .into_par_iter()
         .map(|t| {
@@ -65,14 +92,30 @@ pub(super) fn classify_tiles(
             if grid.beyond_lens(tx, ty) {
                 return scene.target.background() as f32;
             }
-            grid.tile(tx, ty).and_then(|rays| flat.value(scene, &rays, has_dots)).map_or(-1.0, |v| v as f32)
+            let f = frames.get(ty as usize).or(frames.first()).map_or(&[][..], Vec::as_slice);
+            grid.tile(tx, ty).and_then(|rays| flat.value(scene, f, &rays, has_dots)).map_or(-1.0, |v| v as f32)
+        })
+        .collect()
+}
+
+/// The frames each row of tiles is seen in: all views of the set, or under a rolling shutter
+/// the views of the tile row's first and last pixel rows (the motion over 8 rows is smooth; the
+/// bounding boxes' 10 % growth covers its curvature). One entry when rows share their views.
+fn tile_row_frames(views: &ViewSet, tiles_y: u32, height: u32) -> Vec<Vec<RayFrame>> {
+    if !views.per_row {
+        return vec![views.views.iter().map(RayFrame::new).collect()];
+    }
+    (0..tiles_y)
+        .into_par_iter()
+        .map(|ty| {
+            let (y0, y1) = (ty * super::gpu_scene::TILE_PX, ((ty + 1) * super::gpu_scene::TILE_PX).min(height) - 1);
+            views.row(y0).iter().chain(views.row(y1)).map(RayFrame::new).collect()
         })
         .collect()
 }
 
 /// What [`classify_tiles`] tests each tile against, computed once per frame.
 struct FlatTest<'a> {
-    target_from_cam: Isometry3<f64>,
     /// Chessboard: the board's lines (squares and margin) along x and y; coded boards: the
     /// board's and its border's outline, metres.
     lines_m: [Vec<f64>; 2],
@@ -108,23 +151,23 @@ impl<'a> FlatTest<'a> {
             }
             _ => None,
         };
-        Self { target_from_cam: scene.cam_from_target.inverse(), lines_m, lattice, sphere }
+        Self { lines_m, lattice, sphere }
     }
 
     /// The grey level of the tile seen along the corner `rays` when it is one flat region;
     /// `has_dots`: S-path dots reach the tile.
-    fn value(&self, scene: &Scene, rays: &[Vector3<f64>; 4], has_dots: bool) -> Option<f64> {
+    fn value(&self, scene: &Scene, frames: &[RayFrame], rays: &[Vector3<f64>; 4], has_dots: bool) -> Option<f64> {
         match &scene.target {
-            Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) if plane_missed(&self.target_from_cam, rays) => {
+            Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) if plane_missed(frames, rays) => {
                 Some(scene.target.background())
             }
-            Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
+            Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => plane_bbox(frames, rays).and_then(|bb| {
                 let [xl, yl] = &self.lines_m;
                 let crossed = any_in(xl, bb[0], bb[2]) || any_in(yl, bb[1], bb[3]);
                 let uniform = self.lattice.is_none_or(|l| l.uniform_over(bb));
                 (!crossed && uniform).then(|| scene.target.plane_intensity(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3]))).flatten()
             }),
-            Target::DotGrid(g) => plane_bbox(&self.target_from_cam, rays).and_then(|bb| {
+            Target::DotGrid(g) => plane_bbox(frames, rays).and_then(|bb| {
                 let outer = 0.5 * g.edge_m + g.margin_m;
                 if any_in(&[-outer, outer], bb[0], bb[2]) || any_in(&[-outer, outer], bb[1], bb[3]) {
                     return None;

@@ -1,7 +1,7 @@
 //! Scene to GPU inputs: the uniform block and, for the S-path, the dots (camera frame) and their
 //! 16x16-pixel tile lists. Pure CPU code, f64 to f32 at the last step.
 
-use nalgebra::{Matrix3, Point2, Vector3};
+use nalgebra::{Point2, Vector3};
 use rayon::prelude::*;
 
 use crate::camera::{CameraModel, Lens};
@@ -45,10 +45,8 @@ pub struct GpuScene {
     pub tile_items: Vec<u32>,
     /// Per tile, its grey level when the whole tile is one flat region, else -1.
     pub tile_flat: Vec<f32>,
-}
-
-fn v3(m: &Matrix3<f64>, row: usize) -> [f32; 4] {
-    [m[(row, 0)] as f32, m[(row, 1)] as f32, m[(row, 2)] as f32, 0.0]
+    /// Planar targets: the views' homographies, three rows each (`super::views`).
+    pub views: Vec<[f32; 4]>,
 }
 
 /// The S-path's pass kind ([`pass_kind`]).
@@ -90,14 +88,18 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     lens_params(&mut p, cam, grid.split_radii);
     // A coded board's lattice, built once per frame for the uniforms and the flat tiles.
     let lattice = scene.target.lattice();
+    let view_set = crate::scene::views::view_set(scene);
+    let mut views = Vec::new();
     let (mut dots, tile_start, mut tile_items) = match &scene.target {
         Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) => {
             let bits = planar_params(&mut p, scene, lattice.as_ref())?;
+            views = super::views::gpu_views(&view_set)?;
+            p.vw = [view_set.samples, u32::from(view_set.per_row), 0, 0];
             (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], bits)
         }
         Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
     };
-    let tile_flat = super::flat::classify_tiles(scene, grid, (tiles_x, tiles_y), &tile_start, lattice.as_ref());
+    let tile_flat = super::flat::classify_tiles(scene, grid, (tiles_x, tiles_y), &tile_start, lattice.as_ref(), &view_set);
     // Storage buffers may not be empty.
     if dots.is_empty() {
         dots.push([0.0; 4]);
@@ -105,7 +107,10 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     if tile_items.is_empty() {
         tile_items.push(0);
     }
-    Ok(GpuScene { params: p, lens_variant: lens_variant(&cam.lens), dots, tile_start, tile_items, tile_flat })
+    if views.is_empty() {
+        views.push([0.0; 4]);
+    }
+    Ok(GpuScene { params: p, lens_variant: lens_variant(&cam.lens), dots, tile_start, tile_items, tile_flat, views })
 }
 
 /// The lens model's uniforms (see `Params`); `split` from [`super::bend::split_radii`].
@@ -133,23 +138,9 @@ fn lens_params(p: &mut Params, cam: &CameraModel, split: [f64; 2]) {
     }
 }
 
-/// The plane homography and the board's or grid's parameters (chessboard, dot grid, coded
-/// boards); for a coded board (its `lattice`) its dark-cell bits.
+/// The board's or grid's parameters (chessboard, dot grid, coded boards); for a coded board (its
+/// `lattice`) its dark-cell bits. The plane homographies are the views' (`super::views`).
 fn planar_params(p: &mut Params, scene: &Scene, lattice: Option<&CellLattice>) -> Result<Vec<u32>, RenderError> {
-    let r = scene.cam_from_target.rotation.to_rotation_matrix();
-    let t = scene.cam_from_target.translation.vector;
-    let m = r.matrix();
-    let n_from_t = Matrix3::from_columns(&[m.column(0).into_owned(), m.column(1).into_owned(), t]);
-    let t_from_n = n_from_t.try_inverse().ok_or_else(|| RenderError::Degenerate("the target plane passes through the camera centre".into()))?;
-    let scale = t_from_n.abs().max();
-    if !(scale > 0.0) || !scale.is_finite() {
-        return Err(RenderError::Degenerate("singular plane homography".into()));
-    }
-    // Keep the sign (W > 0 in front); scale only to stay well inside f32 range.
-    let hm = t_from_n / scale;
-    p.h0 = v3(&hm, 0);
-    p.h1 = v3(&hm, 1);
-    p.h2 = v3(&hm, 2);
     match &scene.target {
         Target::Chessboard(b) => {
             p.board = [b.squares[0] as f32, b.squares[1] as f32, b.square_m as f32, b.margin_m as f32];

@@ -10,10 +10,12 @@ pub mod bend;
 mod buffers;
 pub mod context;
 mod flat;
+pub mod formation;
 pub(crate) mod gpu_scene;
 pub(crate) mod post;
 pub mod renderer;
 pub(crate) mod uniforms;
+pub mod views;
 
 pub use context::{BackendChoice, GpuContext};
 pub use renderer::Renderer;
@@ -48,13 +50,18 @@ pub enum RenderError {
     },
 }
 
-/// A rendered grey image.
+/// A rendered image: grey or a Bayer raw image (one channel), or RGB
+/// ([`crate::scene::effects::PixelFormat`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum GreyImage {
     /// 8-bit.
     U8(image::GrayImage),
     /// 16-bit.
     U16(image::ImageBuffer<image::Luma<u16>, Vec<u16>>),
+    /// 8-bit RGB.
+    Rgb8(image::RgbImage),
+    /// 16-bit RGB.
+    Rgb16(image::ImageBuffer<image::Rgb<u16>, Vec<u16>>),
 }
 
 impl GreyImage {
@@ -63,6 +70,8 @@ impl GreyImage {
         match self {
             GreyImage::U8(i) => i.dimensions(),
             GreyImage::U16(i) => i.dimensions(),
+            GreyImage::Rgb8(i) => i.dimensions(),
+            GreyImage::Rgb16(i) => i.dimensions(),
         }
     }
 
@@ -75,26 +84,20 @@ impl GreyImage {
         crate::detect::ImageF32::from_u8(w as usize, h as usize, &self.to_u8())
     }
 
-    /// 8-bit pixel values (16-bit images are divided by 257 and rounded).
+    /// 8-bit grey values (16-bit images are divided by 257 and rounded; RGB images give their
+    /// luma, ITU-R BT.601).
     pub fn to_u8(&self) -> Vec<u8> {
+        let luma = |p: [f64; 3], scale: f64| ((0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2]) / scale).round().clamp(0.0, 255.0) as u8;
         match self {
             GreyImage::U8(i) => i.as_raw().clone(),
             GreyImage::U16(i) => i.as_raw().iter().map(|v| ((f64::from(*v)) / 257.0).round() as u8).collect(),
+            GreyImage::Rgb8(i) => i.pixels().map(|p| luma(p.0.map(f64::from), 1.0)).collect(),
+            GreyImage::Rgb16(i) => i.pixels().map(|p| luma(p.0.map(f64::from), 257.0)).collect(),
         }
     }
 }
 
-/// Blur, noise and quantise a linear render according to the scene's settings.
-pub fn finish(scene: &Scene, linear: &[f32]) -> GreyImage {
-    let (w, h) = (scene.camera.size.width, scene.camera.size.height);
-    let mut img = post::gaussian_blur(linear, w as usize, h as usize, scene.render.blur_sigma_px);
-    post::add_noise(&mut img, scene.render.noise_sigma, scene.render.seed);
-    if scene.render.bit_depth == 16 {
-        GreyImage::U16(image::ImageBuffer::from_raw(w, h, post::quantise_u16(&img)).unwrap_or_else(|| image::ImageBuffer::new(w, h)))
-    } else {
-        GreyImage::U8(image::GrayImage::from_raw(w, h, post::quantise_u8(&img)).unwrap_or_else(|| image::GrayImage::new(w, h)))
-    }
-}
+pub use formation::finish;
 
 impl Renderer {
     /// Render `scene` to a finished grey image (geometry, blur, noise, quantisation).
@@ -103,6 +106,6 @@ impl Renderer {
     /// As [`Renderer::render_linear`].
     pub fn render(&self, scene: &Scene) -> Result<GreyImage, RenderError> {
         let linear = self.render_linear(scene)?;
-        Ok(finish(scene, &linear))
+        finish(scene, &linear)
     }
 }

@@ -1,5 +1,5 @@
-//! Image formation after the geometry, on the CPU, in this order (as synthcal): Gaussian blur
-//! (point-spread function), additive Gaussian noise, clamp, quantise. Deterministic: the noise comes
+//! Gaussian blur (point-spread function) and additive Gaussian noise, on the CPU
+//! (`super::formation` orders them with the other effects). Deterministic: the noise comes
 //! from a ChaCha8 generator seeded with the scene seed and is drawn in row-major pixel order, so the
 //! same scene and seed give the same bytes on any machine and backend.
 
@@ -50,16 +50,6 @@ pub fn add_noise(img: &mut [f32], sigma: f64, seed: u64) {
     for v in img.iter_mut() {
         *v = (f64::from(*v) + normal.sample(&mut rng)) as f32;
     }
-}
-
-/// Round and clamp grey levels in [0, 255] to 8 bits.
-pub fn quantise_u8(img: &[f32]) -> Vec<u8> {
-    img.iter().map(|v| v.round().clamp(0.0, 255.0) as u8).collect()
-}
-
-/// Scale grey levels in [0, 255] to 16 bits (x 257), round and clamp.
-pub fn quantise_u16(img: &[f32]) -> Vec<u16> {
-    img.iter().map(|v| (f64::from(*v) * 257.0).round().clamp(0.0, 65535.0) as u16).collect()
 }
 
 #[cfg(test)]

@@ -116,6 +116,7 @@ impl Renderer {
                 storage_entry(4, true),
                 storage_entry(5, true),
                 storage_entry(6, false),
+                storage_entry(7, true),
             ],
         });
         let pipeline_layout =
@@ -199,6 +200,8 @@ impl Renderer {
         queue.write_buffer(tile_items, 0, bytemuck::cast_slice(&gs.tile_items));
         let work_buf = bufs.work.get(device, "work", (work.len() * 4) as u64, STORAGE_DST);
         queue.write_buffer(work_buf, 0, bytemuck::cast_slice(work));
+        let views = bufs.views.get(device, "views", (gs.views.len() * 16) as u64, STORAGE_DST);
+        queue.write_buffer(views, 0, bytemuck::cast_slice(&gs.views));
         let vals = bufs.vals.get(device, "vals", out_bytes, STORAGE_SRC);
         let hard = bufs.hard.get(device, "hard", out_bytes, STORAGE_SRC);
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -212,6 +215,7 @@ impl Renderer {
                 wgpu::BindGroupEntry { binding: 4, resource: tile_items.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 5, resource: work_buf.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 6, resource: hard.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: views.as_entire_binding() },
             ],
         });
         let staging_vals = bufs.staging_vals.get(device, "staging_vals", out_bytes, READBACK);

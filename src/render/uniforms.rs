@@ -45,12 +45,15 @@ pub struct Params {
     pub lat: [f32; 4],
     /// Coded boards: the board's end along x and y, the narrowest cell (metres), 0.
     pub lat2: [f32; 4],
+    /// Planar targets: views per pixel, one set of views per row (1) or one for all rows (0),
+    /// 0, 0 (`render::views`).
+    pub vw: [u32; 4],
 }
 
 #[cfg(test)]
 mod tests {
     #[test]
-    fn params_is_18_vec4() {
-        assert_eq!(std::mem::size_of::<super::Params>(), 18 * 16);
+    fn params_is_19_vec4() {
+        assert_eq!(std::mem::size_of::<super::Params>(), 19 * 16);
     }
 }

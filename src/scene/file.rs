@@ -35,6 +35,7 @@ use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vect
 use serde::Deserialize;
 
 mod camera;
+pub mod effects;
 mod target;
 
 pub use camera::{CameraSpec, ModelName};
@@ -117,6 +118,7 @@ impl RenderSpec {
             blur_sigma_px: self.blur_sigma_px.unwrap_or(d.blur_sigma_px),
             seed: self.seed.unwrap_or(d.seed),
             bit_depth: self.bit_depth.unwrap_or(d.bit_depth),
+            effects: d.effects,
         }
     }
 }
@@ -134,6 +136,18 @@ pub struct SceneSpec {
     /// `[render]` (optional).
     #[serde(default)]
     pub render: RenderSpec,
+    /// `[sensor]` (optional; [`effects`]).
+    #[serde(default)]
+    pub sensor: Option<crate::camera::sensor::SensorModel>,
+    /// `[optics]` (optional).
+    #[serde(default)]
+    pub optics: Option<effects::OpticsSpec>,
+    /// `[motion]` (optional).
+    #[serde(default)]
+    pub motion: Option<super::motion::Motion>,
+    /// `[output]` (optional).
+    #[serde(default)]
+    pub output: Option<effects::OutputSpec>,
 }
 
 impl SceneSpec {
@@ -142,12 +156,13 @@ impl SceneSpec {
     /// # Errors
     /// Any invalid field (named), or a target behind the camera.
     pub fn to_scene(&self) -> Result<Scene, SceneError> {
-        let scene = Scene {
-            camera: self.camera.to_model()?,
-            target: self.target.to_target(),
-            cam_from_target: self.pose.to_isometry()?,
-            render: self.render.to_settings(),
-        };
+        let tables = effects::EffectTables { sensor: self.sensor, optics: self.optics.clone(), motion: self.motion, output: self.output.clone() };
+        let mut render = self.render.to_settings();
+        render.effects = tables.to_effects()?;
+        if let Some(b) = tables.bit_depth() {
+            render.bit_depth = b;
+        }
+        let scene = Scene { camera: self.camera.to_model()?, target: self.target.to_target(), cam_from_target: self.pose.to_isometry()?, render };
         scene.validate()?;
         Ok(scene)
     }

@@ -7,13 +7,17 @@
 //! to every image.
 
 pub mod builder;
+pub mod effect_truth;
+pub mod effects;
 pub mod exact;
 pub mod file;
+pub mod motion;
 pub mod poses;
 pub mod reference;
 pub mod scanline;
 pub mod trace;
 pub mod truth;
+pub mod views;
 
 pub use builder::SceneBuilder;
 pub use truth::{truth_labels, TruthLabels};
@@ -39,11 +43,13 @@ pub struct RenderSettings {
     pub seed: u64,
     /// Output bit depth, 8 or 16.
     pub bit_depth: u8,
+    /// Sensor, optics, motion and output format ([`effects`]); the default is the ideal camera.
+    pub effects: effects::Effects,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { samples: 16, noise_sigma: 0.0, blur_sigma_px: 0.0, seed: 0, bit_depth: 8 }
+        Self { samples: 16, noise_sigma: 0.0, blur_sigma_px: 0.0, seed: 0, bit_depth: 8, effects: effects::Effects::default() }
     }
 }
 
@@ -68,6 +74,9 @@ pub enum SceneError {
     /// The target is invalid.
     #[error("[target]: {0}")]
     Target(#[from] TargetError),
+    /// The sensor is invalid.
+    #[error(transparent)]
+    Sensor(#[from] crate::camera::sensor::SensorError),
     /// The pose puts the target behind the camera (outside a fisheye's reach, for one whose
     /// reach passes 90 degrees).
     #[error("[pose]: the target is behind the camera (mean depth of its features {mean_depth_m:.4} m <= 0, outside the lens's reach)")]
@@ -119,6 +128,13 @@ impl Scene {
         }
         if rs.bit_depth != 8 && rs.bit_depth != 16 {
             return Err(SceneError::InvalidField { field: "render.bit_depth".into(), reason: format!("must be 8 or 16, got {}", rs.bit_depth) });
+        }
+        rs.effects.validate()?;
+        if rs.effects.needs_views() && matches!(self.target, Target::SPath(_)) {
+            return Err(SceneError::InvalidField {
+                field: "optics.f_number / motion".into(),
+                reason: "defocus and motion are rendered for planar targets (chessboard, dot grid, ChArUco, AprilGrid); the S-path is not supported yet".into(),
+            });
         }
         let pts = self.target.feature_points_m();
         let n = pts.len().max(1) as f64;

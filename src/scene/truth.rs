@@ -79,6 +79,10 @@ pub struct FeatureLabel {
     /// Dots: area of the rendered blob, pixels^2.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub area_px: Option<f64>,
+    /// Truth under the camera effects (rolling shutter, motion, defocus;
+    /// [`super::effect_truth`]); empty without them.
+    #[serde(default, skip_serializing_if = "super::effect_truth::EffectLabel::is_empty")]
+    pub effects: super::effect_truth::EffectLabel,
 }
 
 /// Truth file contents.
@@ -134,11 +138,26 @@ pub struct RenderLabel {
     pub seed: u64,
     /// Bit depth.
     pub bit_depth: u8,
+    /// The EMVA 1288 sensor, when one is simulated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<crate::camera::sensor::SensorModel>,
+    /// Motion during the exposure, when anything moves.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<super::motion::Motion>,
 }
 
 impl From<RenderSettings> for RenderLabel {
     fn from(r: RenderSettings) -> Self {
-        Self { samples: r.samples, noise_sigma: r.noise_sigma, blur_sigma_px: r.blur_sigma_px, seed: r.seed, bit_depth: r.bit_depth }
+        let motion = (!r.effects.motion.is_still()).then_some(r.effects.motion);
+        Self {
+            samples: r.samples,
+            noise_sigma: r.noise_sigma,
+            blur_sigma_px: r.blur_sigma_px,
+            seed: r.seed,
+            bit_depth: r.bit_depth,
+            sensor: r.effects.sensor,
+            motion,
+        }
     }
 }
 
@@ -255,6 +274,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 centroid_px: None,
                 area_px: None,
                 area_centroid_px: None,
+                effects: super::effect_truth::effect_label(scene, p),
             };
             if kind == FeatureKind::Dot {
                 let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));

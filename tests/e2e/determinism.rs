@@ -65,8 +65,8 @@ fn vulkan_and_gl_give_identical_bytes() {
     for (name, scene) in scenes() {
         let a = renderer().render_linear(&scene).expect("vulkan");
         let b = gl.render_linear(&scene).expect("gl");
-        let pa = encode_png(&finish(&scene, &a)).expect("png");
-        let pb = encode_png(&finish(&scene, &b)).expect("png");
+        let pa = encode_png(&finish(&scene, &a).expect("finish")).expect("png");
+        let pb = encode_png(&finish(&scene, &b).expect("finish")).expect("png");
         let differing = a.iter().zip(&b).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
         let maxdiff = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
         if let Some(i) = a.iter().zip(&b).position(|(x, y)| (x - y).abs() == maxdiff) {

@@ -1,0 +1,101 @@
+//! Image formation after the shader, on the CPU ([`crate::scene::effects`] gives the order):
+//! vignetting, the Gaussian PSF, the colour filter array, the sensor (EMVA 1288) or the
+//! `noise_sigma` shortcut, demosaicing, quantisation. Deterministic for a scene and seed.
+
+use nalgebra::Point2;
+use rayon::prelude::*;
+
+use super::{post, GreyImage, RenderError};
+use crate::camera::sensor::{self, FixedPattern, SensorModel};
+use crate::scene::effects::PixelFormat;
+use crate::scene::Scene;
+
+/// Multiply `img` by the optics' relative irradiance per pixel (cos^4 of the pixel's ray angle
+/// times the radial polynomial); pixels without a ray (beyond a fisheye's reach) go dark.
+fn vignette(scene: &Scene, img: &mut [f32]) {
+    let optics = &scene.render.effects.optics;
+    let cam = &scene.camera;
+    let (w, h) = (cam.size.width as usize, cam.size.height as usize);
+    let (cx, cy) = (cam.intrinsics.cx, cam.intrinsics.cy);
+    let half_diag = 0.5 * (w as f64).hypot(h as f64);
+    img.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
+        for (x, v) in row.iter_mut().enumerate() {
+            let q = Point2::new(x as f64, y as f64);
+            let cos = cam.unproject_ray(&q).map_or(0.0, |d| d.z / d.norm());
+            let r = (q.x - cx).hypot(q.y - cy) / half_diag;
+            *v = (f64::from(*v) * optics.relative_irradiance(cos, r)) as f32;
+        }
+    });
+    let _ = h;
+}
+
+/// Pack sensor DN into the output depth: 16 bits left-justified (`DN << (16 - bits)`, exact), 8
+/// bits rounded (`DN 255 / (2^bits - 1)`).
+fn pack_dn(model: &SensorModel, dn: &[u16], bit_depth: u8) -> Vec<u16> {
+    if bit_depth == 16 {
+        let shift = 16 - u32::from(model.bit_depth.min(16));
+        dn.iter().map(|v| v << shift).collect()
+    } else {
+        let max = f64::from(model.max_dn());
+        dn.iter().map(|v| (f64::from(*v) * 255.0 / max).round() as u16).collect()
+    }
+}
+
+/// The raw values the sensor or the shortcut deliver before demosaicing, and the factor to the
+/// output's scale (0..=255 for 8 bits, 0..=65535 for 16): the sensor's are already there.
+fn raw_values(scene: &Scene, radiance: &[f32]) -> Result<(Vec<f32>, f64), RenderError> {
+    let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
+    let rs = &scene.render;
+    match &rs.effects.sensor {
+        Some(model) => {
+            let pattern = FixedPattern::new(model, w, h).map_err(|e| RenderError::Scene(e.into()))?;
+            let dn = sensor::expose(model, &pattern, radiance, w, h, rs.seed).map_err(|e| RenderError::Scene(e.into()))?;
+            Ok((pack_dn(model, &dn, rs.bit_depth).into_iter().map(f32::from).collect(), 1.0))
+        }
+        None => {
+            let mut img = radiance.to_vec();
+            post::add_noise(&mut img, rs.noise_sigma, rs.seed);
+            Ok((img, if rs.bit_depth == 16 { 257.0 } else { 1.0 }))
+        }
+    }
+}
+
+/// Blur, vignette, expose and quantise a linear render according to the scene's settings.
+///
+/// # Errors
+/// [`RenderError::Scene`] when the sensor rejects the image (a buffer of the wrong size).
+pub fn finish(scene: &Scene, linear: &[f32]) -> Result<GreyImage, RenderError> {
+    let (w, h) = (scene.camera.size.width, scene.camera.size.height);
+    let fx = &scene.render.effects;
+    let mut img = linear.to_vec();
+    if fx.optics.vignettes() {
+        vignette(scene, &mut img);
+    }
+    let sigma = scene.render.blur_sigma_px.hypot(fx.optics.psf_sigma_px);
+    let img = post::gaussian_blur(&img, w as usize, h as usize, sigma);
+    // The targets are grey: every colour channel has the same albedo, so the colour filter
+    // array's raw image is the grey radiance itself, sampled per pixel by the sensor.
+    let (raw, scale) = raw_values(scene, &img)?;
+    let sixteen = scene.render.bit_depth == 16;
+    let size_err = || RenderError::Device("image buffer size".into());
+    Ok(match fx.output.format {
+        PixelFormat::Grey | PixelFormat::Bayer(_) if sixteen => {
+            GreyImage::U16(image::ImageBuffer::from_raw(w, h, quantise(&raw, scale, 65535.0)).ok_or_else(size_err)?)
+        }
+        PixelFormat::Grey | PixelFormat::Bayer(_) => GreyImage::U8(image::GrayImage::from_raw(w, h, quantise(&raw, scale, 255.0)).ok_or_else(size_err)?),
+        PixelFormat::Rgb(pattern) => {
+            let rgb = sensor::demosaic(&raw, w as usize, h as usize, pattern, fx.output.demosaic).map_err(|e| RenderError::Scene(e.into()))?;
+            let flat: Vec<f32> = rgb.iter().flatten().copied().collect();
+            if sixteen {
+                GreyImage::Rgb16(image::ImageBuffer::from_raw(w, h, quantise(&flat, scale, 65535.0)).ok_or_else(size_err)?)
+            } else {
+                GreyImage::Rgb8(image::RgbImage::from_raw(w, h, quantise(&flat, scale, 255.0)).ok_or_else(size_err)?)
+            }
+        }
+    })
+}
+
+/// Scale, round and clamp to `[0, max]` (`max` 255 or 65535) in the output's sample type.
+fn quantise<T: TryFrom<u16> + Default>(vals: &[f32], scale: f64, max: f64) -> Vec<T> {
+    vals.iter().map(|v| T::try_from((f64::from(*v) * scale).round().clamp(0.0, max) as u16).unwrap_or_default()).collect()
+}
