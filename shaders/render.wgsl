@@ -35,7 +35,7 @@ struct Params {
     tilt0: vec4<f32>,    // OpenCV tilt matrix rows (xyz; used when LENS_TILT)
     tilt1: vec4<f32>,
     tilt2: vec4<f32>,
-    h0: vec4<f32>,       // rows of H: (X, Y, W) = H d, target plane from the ray (W > 0: in front)
+    h0: vec4<f32>,       // rows of H: (X, Y, W) = H d, target plane from the ray (W > 0: in front): the first view's
     h1: vec4<f32>,
     h2: vec4<f32>,
     board: vec4<f32>,    // chessboard: nx, ny, square, margin | dot grid: n, edge, radius, margin | coded: cells x, y, per period, margin
@@ -1408,9 +1408,18 @@ fn spath_fine(ray: Ray, tile: u32) -> f32 {
 
 // ---------------------------------------------------------------- entry points
 
-// The coarse value of a planar target's pixel px of pass kind `kind` (a literal at each call):
-// the mean over the pixel's views (P.vw.x; one without motion or defocus), hard when any view is.
-fn planar_coarse(px: vec3<u32>, kind: u32) -> Coarse {
+// The sharp image's view: the scene's own homography, from the uniforms (llvmpipe keeps these
+// values scalar). Every planar entry point without views starts here.
+fn uniform_view() {
+    H0 = P.h0;
+    H1 = P.h1;
+    H2 = P.h2;
+}
+
+// The coarse value of a planar target's pixel px of pass kind `kind` (a literal at each call) with
+// views (defocus, motion; P.vw.x per pixel): their mean, hard when any view is. Separate entry
+// points (`*_views`): llvmpipe runs both sides of a branch, so the sharp passes hold no loop.
+fn planar_coarse_views(px: vec3<u32>, kind: u32) -> Coarse {
     let ray = pixel_ray(vec2<f32>(f32(px.x), f32(px.y)));
     var out: Coarse;
     out.value = 0.0;
@@ -1443,13 +1452,15 @@ fn write_coarse(wg: vec3<u32>, lid: vec3<u32>, c: Coarse) {
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_chessboard(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    write_coarse(wg, lid, planar_coarse(px, 0u));
+    uniform_view();
+    write_coarse(wg, lid, cells_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), false));
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_dot_grid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    write_coarse(wg, lid, planar_coarse(px, 1u));
+    uniform_view();
+    write_coarse(wg, lid, grid_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -1479,6 +1490,12 @@ fn fine_item(gid: vec3<u32>) -> vec3<u32> {
 // (src/render/bend.rs): the mean of its sub-pixels, each with its own ray (a sub-pixel beyond the
 // lens's reach or the plane's horizon: background).
 fn planar_fine(q: vec2<f32>, kind: u32) -> f32 {
+    uniform_view();
+    return planar_fine_view(q, kind);
+}
+
+// planar_fine with views: their mean.
+fn planar_fine_views(q: vec2<f32>, kind: u32) -> f32 {
     var acc = 0.0;
     for (var s = 0u; s < P.vw.x; s = s + 1u) {
         set_view(u32(q.y), s);
@@ -1529,11 +1546,46 @@ fn cs_fine_spath(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_coded(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
-    write_coarse(wg, lid, planar_coarse(px, 4u));
+    uniform_view();
+    write_coarse(wg, lid, cells_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), true));
 }
 
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_coded(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
     out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), 4u);
+}
+
+// With views (defocus, motion): pass kinds 5, 6, 7 (chessboard, dot grid, coded boards).
+@compute @workgroup_size(8, 8, 1)
+fn cs_coarse_chessboard_views(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    write_coarse(wg, lid, planar_coarse_views(coarse_pixel(wg, lid), 0u));
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn cs_fine_chessboard_views(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let it = fine_item(gid);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine_views(vec2<f32>(f32(it.x), f32(it.y)), 0u);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn cs_coarse_dot_grid_views(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    write_coarse(wg, lid, planar_coarse_views(coarse_pixel(wg, lid), 1u));
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn cs_fine_dot_grid_views(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let it = fine_item(gid);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine_views(vec2<f32>(f32(it.x), f32(it.y)), 1u);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn cs_coarse_coded_views(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    write_coarse(wg, lid, planar_coarse_views(coarse_pixel(wg, lid), 4u));
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn cs_fine_coded_views(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let it = fine_item(gid);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine_views(vec2<f32>(f32(it.x), f32(it.y)), 4u);
 }

@@ -37,7 +37,7 @@ pub fn ring_counts(n: u32) -> Vec<u32> {
 }
 
 /// A thin lens's aperture and focus.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ThinLens {
     /// f-number `N` (focal length over aperture diameter).
     pub f_number: f64,
@@ -104,7 +104,7 @@ impl ThinLens {
 
 /// Optics (`[optics]` in scene files). The default is an ideal pinhole: no vignetting, no
 /// defocus, no PSF.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Optics {
     /// Whether the irradiance falls off as `cos^4` of the ray angle.
     pub natural_falloff: bool,

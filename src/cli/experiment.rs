@@ -1,4 +1,5 @@
 //! `synthcam experiment calib-sweep [-o DIR]`: the course's calibration study, both modes.
+//! `synthcam experiment robustness [-o DIR]`: the chessboard detector against camera effects.
 
 use std::path::PathBuf;
 
@@ -6,6 +7,7 @@ use anyhow::Context;
 use synthcam::calib::CalibModel;
 use synthcam::dataset::write_atomic;
 use synthcam::report::sweep::{csv, markdown, plot_png};
+use synthcam::sim::robustness::{Effect, RobustnessSetup, ViewImage};
 use synthcam::sim::sweep::{run_sweep_with, SweepMode, SweepSetup};
 
 /// Experiments.
@@ -26,6 +28,27 @@ pub enum Experiment {
         /// course's pinhole with distortion fixed at 0.
         #[arg(long, value_parser = |s: &str| s.parse::<CalibModel>())]
         model: Option<CalibModel>,
+    },
+    /// The chessboard detector against blur, defocus, sensor noise, motion blur, JPEG and a
+    /// rolling shutter, one effect at a time at rising strength, errors against the exact truth.
+    Robustness {
+        /// Output folder (table.md, runs.csv, <effect>.png, images/).
+        #[arg(short, long, default_value = "out/robustness")]
+        out: PathBuf,
+        /// Poses per level (view 0: assets/scenes/chessboard_k1.toml; the others perturbed).
+        #[arg(long, default_value_t = 6)]
+        views: usize,
+        /// Comma-separated effects (blur, defocus, noise, motion-blur, jpeg, rolling-shutter);
+        /// default all.
+        #[arg(long)]
+        effects: Option<String>,
+        /// Write every image with its truth JSON and a `.truth.json` sidecar under
+        /// OUT/images/<effect>/ (for benches/robustness_opencv.py); `--images false` to skip.
+        #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+        images: bool,
+        /// Seed of the pose perturbations and the noise.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
     },
 }
 
@@ -67,5 +90,72 @@ pub fn run(e: &Experiment) -> anyhow::Result<()> {
             println!("wrote table.md, runs.csv and error_fx.png to {}", out.display());
             Ok(())
         }
+        Experiment::Robustness { out, views, effects, images, seed } => robustness(out, *views, effects.as_deref(), *images, *seed),
     }
+}
+
+/// The effects named in a comma list (all when `None`).
+fn parse_effects(list: Option<&str>) -> anyhow::Result<Vec<Effect>> {
+    let Some(list) = list else { return Ok(Effect::ALL.to_vec()) };
+    let names: Vec<&str> = Effect::ALL.iter().map(Effect::name).collect();
+    list.split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| Effect::from_name(s).with_context(|| format!("unknown effect `{s}` (one of {})", names.join(", "))))
+        .collect()
+}
+
+/// Write one view's image (PNG), truth JSON and the sidecar with the truth the detector is
+/// compared with (`<level>_<view>.truth.json`).
+fn write_view(dir: &std::path::Path, v: &ViewImage<'_>) -> anyhow::Result<()> {
+    let effect = v.run.effect;
+    let folder = dir.join(effect.name());
+    std::fs::create_dir_all(&folder).with_context(|| format!("creating {}", folder.display()))?;
+    let stem = format!("{:02}_{:02}", v.level_index, v.run.view);
+    synthcam::dataset::write_image_and_truth(&folder.join(format!("{stem}.png")), v.image, v.truth)?;
+    let num = |x: f64| if x.is_finite() { serde_json::json!(x) } else { serde_json::Value::Null };
+    let sidecar = serde_json::json!({
+        "effect": effect.name(),
+        "level_index": v.level_index,
+        "level": synthcam::report::robustness::level_label(v.run.level),
+        "strength": num(v.run.strength),
+        "view": v.run.view,
+        "grid": v.grid,
+        "truth_px": v.truth_px.iter().map(|p| [num(p[0]), num(p[1])]).collect::<Vec<_>>(),
+        "synthcam": { "detected": v.run.detected, "rms_px": num(v.run.rms_px), "max_px": num(v.run.max_px) },
+    });
+    write_atomic(&folder.join(format!("{stem}.truth.json")), &serde_json::to_vec_pretty(&sidecar)?)?;
+    Ok(())
+}
+
+/// `experiment robustness`.
+fn robustness(out: &std::path::Path, views: usize, effects: Option<&str>, images: bool, seed: u64) -> anyhow::Result<()> {
+    use synthcam::report::robustness::{csv, level_label, markdown, plot_png};
+    let effects = parse_effects(effects)?;
+    anyhow::ensure!(views >= 1 && !effects.is_empty(), "needs at least one view and one effect");
+    let setup = RobustnessSetup::chessboard_k1(views, seed)?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let renderer = super::open_renderer("auto")?;
+    let (t0, image_dir) = (std::time::Instant::now(), out.join("images"));
+    let mut found = 0;
+    let runs = synthcam::sim::robustness::run_robustness(&renderer, &setup, &effects, &mut |v| {
+        found += usize::from(v.run.detected);
+        if v.run.view + 1 == views {
+            eprintln!("{} {}: {found}/{views} found ({:.1} s)", v.run.effect.name(), level_label(v.run.level), t0.elapsed().as_secs_f64());
+            found = 0;
+        }
+        if images {
+            write_view(&image_dir, v).map_err(|e| format!("{e:#}"))?;
+        }
+        Ok(())
+    })?;
+    eprintln!("{} images in {:.1} s", runs.len(), t0.elapsed().as_secs_f64());
+    let table = markdown(&runs);
+    write_atomic(&out.join("table.md"), table.as_bytes())?;
+    write_atomic(&out.join("runs.csv"), csv(&runs).as_bytes())?;
+    for e in &effects {
+        write_atomic(&out.join(format!("{}.png", e.name())), &plot_png(&runs, *e)?)?;
+    }
+    println!("{table}");
+    println!("wrote table.md, runs.csv and one plot per effect to {}", out.display());
+    Ok(())
 }

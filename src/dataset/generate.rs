@@ -21,9 +21,10 @@ use rayon::prelude::*;
 use super::manifest::{manifest_text, sha256_hex, shard_manifest_name, ManifestEntry, ManifestPose};
 use super::poses::{check_feasible, sample_view, scene_of, SampledView};
 use super::spec::DatasetPlan;
-use super::{encode_png, io::truth_json, write_atomic, write_png_and_json, DatasetError};
+use super::{encode_image, io::truth_json, write_atomic, write_png_and_json, DatasetError};
 use crate::math::so3::rvec_from_rotation;
 use crate::render::{GreyImage, Renderer};
+use crate::scene::effects::Encoding;
 use crate::scene::truth::truth_labels;
 use crate::scene::Scene;
 
@@ -116,18 +117,27 @@ pub type ProgressFn<'a> = &'a (dyn Fn(u64, u64) + Sync);
 
 /// Name of image k's PNG, relative to the dataset folder.
 pub fn image_file(k: u64) -> String {
-    format!("images/{k:06}.png")
+    image_file_as(k, Encoding::Png)
+}
+
+/// Name of image k, relative to the dataset folder, for the spec's `[output] encoding`
+/// (`.png` or `.jpg`).
+pub fn image_file_as(k: u64, encoding: Encoding) -> String {
+    match encoding {
+        Encoding::Png => format!("images/{k:06}.png"),
+        Encoding::Jpeg => format!("images/{k:06}.jpg"),
+    }
 }
 
 fn write_err(path: &Path, source: std::io::Error) -> DatasetError {
     DatasetError::Write { path: path.display().to_string(), source }
 }
 
-fn manifest_entry(view: &SampledView, png: &[u8]) -> ManifestEntry {
-    let file = image_file(view.k);
+fn manifest_entry(view: &SampledView, png: &[u8], encoding: Encoding) -> ManifestEntry {
+    let file = image_file_as(view.k, encoding);
     ManifestEntry {
         k: view.k,
-        truth: file.replace(".png", ".json"),
+        truth: format!("images/{:06}.json", view.k),
         file,
         sha256: sha256_hex(png),
         seed: view.render_seed,
@@ -169,13 +179,13 @@ fn remove_leftovers(images: &Path, shard: Shard) -> Result<u64, DatasetError> {
     Ok(removed)
 }
 
-/// The PNG bytes of image k when its PNG decodes completely at `size` and its JSON parses.
-fn existing_png(dir: &Path, k: u64, size: (u32, u32)) -> Option<Vec<u8>> {
-    let png_path = dir.join(image_file(k));
+/// The encoded bytes of image k when its image decodes completely at `size` and its JSON parses.
+fn existing_png(dir: &Path, k: u64, size: (u32, u32), encoding: Encoding) -> Option<Vec<u8>> {
+    let png_path = dir.join(image_file_as(k, encoding));
     let png = std::fs::read(&png_path).ok()?;
     let json = std::fs::read(png_path.with_extension("json")).ok()?;
     serde_json::from_slice::<serde_json::Value>(&json).ok()?;
-    let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png).ok()?;
+    let img = image::load_from_memory(&png).ok()?;
     ((img.width(), img.height()) == size).then_some(png)
 }
 
@@ -184,11 +194,12 @@ fn finish_image(dir: &Path, view: &SampledView, scene: &Scene, img: &GreyImage, 
     let t0 = Instant::now();
     let truth = truth_labels(scene);
     let t1 = Instant::now();
-    let png = encode_png(img)?;
+    let output = scene.render.effects.output;
+    let png = encode_image(img, &output)?;
     let t2 = Instant::now();
     let json = truth_json(&truth)?;
-    write_png_and_json(&dir.join(image_file(view.k)), &png, &json)?;
-    let entry = manifest_entry(view, &png);
+    write_png_and_json(&dir.join(image_file_as(view.k, output.encoding)), &png, &json)?;
+    let entry = manifest_entry(view, &png, output.encoding);
     let t3 = Instant::now();
     if let Ok(mut t) = times.lock() {
         t.truth_s += (t1 - t0).as_secs_f64();
@@ -218,12 +229,12 @@ pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams
     let dir = params.out_dir.as_path();
     let removed_tmp = remove_leftovers(&dir.join("images"), params.shard)?;
     let size = (plan.camera.size.width, plan.camera.size.height);
-    let existing: Vec<Option<Vec<u8>>> = views.par_iter().map(|v| existing_png(dir, v.k, size)).collect();
+    let existing: Vec<Option<Vec<u8>>> = views.par_iter().map(|v| existing_png(dir, v.k, size, plan.render.effects.output.encoding)).collect();
     let mut entries: Vec<ManifestEntry> = Vec::with_capacity(views.len());
     let mut todo: Vec<&SampledView> = Vec::new();
     for (v, png) in views.iter().zip(&existing) {
         match png {
-            Some(png) => entries.push(manifest_entry(v, png)),
+            Some(png) => entries.push(manifest_entry(v, png, plan.render.effects.output.encoding)),
             None => todo.push(v),
         }
     }

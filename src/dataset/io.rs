@@ -33,19 +33,7 @@ pub fn encode_png(img: &GreyImage) -> Result<Vec<u8>, DatasetError> {
 /// # Errors
 /// [`DatasetError::Encode`].
 pub fn encode_jpeg(img: &GreyImage, quality: u8) -> Result<Vec<u8>, DatasetError> {
-    let mut out = Vec::new();
-    let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality.clamp(1, 100));
-    let (w, h) = img.dimensions();
-    let res = match img {
-        GreyImage::Rgb8(i) => enc.encode(i.as_raw(), w, h, image::ExtendedColorType::Rgb8),
-        GreyImage::Rgb16(i) => {
-            let v: Vec<u8> = i.as_raw().iter().map(|v| (f64::from(*v) / 257.0).round() as u8).collect();
-            enc.encode(&v, w, h, image::ExtendedColorType::Rgb8)
-        }
-        _ => enc.encode(&img.to_u8(), w, h, image::ExtendedColorType::L8),
-    };
-    res.map_err(|e| DatasetError::Encode(e.to_string()))?;
-    Ok(out)
+    crate::render::formation::jpeg_bytes(img, quality).map_err(|e| DatasetError::Encode(e.to_string()))
 }
 
 /// Encode `img` as the scene's output asks ([`crate::scene::effects::Encoding`]): PNG or JPEG.

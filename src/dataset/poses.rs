@@ -167,14 +167,18 @@ pub fn check_feasible(plan: &DatasetPlan) -> Result<f64, SpecError> {
     Ok(ok as f64 / FEASIBILITY_DRAWS as f64)
 }
 
-/// The scene of a sampled view.
+/// The scene of a sampled view: the plan's render settings with the view's seed and the
+/// `[ranges]` fields drawn uniformly, in name order, from a stream seeded by that seed (so an
+/// image's effects, like its noise, depend only on (seed, k)).
 pub fn scene_of(plan: &DatasetPlan, view: &SampledView) -> Scene {
-    Scene {
-        camera: plan.camera,
-        target: plan.target.clone(),
-        cam_from_target: view.cam_from_target,
-        render: crate::scene::RenderSettings { seed: view.render_seed, ..plan.render },
+    let mut render = crate::scene::RenderSettings { seed: view.render_seed, ..plan.render };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(view.render_seed ^ 0x9e37_79b9_7f4a_7c15);
+    for (field, [lo, hi]) in &plan.ranges {
+        let v = if hi > lo { rng.random_range(*lo..=*hi) } else { *lo };
+        // Fields and both ends were checked when the plan was built.
+        let _ = crate::scene::effect_fields::set_field(&mut render, field, v);
     }
+    Scene { camera: plan.camera, target: plan.target.clone(), cam_from_target: view.cam_from_target, render }
 }
 
 #[cfg(test)]

@@ -83,6 +83,23 @@ pub struct DatasetSpec {
     pub render: RenderSpec,
     /// `[poses]`.
     pub poses: PosesSpec,
+    /// `[sensor]` (optional; as in scene files).
+    #[serde(default)]
+    pub sensor: Option<crate::camera::sensor::SensorModel>,
+    /// `[optics]` (optional).
+    #[serde(default)]
+    pub optics: Option<crate::scene::file::effects::OpticsSpec>,
+    /// `[motion]` (optional).
+    #[serde(default)]
+    pub motion: Option<crate::scene::motion::Motion>,
+    /// `[output]` (optional).
+    #[serde(default)]
+    pub output: Option<crate::scene::file::effects::OutputSpec>,
+    /// `[ranges]` (optional): numeric render and effect fields sampled uniformly per image from
+    /// `[lo, hi]`, e.g. `"sensor.exposure_s" = [0.002, 0.02]`
+    /// ([`crate::scene::effect_fields::FIELDS`]).
+    #[serde(default)]
+    pub ranges: std::collections::BTreeMap<String, Vec<f64>>,
 }
 
 /// `[poses]`: how `cam_from_target` is sampled.
@@ -210,6 +227,8 @@ pub struct DatasetPlan {
     pub inside_fraction: Option<[f64; 2]>,
     /// Margin of that constraint, pixels.
     pub margin_px: f64,
+    /// Render and effect fields sampled per image from `[lo, hi]` (`[ranges]`), in name order.
+    pub ranges: Vec<(String, [f64; 2])>,
 }
 
 fn invalid(field: &str, reason: impl Into<String>) -> SpecError {
@@ -331,14 +350,36 @@ impl DatasetSpec {
         }
         let camera = self.camera.to_model().map_err(SceneError::from)?;
         let target = self.target.to_target();
-        let render = self.render.to_settings();
+        let mut render = self.render.to_settings();
+        let tables =
+            crate::scene::file::effects::EffectTables { sensor: self.sensor, optics: self.optics.clone(), motion: self.motion, output: self.output.clone() };
+        render.effects = tables.to_effects()?;
+        if let Some(b) = tables.bit_depth() {
+            render.bit_depth = b;
+        }
+        let ranges = self.effect_ranges(&render)?;
         // Validate camera, target and render settings with the scene's own rules (a pose straight
         // ahead keeps the depth check quiet; the sampled poses are checked per image).
         let probe = crate::scene::Scene { camera, target: target.clone(), cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3), render };
         probe.validate()?;
         let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target, &camera)?;
         let inside_fraction = self.poses.inside_fraction()?;
-        Ok(DatasetPlan { count: self.count, seed: self.seed, camera, target, render, mode, full_target_visible, inside_fraction, margin_px })
+        Ok(DatasetPlan { count: self.count, seed: self.seed, camera, target, render, mode, full_target_visible, inside_fraction, margin_px, ranges })
+    }
+
+    /// The `[ranges]`, each checked: a known field, `lo <= hi`, and both ends valid settings.
+    fn effect_ranges(&self, render: &RenderSettings) -> Result<Vec<(String, [f64; 2])>, SpecError> {
+        let mut out = Vec::new();
+        for (field, r) in &self.ranges {
+            let [lo, hi] = check_range(&format!("ranges.{field}"), Some(r), f64::NEG_INFINITY, f64::INFINITY)?;
+            for v in [lo, hi] {
+                let mut probe = *render;
+                crate::scene::effect_fields::set_field(&mut probe, field, v)?;
+                probe.effects.validate()?;
+            }
+            out.push((field.clone(), [lo, hi]));
+        }
+        Ok(out)
     }
 }
 

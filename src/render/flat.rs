@@ -3,7 +3,7 @@
 //! them. Conservative: a tile is flat only when the region bounded by its outline's image holds
 //! no discontinuity of the target.
 
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::gpu_scene::TileCornerRays;
@@ -11,22 +11,31 @@ use crate::scene::views::{View, ViewSet};
 use crate::scene::Scene;
 use crate::target::{CellLattice, Target};
 
-/// A view ([`crate::scene::views::View`]) as the flat test casts rays: its centre and its rays'
-/// directions in the target frame.
+/// A view ([`crate::scene::views::View`]) as the flat test casts rays: its centre and the map
+/// from a pinhole direction to its ray's direction, in the target frame (matrices, not
+/// quaternions: the test casts millions of rays per frame with defocus or motion).
 struct RayFrame {
-    target_from_cam: Isometry3<f64>,
-    view: View,
+    origin: Vector3<f64>,
+    dir_from_pinhole: Matrix3<f64>,
 }
 
 impl RayFrame {
     fn new(view: &View) -> Self {
-        Self { target_from_cam: view.cam_from_target.inverse(), view: *view }
+        let target_from_cam = view.cam_from_target.inverse();
+        let rot = target_from_cam.rotation.to_rotation_matrix().into_inner();
+        let (a, m) = match view.focus_m {
+            None => (Vector3::zeros(), Matrix3::identity()),
+            Some(f) => {
+                let a = Vector3::new(view.aperture_m[0], view.aperture_m[1], 0.0);
+                (a, Matrix3::identity() * f - a * Vector3::z().transpose())
+            }
+        };
+        Self { origin: rot * a + target_from_cam.translation.vector, dir_from_pinhole: rot * m }
     }
 
     /// The view's ray through pinhole direction `r`: origin and direction in the target frame.
     fn ray(&self, r: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
-        let (o, d) = self.view.ray(r);
-        ((self.target_from_cam * nalgebra::Point3::from(o)).coords, self.target_from_cam.rotation * d)
+        (self.origin, self.dir_from_pinhole * r)
     }
 }
 

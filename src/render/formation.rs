@@ -43,17 +43,17 @@ fn pack_dn(model: &SensorModel, dn: &[u16], bit_depth: u8) -> Vec<u16> {
 
 /// The raw values the sensor or the shortcut deliver before demosaicing, and the factor to the
 /// output's scale (0..=255 for 8 bits, 0..=65535 for 16): the sensor's are already there.
-fn raw_values(scene: &Scene, radiance: &[f32]) -> Result<(Vec<f32>, f64), RenderError> {
+fn raw_values(scene: &Scene, radiance: Vec<f32>) -> Result<(Vec<f32>, f64), RenderError> {
     let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
     let rs = &scene.render;
     match &rs.effects.sensor {
         Some(model) => {
             let pattern = FixedPattern::new(model, w, h).map_err(|e| RenderError::Scene(e.into()))?;
-            let dn = sensor::expose(model, &pattern, radiance, w, h, rs.seed).map_err(|e| RenderError::Scene(e.into()))?;
+            let dn = sensor::expose(model, &pattern, &radiance, w, h, rs.seed).map_err(|e| RenderError::Scene(e.into()))?;
             Ok((pack_dn(model, &dn, rs.bit_depth).into_iter().map(f32::from).collect(), 1.0))
         }
         None => {
-            let mut img = radiance.to_vec();
+            let mut img = radiance;
             post::add_noise(&mut img, rs.noise_sigma, rs.seed);
             Ok((img, if rs.bit_depth == 16 { 257.0 } else { 1.0 }))
         }
@@ -72,10 +72,12 @@ pub fn finish(scene: &Scene, linear: &[f32]) -> Result<GreyImage, RenderError> {
         vignette(scene, &mut img);
     }
     let sigma = scene.render.blur_sigma_px.hypot(fx.optics.psf_sigma_px);
-    let img = post::gaussian_blur(&img, w as usize, h as usize, sigma);
+    if sigma > 0.0 {
+        img = post::gaussian_blur(&img, w as usize, h as usize, sigma);
+    }
     // The targets are grey: every colour channel has the same albedo, so the colour filter
     // array's raw image is the grey radiance itself, sampled per pixel by the sensor.
-    let (raw, scale) = raw_values(scene, &img)?;
+    let (raw, scale) = raw_values(scene, img)?;
     let sixteen = scene.render.bit_depth == 16;
     let size_err = || RenderError::Device("image buffer size".into());
     Ok(match fx.output.format {
@@ -96,6 +98,27 @@ pub fn finish(scene: &Scene, linear: &[f32]) -> Result<GreyImage, RenderError> {
 }
 
 /// Scale, round and clamp to `[0, max]` (`max` 255 or 65535) in the output's sample type.
-fn quantise<T: TryFrom<u16> + Default>(vals: &[f32], scale: f64, max: f64) -> Vec<T> {
-    vals.iter().map(|v| T::try_from((f64::from(*v) * scale).round().clamp(0.0, max) as u16).unwrap_or_default()).collect()
+fn quantise<T: TryFrom<u16> + Default + Send>(vals: &[f32], scale: f64, max: f64) -> Vec<T> {
+    vals.par_iter().map(|v| T::try_from((f64::from(*v) * scale).round().clamp(0.0, max) as u16).unwrap_or_default()).collect()
+}
+
+/// Encode `img` as baseline JPEG at `quality` (1..=100) in memory (no file I/O: the dataset writes
+/// the bytes, experiments decode them again); 16-bit images are reduced to 8 bits first.
+///
+/// # Errors
+/// [`RenderError::Device`] with the encoder's message.
+pub fn jpeg_bytes(img: &GreyImage, quality: u8) -> Result<Vec<u8>, RenderError> {
+    let mut out = Vec::new();
+    let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality.clamp(1, 100));
+    let (w, h) = img.dimensions();
+    let res = match img {
+        GreyImage::Rgb8(i) => enc.encode(i.as_raw(), w, h, image::ExtendedColorType::Rgb8),
+        GreyImage::Rgb16(i) => {
+            let v: Vec<u8> = i.as_raw().iter().map(|v| (f64::from(*v) / 257.0).round() as u8).collect();
+            enc.encode(&v, w, h, image::ExtendedColorType::Rgb8)
+        }
+        _ => enc.encode(&img.to_u8(), w, h, image::ExtendedColorType::L8),
+    };
+    res.map_err(|e| RenderError::Device(format!("JPEG encoding: {e}")))?;
+    Ok(out)
 }

@@ -55,8 +55,11 @@ pub const SPATH_KIND: usize = 2;
 pub const SPATH_LIMB_KIND: usize = 3;
 /// The pass kind of coded boards (ChArUco): shaded on their cell lattice.
 pub const CODED_KIND: usize = 4;
-/// Number of pass kinds.
-pub const PASS_KINDS: usize = 5;
+/// Number of pass kinds: the five above and the planar ones with views (chessboard, dot grid,
+/// coded boards: [`VIEWS_KIND`] + 0, 1, 2).
+pub const PASS_KINDS: usize = 8;
+/// The first pass kind with views ([`scene_pass_kind`]).
+pub const VIEWS_KIND: usize = 5;
 
 /// The pass kind of a target (the shader's `P.size.z`, a row of the renderer's entry points):
 /// chessboard 0, dot grid 1, S-path [`SPATH_KIND`], coded boards [`CODED_KIND`].
@@ -66,6 +69,20 @@ pub fn pass_kind(target: &Target) -> usize {
         Target::DotGrid(_) => 1,
         Target::SPath(_) => SPATH_KIND,
         Target::Charuco(_) | Target::AprilGrid(_) => CODED_KIND,
+    }
+}
+
+/// The pass kind of a scene: [`pass_kind`], or for a planar target integrated over views
+/// (defocus, motion) its views kind (`VIEWS_KIND` + chessboard 0, dot grid 1, coded 2).
+pub fn scene_pass_kind(scene: &Scene) -> usize {
+    let kind = pass_kind(&scene.target);
+    if !scene.render.effects.needs_views() {
+        return kind;
+    }
+    match kind {
+        0 | 1 => VIEWS_KIND + kind,
+        CODED_KIND => VIEWS_KIND + 2,
+        k => k,
     }
 }
 
@@ -94,6 +111,9 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) => {
             let bits = planar_params(&mut p, scene, lattice.as_ref())?;
             views = super::views::gpu_views(&view_set)?;
+            if let [h0, h1, h2, ..] = views[..] {
+                (p.h0, p.h1, p.h2) = (h0, h1, h2);
+            }
             p.vw = [view_set.samples, u32::from(view_set.per_row), 0, 0];
             (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], bits)
         }

@@ -10,19 +10,23 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
 use super::context::{BackendChoice, GpuContext};
-use super::gpu_scene::{gpu_scene, lens_variant, pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, PASS_KINDS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX};
+use super::gpu_scene::{gpu_scene, lens_variant, scene_pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, PASS_KINDS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX};
 use super::{GreyImage, RenderError};
 use crate::scene::Scene;
 
 const SHADER: &str = include_str!("../../shaders/render.wgsl");
 /// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
-/// S-path tiles without dots, coded boards (the cell lattice).
+/// S-path tiles without dots, coded boards (the cell lattice), then the planar kinds with views
+/// (defocus, motion: `gpu_scene::scene_pass_kind`).
 const ENTRY_POINTS: [[&str; 2]; PASS_KINDS] = [
     ["cs_coarse_chessboard", "cs_fine_chessboard"],
     ["cs_coarse_dot_grid", "cs_fine_dot_grid"],
     ["cs_coarse_spath", "cs_fine_spath"],
     ["cs_coarse_spath_limb", "cs_fine_spath"],
     ["cs_coarse_coded", "cs_fine_coded"],
+    ["cs_coarse_chessboard_views", "cs_fine_chessboard_views"],
+    ["cs_coarse_dot_grid_views", "cs_fine_dot_grid_views"],
+    ["cs_coarse_coded_views", "cs_fine_coded_views"],
 ];
 /// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
 const MAX_GROUPS_X: u64 = 65535;
@@ -257,7 +261,7 @@ impl Renderer {
     /// layout of the scene instead of following one another.
     fn compile_ahead<'s>(&'s self, scope: &'s std::thread::Scope<'s, '_>, scene: &Scene) {
         let variant = lens_variant(&scene.camera.lens);
-        let kind = pass_kind(&scene.target);
+        let kind = scene_pass_kind(scene);
         let limb = (kind == SPATH_KIND).then_some((SPATH_LIMB_KIND, false));
         for (kind, fine) in [(kind, false), (kind, true)].into_iter().chain(limb) {
             if self.pipelines[kind][usize::from(fine)][variant].get().is_none() {
@@ -275,7 +279,7 @@ impl Renderer {
         let (w, h) = (scene.camera.size.width, scene.camera.size.height);
         let (tiles_x, _) = (gs.params.tiles[0], gs.params.tiles[1]);
         let mut img = vec![0.0f32; w as usize * h as usize];
-        let kind = pass_kind(&scene.target);
+        let kind = scene_pass_kind(scene);
         // Work lists per pass kind: S-path tiles without dots get the cheaper limb-only pass.
         let mut work: [Vec<u32>; PASS_KINDS] = Default::default();
         for (t, v) in gs.tile_flat.iter().enumerate() {

@@ -4,6 +4,7 @@
 pub mod calib;
 pub mod overlay;
 pub mod plot;
+pub mod robustness;
 pub mod servo;
 pub mod sweep;
 

@@ -7,6 +7,7 @@
 //! to every image.
 
 pub mod builder;
+pub mod effect_fields;
 pub mod effect_truth;
 pub mod effects;
 pub mod exact;

@@ -144,11 +144,15 @@ pub struct RenderLabel {
     /// Motion during the exposure, when anything moves.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motion: Option<super::motion::Motion>,
+    /// Optics, when not the ideal pinhole.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub optics: Option<crate::camera::optics::Optics>,
 }
 
 impl From<RenderSettings> for RenderLabel {
     fn from(r: RenderSettings) -> Self {
         let motion = (!r.effects.motion.is_still()).then_some(r.effects.motion);
+        let optics = (r.effects.optics != crate::camera::optics::Optics::default()).then_some(r.effects.optics);
         Self {
             samples: r.samples,
             noise_sigma: r.noise_sigma,
@@ -157,6 +161,7 @@ impl From<RenderSettings> for RenderLabel {
             bit_depth: r.bit_depth,
             sensor: r.effects.sensor,
             motion,
+            optics,
         }
     }
 }
@@ -293,13 +298,6 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
     let m = rot.matrix();
     let rvec = rvec_from_rotation(&rot);
     let t = scene.cam_from_target.translation.vector;
-    let grid = match &scene.target {
-        Target::Chessboard(b) => b.inner_corner_count(),
-        Target::DotGrid(g) => [g.n, g.n],
-        Target::SPath(s) => [s.path.points_m.len() as u32, 1],
-        Target::Charuco(c) => [c.board.squares[0] - 1, c.board.squares[1] - 1],
-        Target::AprilGrid(g) => [4, g.grid.tags[0] * g.grid.tags[1]],
-    };
     TruthLabels {
         version: 1,
         pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0), u right, v down".into(),
@@ -311,10 +309,21 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
         },
         target_kind: scene.target.kind_name().into(),
         feature_kind: kind,
-        grid,
+        grid: grid_of(&scene.target),
         render: scene.render.into(),
         features,
         markers: marker_labels(scene),
+    }
+}
+
+/// The truth's `grid` of a target.
+fn grid_of(target: &Target) -> [u32; 2] {
+    match target {
+        Target::Chessboard(b) => b.inner_corner_count(),
+        Target::DotGrid(g) => [g.n, g.n],
+        Target::SPath(s) => [s.path.points_m.len() as u32, 1],
+        Target::Charuco(c) => [c.board.squares[0] - 1, c.board.squares[1] - 1],
+        Target::AprilGrid(g) => [4, g.grid.tags[0] * g.grid.tags[1]],
     }
 }
 

@@ -29,6 +29,7 @@ pub mod handeye_run;
 pub mod handeye_views;
 pub mod observe;
 pub mod open_run;
+pub mod robustness;
 pub mod scenario;
 pub mod sensor;
 pub mod servo_run;

@@ -29,7 +29,14 @@ fn scenes() -> Vec<(&'static str, synthcam::scene::Scene)> {
     let charuco = parse_scene(include_str!("../../assets/scenes/charuco_k1.toml")).expect("scene");
     let mut aprilgrid = parse_scene(include_str!("../../assets/scenes/aprilgrid_k1.toml")).expect("scene");
     aprilgrid.camera.lens = fisheye.camera.lens;
+    let real = parse_scene(include_str!("../../assets/scenes/effects/real_camera.toml")).expect("scene");
+    // A fisheye (the shader's general-ray path) with defocus, motion blur and a rolling shutter.
+    let mut fisheye_fx = fisheye.clone();
+    fisheye_fx.render.effects = real.render.effects;
+    fisheye_fx.render.effects.motion.exposure_s = 0.002;
     vec![
+        ("real-camera", real),
+        ("fisheye-effects", fisheye_fx),
         ("chessboard", board),
         ("s-path", spath),
         ("fisheye", fisheye),

@@ -24,6 +24,7 @@ mod lens_models;
 mod open_scenario;
 mod options_proptest;
 mod robustness;
+mod robustness_experiment;
 mod sensor_effects;
 mod servo;
 mod truth;
