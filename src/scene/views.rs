@@ -11,6 +11,7 @@
 use nalgebra::{Isometry3, Vector3};
 
 use super::Scene;
+use crate::camera::optics::{samples_for_coc, ThinLens};
 
 /// One view: the target's pose in the camera at the view's time and the aperture point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,13 +90,32 @@ fn time_samples(scene: &Scene) -> u32 {
     ((4.0 * motion_px(scene)).ceil() as u32).clamp(2, super::motion::MAX_TIME_SAMPLES)
 }
 
+/// The thin lens with its aperture samples resolved (0: [`samples_for_coc`] of the largest
+/// circle of confusion over the target's features).
+pub fn resolved_lens(scene: &Scene) -> Option<ThinLens> {
+    let mut lens = scene.render.effects.optics.thin_lens?;
+    if lens.aperture_samples == 0 {
+        let f = scene.camera.intrinsics.fx.max(scene.camera.intrinsics.fy);
+        let r_max = scene
+            .target
+            .feature_points_m()
+            .iter()
+            .map(|p| (scene.cam_from_target * p).z)
+            .filter(|z| *z > 0.0)
+            .map(|z| lens.coc_radius_px(f, z))
+            .fold(0.0, f64::max);
+        lens.aperture_samples = samples_for_coc(r_max);
+    }
+    Some(lens)
+}
+
 /// The views of `scene` (a valid scene).
 pub fn view_set(scene: &Scene) -> ViewSet {
     let fx = &scene.render.effects;
-    let lens = fx.optics.thin_lens;
+    let lens = resolved_lens(scene);
     let n = time_samples(scene).max(lens.map_or(1, |l| l.aperture_samples));
     let offsets = fx.motion.time_offsets_s(n);
-    let aperture = lens.map(|l| crate::camera::optics::ThinLens { aperture_samples: n, ..l }.aperture_points_m());
+    let aperture = lens.map(|l| ThinLens { aperture_samples: n, ..l }.aperture_points_m());
     // Rank-1 lattice pairing: aperture point k with time stratum (k c) mod n, c coprime to n.
     let c = (1..=n).rev().find(|c| gcd(*c, n) == 1 && f64::from(*c) <= 0.62 * f64::from(n) + 1.0).unwrap_or(1);
     let per_row = fx.motion.rolling();

@@ -39,7 +39,7 @@ use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::camera::optics::{ThinLens, MAX_APERTURE_SAMPLES};
+use crate::camera::optics::ThinLens;
 use crate::camera::sensor::SensorModel;
 use crate::render::{finish, GreyImage, Renderer};
 use crate::scene::effects::Encoding;
@@ -169,12 +169,10 @@ pub const MOTION_EXPOSURE_S: f64 = 0.01;
 /// CoC of 7.5 px is 16 visibly separate copies, and the corner error measured is the sampling's
 /// (2.6 px RMS at f/2, 0.04 px with 256 samples), not the detector's.
 pub fn defocus_lens(n: f64, scene: &Scene) -> ThinLens {
-    let mut lens = ThinLens { f_number: n, focal_length_m: 0.016, focus_distance_m: 0.4, aperture_samples: 16 };
-    let fx = scene.camera.intrinsics.fx;
-    let r_max = scene.target.feature_points_m().iter().map(|p| lens.coc_radius_px(fx, (scene.cam_from_target * p).z)).fold(0.0, f64::max);
-    let want = (std::f64::consts::PI * r_max * r_max).ceil().clamp(16.0, f64::from(MAX_APERTURE_SAMPLES)) as u32;
-    lens.aperture_samples = (want + want % 2).min(MAX_APERTURE_SAMPLES);
-    lens
+    let lens = ThinLens { f_number: n, focal_length_m: 0.016, focus_distance_m: 0.4, aperture_samples: 0 };
+    let mut s = scene.clone();
+    s.render.effects.optics.thin_lens = Some(lens);
+    crate::scene::views::resolved_lens(&s).unwrap_or(lens)
 }
 
 /// The sensor of [`Effect::Noise`] at exposure `exposure_s`: defaults, gain so that grey 255 is
