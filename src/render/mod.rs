@@ -39,7 +39,7 @@ pub enum RenderError {
     #[error("degenerate view: {0}")]
     Degenerate(String),
     /// The image does not fit in one storage buffer.
-    #[error("image {width}x{height} exceeds the device's storage buffer limit of {max_bytes} bytes")]
+    #[error("image {width}x{height} (its pixels, or its views: rows x exposure and aperture samples) exceeds the device's storage buffer limit of {max_bytes} bytes")]
     TooLarge {
         /// Width, pixels.
         width: u32,

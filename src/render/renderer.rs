@@ -195,6 +195,12 @@ impl Renderer {
             (work.len() as u64, work.len() as u64 * 64)
         };
         let out_bytes = outputs * 4;
+        // Storage buffers beyond the device's binding limit would fail validation (a panic in
+        // wgpu's default error handler): refuse them (rolling-shutter views are rows x samples).
+        let max_bytes = device.limits().max_storage_buffer_binding_size;
+        if out_bytes.max((gs.views.len() * 16) as u64).max((gs.tile_items.len() * 4) as u64) > max_bytes {
+            return Err(RenderError::TooLarge { width: gs.params.size[0], height: gs.params.size[1], max_bytes });
+        }
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
         let dots = bufs.dots.get(device, "dots", (gs.dots.len() * 16) as u64, STORAGE_DST);
         queue.write_buffer(dots, 0, bytemuck::cast_slice(&gs.dots));

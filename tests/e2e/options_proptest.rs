@@ -56,3 +56,33 @@ proptest! {
         let _ = Shard { index, count }.contains(7);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Camera effects with arbitrary values: parse-free construction, validation, rendering of the
+    /// valid ones (a 64 x 48 board), truth and JPEG encoding return values or typed errors.
+    #[test]
+    fn camera_effect_options_never_panic(fields in prop::collection::vec((0usize..22, odd_f64()), 0..6), bits in 0u8..20, samples in 0u32..300, rolling in any::<bool>()) {
+        let mut scene = synthcam::scene::file::parse_scene(include_str!("../../assets/scenes/chessboard_k1.toml")).expect("scene");
+        scene.camera.size = synthcam::camera::ImageSize { width: 64, height: 48 };
+        scene.camera.intrinsics.fx = 75.0;
+        scene.camera.intrinsics.fy = 75.0;
+        scene.camera.intrinsics.cx = 31.5;
+        scene.camera.intrinsics.cy = 23.5;
+        let fx = &mut scene.render.effects;
+        fx.sensor = Some(synthcam::camera::sensor::SensorModel { bit_depth: bits, ..Default::default() });
+        fx.optics.thin_lens = Some(synthcam::camera::optics::ThinLens { f_number: 2.0, focal_length_m: 0.016, focus_distance_m: 0.5, aperture_samples: samples });
+        fx.motion.line_delay_s = if rolling { 1e-4 } else { 0.0 };
+        for (i, v) in &fields {
+            let _ = synthcam::scene::effect_fields::set_field(&mut scene.render, synthcam::scene::effect_fields::FIELDS[*i], *v);
+        }
+        if scene.validate().is_ok() {
+            let img = crate::common::renderer().render(&scene);
+            let _ = synthcam::scene::truth::truth_labels(&scene);
+            if let Ok(img) = img {
+                let _ = synthcam::render::formation::jpeg_bytes(&img, 50);
+            }
+        }
+    }
+}
