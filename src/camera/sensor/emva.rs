@@ -182,20 +182,28 @@ pub struct FixedPattern {
 
 impl FixedPattern {
     /// Draws the pattern of a `width x height` sensor from a ChaCha8 generator seeded with a
-    /// hash of (`model.seed`, `width`, `height`); per pixel in row-major order, first the gain's
-    /// `z`, then the offset's. Errors: an invalid model, or a size whose pixel count overflows.
+    /// hash of (`model.seed`, `width`, `height`), row `y` from its own stream `y` (rows in
+    /// parallel, the same values on any thread count); per pixel, first the gain's `z`, then the
+    /// offset's. Errors: an invalid model, or a size whose pixel count overflows.
     pub fn new(model: &SensorModel, width: usize, height: usize) -> Result<Self, SensorError> {
         model.validate()?;
         let n = width.checked_mul(height).filter(|&n| n <= isize::MAX as usize / 8).ok_or(SensorError::Size { got: 0, width, height })?;
         let size_hash = splitmix64(((width as u64) << 32) ^ (height as u64) ^ ((width as u64) >> 32));
-        let mut rng = ChaCha8Rng::seed_from_u64(splitmix64(model.seed ^ size_hash));
-        let (mut gain, mut offset_e) = (Vec::with_capacity(n), Vec::with_capacity(n));
-        for _ in 0..n {
-            let zg: f64 = rng.sample(StandardNormal);
-            let zo: f64 = rng.sample(StandardNormal);
-            gain.push((1.0 + model.prnu * zg).max(0.0) as f32);
-            offset_e.push((model.dsnu_e * zo) as f32);
+        let seed = splitmix64(model.seed ^ size_hash);
+        let (mut gain, mut offset_e) = (vec![0f32; n], vec![0f32; n]);
+        if width == 0 {
+            return Ok(Self { gain, offset_e });
         }
+        gain.par_chunks_mut(width).zip(offset_e.par_chunks_mut(width)).enumerate().for_each(|(y, (g, o))| {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(y as u64);
+            for (g, o) in g.iter_mut().zip(o.iter_mut()) {
+                let zg: f64 = rng.sample(StandardNormal);
+                let zo: f64 = rng.sample(StandardNormal);
+                *g = (1.0 + model.prnu * zg).max(0.0) as f32;
+                *o = (model.dsnu_e * zo) as f32;
+            }
+        });
         Ok(Self { gain, offset_e })
     }
 }
