@@ -1421,17 +1421,69 @@ fn uniform_view() {
 // points (`*_views`): llvmpipe runs both sides of a branch, so the sharp passes hold no loop.
 fn planar_coarse_views(px: vec3<u32>, kind: u32) -> Coarse {
     let ray = pixel_ray(vec2<f32>(f32(px.x), f32(px.y)));
+    if (kind != 1u) { return cells_coarse_views(ray, px.y, kind == 4u); }
     var out: Coarse;
     out.value = 0.0;
     out.hard = false;
     for (var s = 0u; s < P.vw.x; s = s + 1u) {
         set_view(px.y, s);
-        var c: Coarse;
-        if (kind == 1u) { c = grid_coarse(ray); } else { c = cells_coarse(ray, kind == 4u); }
+        let c = grid_coarse(ray);
         out.value = out.value + c.value;
         out.hard = out.hard || c.hard;
     }
     out.value = out.value / f32(P.vw.x);
+    return out;
+}
+
+// Boards of cells with views. Every view's footprint lies within the first view's, grown by the
+// views' spread (P.vw.z, pixels; src/scene/views.rs) through the board Jacobian, plus 10 %. No
+// line in that region: every view sees one cell. One line: the mean over the views of each
+// view's exact half-plane coverage of it (the two cells beside it are the same for every view).
+// Otherwise each view's own coarse value (cells_coarse), hard when any view's is. The loops run
+// only for the lanes that need them (llvmpipe leaves a loop when no lane is active).
+fn cells_coarse_views(ray: Ray, y: u32, coded: bool) -> Coarse {
+    set_view(y, 0u);
+    let pc = plane_point(ray_d(ray));
+    let a = board_jacobian(pc, ray);
+    let spread = bitcast<f32>(P.vw.z);
+    let per_px = vec2<f32>(abs(a[0].x) + abs(a[1].x), abs(a[0].y) + abs(a[1].y));
+    let ext = 1.1 * (footprint_extent(a) + spread * per_px);
+    let lx = board_lines(pc.x - ext.x, pc.x + ext.x, 0u, coded);
+    let ly = board_lines(pc.y - ext.y, pc.y + ext.y, 1u, coded);
+    let nlines = lx.count + ly.count;
+    let small = 1.1 * max(footprint_extent(a).x, footprint_extent(a).y) < 0.25 * min_cell(coded);
+    let simple = ray.ok && pc.z > 0.0 && spread < 1e29 && small && ray.parts == 1u && nlines <= 1u;
+    let hasx = lx.count == 1u;
+    let l0 = select(ly.first, lx.first, hasx);
+    let axis = select(1u, 0u, hasx);
+    let cen = select(pc.y, pc.x, hasx);
+    let e = select(ext.y, ext.x, hasx);
+    let plus = 0.5 * (l0 + cen + e);
+    let minus = 0.5 * (l0 + cen - e);
+    let vp = select(cell_value(pc.x, plus, coded), cell_value(plus, pc.y, coded), hasx);
+    let vm = select(cell_value(pc.x, minus, coded), cell_value(minus, pc.y, coded), hasx);
+    var out: Coarse;
+    out.hard = false;
+    let n_line = select(0u, P.vw.x, simple && nlines == 1u);
+    var area = 0.0;
+    for (var s = 0u; s < n_line; s = s + 1u) {
+        set_view(y, s);
+        let ps = plane_point(ray_d(ray));
+        let line = board_line(axis, l0, ps, ray);
+        area = area + halfplane_area(line.xy, line.z);
+    }
+    area = area / f32(max(n_line, 1u));
+    let n_full = select(P.vw.x, 0u, simple);
+    var full = 0.0;
+    for (var s = 0u; s < n_full; s = s + 1u) {
+        set_view(y, s);
+        let c = cells_coarse(ray, coded);
+        full = full + c.value;
+        out.hard = out.hard || c.hard;
+    }
+    full = full / f32(max(n_full, 1u));
+    let v = select(cell_value(pc.x, pc.y, coded), vp * area + vm * (1.0 - area), nlines == 1u);
+    out.value = select(full, v, simple);
     return out;
 }
 

@@ -46,7 +46,7 @@ pub struct Params {
     /// Coded boards: the board's end along x and y, the narrowest cell (metres), 0.
     pub lat2: [f32; 4],
     /// Planar targets: views per pixel, one set of views per row (1) or one for all rows (0),
-    /// 0, 0 (`render::views`).
+    /// the views' spread in pixels as f32 bits (`scene::views::ViewSet::spread_px`), 0.
     pub vw: [u32; 4],
 }
 

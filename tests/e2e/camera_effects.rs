@@ -220,3 +220,60 @@ fn defocused_edges_spread_as_the_thin_lens_circle_of_confusion() {
     eprintln!("defocus: worst relative error of the edge-spread radius vs the thin-lens CoC {:.2} %", 100.0 * worst);
     assert!(worst <= 0.05, "worst {worst}");
 }
+
+/// The mean of sharp renders, one per view, each an ordinary scene: a motion view is the scene at
+/// its time; a defocus view of a distortion-free camera is a pinhole at the aperture point `a`
+/// with the principal point moved by `f a / F` (the ray through the focus plane, in the shifted
+/// camera's normalised coordinates `x - a / F`).
+fn mean_of_sharp_views(scene: &Scene) -> Vec<f64> {
+    let set = synthcam::scene::views::view_set(scene);
+    assert!(!set.per_row);
+    let mut acc = vec![0.0f64; (scene.camera.size.width * scene.camera.size.height) as usize];
+    for v in &set.views {
+        let mut s = scene.clone();
+        s.render.effects = Default::default();
+        s.cam_from_target = v.cam_from_target;
+        if let Some(f) = v.focus_m {
+            let [ax, ay] = v.aperture_m;
+            s.cam_from_target = Isometry3::translation(-ax, -ay, 0.0) * v.cam_from_target;
+            s.camera.intrinsics.cx += s.camera.intrinsics.fx * ax / f;
+            s.camera.intrinsics.cy += s.camera.intrinsics.fy * ay / f;
+        }
+        let img = renderer().render_linear(&s).expect("render");
+        acc.iter_mut().zip(&img).for_each(|(a, v)| *a += f64::from(*v) / set.views.len() as f64);
+    }
+    acc
+}
+
+#[test]
+fn views_renders_equal_the_mean_of_their_sharp_views() {
+    for (name, motion, lens) in [
+        ("motion blur", Motion { twist: [0.2, -0.4, 0.3, 0.6, 0.2, 0.0], exposure_s: 0.01, time_samples: 12, ..Motion::default() }, None),
+        ("defocus", Motion::default(), Some(ThinLens { f_number: 1.4, focal_length_m: 0.016, focus_distance_m: 0.5, aperture_samples: 16 })),
+        (
+            "both",
+            Motion { twist: [0.0, 0.0, 0.5, 0.3, 0.0, 0.0], exposure_s: 0.005, time_samples: 6, ..Motion::default() },
+            Some(ThinLens { f_number: 2.0, focal_length_m: 0.016, focus_distance_m: 0.9, aperture_samples: 12 }),
+        ),
+    ] {
+        let mut scene = parse_scene(include_str!("../../assets/scenes/charuco_k1.toml")).expect("scene");
+        scene.camera = camera(480, 384, 560.0, [0.0; 5]);
+        scene.render.effects.motion = motion;
+        scene.render.effects.optics.thin_lens = lens;
+        let img = renderer().render_linear(&scene).expect("render");
+        let reference = mean_of_sharp_views(&scene);
+        let d: Vec<f64> = img.iter().zip(&reference).map(|(a, b)| (f64::from(*a) - b).abs()).collect();
+        let max = d.iter().cloned().fold(0.0, f64::max);
+        let changed = img
+            .iter()
+            .zip(&renderer().render_linear(&Scene { render: Default::default(), ..scene.clone() }).expect("sharp"))
+            .filter(|(a, b)| (**a - **b).abs() > 1.0)
+            .count();
+        eprintln!(
+            "{name}: views render vs the mean of {} sharp renders: max |diff| {max:.4} grey levels ({changed} pixels differ from the sharp image by > 1 grey)",
+            synthcam::scene::views::view_set(&scene).views.len()
+        );
+        assert!(max < 0.02, "{name}: {max}");
+        assert!(changed > 1000, "{name}: the effect should change the image");
+    }
+}
