@@ -159,6 +159,12 @@ impl SceneSpec {
         let tables = effects::EffectTables { sensor: self.sensor, optics: self.optics.clone(), motion: self.motion, output: self.output.clone() };
         let mut render = self.render.to_settings();
         render.effects = tables.to_effects()?;
+        if render.effects.motion.follow_robot {
+            return Err(SceneError::InvalidField {
+                field: "motion.follow_robot".into(),
+                reason: "only a robot scenario moves the camera with its arm; give `twist` here".into(),
+            });
+        }
         if let Some(b) = tables.bit_depth() {
             render.bit_depth = b;
         }

@@ -54,11 +54,14 @@ pub struct Motion {
     /// Exposure-time samples per pixel (0: automatic, four per pixel the image moves, at most
     /// [`MAX_TIME_SAMPLES`]).
     pub time_samples: u32,
+    /// Robot scenarios only: the camera's twist is the arm's, from its last applied joint
+    /// velocities at each frame (`crate::sim::Sim::camera_twist`); `twist` is then ignored.
+    pub follow_robot: bool,
 }
 
 impl Default for Motion {
     fn default() -> Self {
-        Self { twist: [0.0; 6], target_twist: [0.0; 6], exposure_s: 0.0, line_delay_s: 0.0, readout: Readout::TopDown, time_samples: 0 }
+        Self { twist: [0.0; 6], target_twist: [0.0; 6], exposure_s: 0.0, line_delay_s: 0.0, readout: Readout::TopDown, time_samples: 0, follow_robot: false }
     }
 }
 
@@ -88,7 +91,8 @@ impl Motion {
         Ok(())
     }
 
-    /// Whether nothing moves.
+    /// Whether nothing moves (a camera following a robot moves when the simulator has set its
+    /// twist).
     pub fn is_still(&self) -> bool {
         self.twist.iter().chain(&self.target_twist).all(|v| *v == 0.0)
     }

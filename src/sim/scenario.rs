@@ -119,6 +119,19 @@ pub struct ScenarioSpec {
     /// Image formation.
     #[serde(default)]
     pub render: RenderSpec,
+    /// `[sensor]` (optional; as in scene files).
+    #[serde(default)]
+    pub sensor: Option<crate::camera::sensor::SensorModel>,
+    /// `[optics]` (optional).
+    #[serde(default)]
+    pub optics: Option<crate::scene::file::effects::OpticsSpec>,
+    /// `[motion]` (optional; `follow_robot = true`: the camera moves with the arm during each
+    /// exposure).
+    #[serde(default)]
+    pub motion: Option<crate::scene::motion::Motion>,
+    /// `[output]` (optional).
+    #[serde(default)]
+    pub output: Option<crate::scene::file::effects::OutputSpec>,
     /// The robot's base in the world.
     pub world_from_base: PoseSpec,
     /// The camera on the tool (the hand-eye truth).
@@ -176,10 +189,21 @@ impl ScenarioSpec {
         if self.q_start_rad.iter().any(|v| !v.is_finite()) {
             return Err(SimError::Scenario(format!("q_start_rad must be finite, got {:?}", self.q_start_rad)));
         }
+        let mut render = self.render.to_settings();
+        let tables =
+            crate::scene::file::effects::EffectTables { sensor: self.sensor, optics: self.optics.clone(), motion: self.motion, output: self.output.clone() };
+        render.effects = tables.to_effects()?;
+        render.bit_depth = tables.bit_depth().unwrap_or(render.bit_depth);
+        let moving = render.effects.motion.follow_robot && (render.effects.motion.exposure_s > 0.0 || render.effects.motion.line_delay_s > 0.0);
+        if (moving || render.effects.optics.thin_lens.is_some()) && matches!(target, Target::SPath(_)) {
+            return Err(SimError::Scenario(
+                "[motion] follow_robot and [optics] f_number render planar targets only (chessboard, dot grid, ChArUco, AprilGrid), not the S-path".into(),
+            ));
+        }
         Ok(SimScenario {
             camera,
             target,
-            render: self.render.to_settings(),
+            render,
             world_from_base: self.world_from_base.to_isometry()?,
             tool_from_cam: self.tool_from_cam.to_isometry()?,
             world_from_target: self.world_from_target.to_isometry()?,

@@ -59,6 +59,8 @@ pub struct Sim<'s> {
     robot: Box<dyn Robot>,
     sensor: Box<dyn Sensor + 's>,
     q: Vec<f64>,
+    /// The joint velocities last applied (after saturation); zero after `set_joints`.
+    qdot: Vec<f64>,
     time_s: f64,
     frame: u64,
 }
@@ -76,7 +78,8 @@ impl<'s> Sim<'s> {
     /// Start joints of the wrong length or outside the robot's limits.
     pub fn new(scenario: SimScenario, robot: Box<dyn Robot>, sensor: Box<dyn Sensor + 's>) -> Result<Self, SimError> {
         let q = scenario.q_start_rad.clone();
-        let sim = Self { scenario, robot, sensor, q, time_s: 0.0, frame: 0 };
+        let qdot = vec![0.0; q.len()];
+        let sim = Self { scenario, robot, sensor, q, qdot, time_s: 0.0, frame: 0 };
         sim.admits(&sim.q)?;
         Ok(sim)
     }
@@ -125,7 +128,23 @@ impl<'s> Sim<'s> {
     pub fn set_joints(&mut self, q: &[f64]) -> Result<(), SimError> {
         self.admits(q)?;
         self.q = q.to_vec();
+        self.qdot = vec![0.0; q.len()];
         Ok(())
+    }
+
+    /// The camera's body twist `[wx, wy, wz, vx, vy, vz]` (its own frame, rad/s and m/s) while
+    /// the joints move at the last applied velocities: `cam(q)_from_cam(q + qdot h) / h` for
+    /// h = 1 us (the twist's first-order error is ~1e-6 relative).
+    ///
+    /// # Errors
+    /// A joint vector of the wrong length.
+    pub fn camera_twist(&self) -> Result<[f64; 6], SimError> {
+        let h = 1e-6;
+        let ahead: Vec<f64> = self.q.iter().zip(&self.qdot).map(|(q, v)| q + v * h).collect();
+        let step = self.world_from_cam_at(&self.q)?.inverse() * self.world_from_cam_at(&ahead)?;
+        let w = crate::math::so3::rvec_from_rotation(&step.rotation.to_rotation_matrix()) / h;
+        let v = step.translation.vector / h;
+        Ok([w.x, w.y, w.z, v.x, v.y, v.z])
     }
 
     /// The true camera pose in the world at joints `q`.
@@ -162,6 +181,7 @@ impl<'s> Sim<'s> {
         let next: Vec<f64> = self.q.iter().zip(qdot).map(|(q, v)| q + scale * v * dt_s).collect();
         self.admits(&next)?;
         self.q = next;
+        self.qdot = qdot.iter().map(|v| scale * v).collect();
         self.time_s += dt_s;
         Ok(())
     }
@@ -193,7 +213,10 @@ impl<'s> Sim<'s> {
     /// features.
     pub fn observe(&mut self) -> Result<Observation, SimError> {
         let cam_from_target = self.cam_from_target_at(&self.q)?;
-        self.observe_from(cam_from_target)
+        // A scenario whose `[motion]` follows the robot exposes while the arm keeps moving at its
+        // last joint velocities (motion blur, rolling shutter).
+        let twist = if self.scenario.render.effects.motion.follow_robot { Some(self.camera_twist()?) } else { None };
+        self.observe_with(cam_from_target, twist)
     }
 
     /// Observe with the camera placed at `cam_from_target` (off the robot: teaching the desired
@@ -202,8 +225,17 @@ impl<'s> Sim<'s> {
     /// # Errors
     /// As [`Sim::observe`].
     pub fn observe_from(&mut self, cam_from_target: Isometry3<f64>) -> Result<Observation, SimError> {
+        self.observe_with(cam_from_target, None)
+    }
+
+    /// Observe at `cam_from_target`, the camera moving with `twist` during the exposure when given.
+    fn observe_with(&mut self, cam_from_target: Isometry3<f64>, twist: Option<[f64; 6]>) -> Result<Observation, SimError> {
         let truth = self.truth(cam_from_target);
-        let Capture { image, features, note, render_ms, detect_ms } = self.sensor.capture(&self.scene(cam_from_target))?;
+        let mut scene = self.scene(cam_from_target);
+        if let Some(t) = twist {
+            scene.render.effects.motion.twist = t;
+        }
+        let Capture { image, features, note, render_ms, detect_ms } = self.sensor.capture(&scene)?;
         let features = resolve_ids(&self.scenario.target, features, &truth.projected_px);
         let obs = Observation { frame: self.frame, time_s: self.time_s, q_rad: self.q.clone(), image, features, note, render_ms, detect_ms, truth };
         self.frame += 1;

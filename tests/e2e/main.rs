@@ -23,6 +23,7 @@ mod handeye;
 mod lens_models;
 mod open_scenario;
 mod options_proptest;
+mod robot_motion;
 mod robustness;
 mod robustness_experiment;
 mod sensor_effects;
