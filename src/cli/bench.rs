@@ -45,13 +45,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     for (name, text) in &list {
         let scene = parse_scene(text).with_context(|| format!("scene {name}"))?;
         for _ in 0..3 {
-            renderer.render_linear(&scene)?;
+            renderer.render_radiance(&scene)?;
         }
         let mut render_ms = Vec::new();
         let mut post_ms = Vec::new();
         for _ in 0..args.frames.max(1) {
             let t0 = std::time::Instant::now();
-            let linear = renderer.render_linear(&scene)?;
+            let linear = renderer.render_radiance(&scene)?;
             let t1 = std::time::Instant::now();
             let img = finish(&scene, &linear)?;
             let _png = encode_png(&img)?;

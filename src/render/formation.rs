@@ -109,8 +109,8 @@ pub fn finish(scene: &Scene, linear: &[f32]) -> Result<GreyImage, RenderError> {
     if sigma > 0.0 {
         img = post::gaussian_blur(&img, w as usize, h as usize, sigma);
     }
-    // The targets are grey: every colour channel has the same albedo, so the colour filter
-    // array's raw image is the grey radiance itself, sampled per pixel by the sensor.
+    // The colour filter array's raw image: a grey target's radiance itself (every channel has
+    // the same albedo), a colour target's channels already sampled (`Renderer::render_radiance`).
     let t2 = std::time::Instant::now();
     let (raw, scale) = raw_values(scene, img)?;
     let ms = |a: std::time::Instant, b: std::time::Instant| (b - a).as_secs_f64() * 1e3;

@@ -100,12 +100,39 @@ impl GreyImage {
 pub use formation::finish;
 
 impl Renderer {
+    /// The radiance the sensor sees: [`Renderer::render_linear`], or for a colour target
+    /// (`[output] target_rgb`) one render per channel with that channel's albedo, sampled by the
+    /// colour filter array (Bayer and RGB output) or combined as BT.601 luma (grey output).
+    ///
+    /// # Errors
+    /// As [`Renderer::render_linear`].
+    pub fn render_radiance(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
+        let Some(rgb) = scene.render.effects.output.target_rgb else { return self.render_linear(scene) };
+        let mut channels = Vec::with_capacity(3);
+        for c in 0..3 {
+            let greys = rgb.map(|region| region[c]);
+            let s = Scene { target: scene.target.with_greys(greys), ..scene.clone() };
+            channels.push(self.render_linear(&s)?);
+        }
+        let w = scene.camera.size.width as usize;
+        let pattern = match scene.render.effects.output.format {
+            crate::scene::effects::PixelFormat::Bayer(p) | crate::scene::effects::PixelFormat::Rgb(p) => Some(p),
+            crate::scene::effects::PixelFormat::Grey => None,
+        };
+        Ok((0..channels[0].len())
+            .map(|i| match pattern {
+                Some(p) => channels[p.channel_at(i % w.max(1), i / w.max(1))][i],
+                None => (0.299 * f64::from(channels[0][i]) + 0.587 * f64::from(channels[1][i]) + 0.114 * f64::from(channels[2][i])) as f32,
+            })
+            .collect())
+    }
+
     /// Render `scene` to a finished grey image (geometry, blur, noise, quantisation).
     ///
     /// # Errors
     /// As [`Renderer::render_linear`].
     pub fn render(&self, scene: &Scene) -> Result<GreyImage, RenderError> {
-        let linear = self.render_linear(scene)?;
+        let linear = self.render_radiance(scene)?;
         finish(scene, &linear)
     }
 }

@@ -35,7 +35,7 @@ pub enum Encoding {
 }
 
 /// The output image (`[output]` in scene files).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Output {
     /// Pixel layout.
     pub format: PixelFormat,
@@ -45,11 +45,15 @@ pub struct Output {
     pub encoding: Encoding,
     /// JPEG quality, 1..=100.
     pub jpeg_quality: u8,
+    /// A colour target: the RGB albedo (grey levels per channel) of its dark, light, margin and
+    /// background regions; `None`: grey (every channel the target's grey level). Each channel
+    /// renders on its own; the colour filter array samples them.
+    pub target_rgb: Option<[[f64; 3]; 4]>,
 }
 
 impl Default for Output {
     fn default() -> Self {
-        Self { format: PixelFormat::Grey, demosaic: Demosaic::Bilinear, encoding: Encoding::Png, jpeg_quality: 95 }
+        Self { format: PixelFormat::Grey, demosaic: Demosaic::Bilinear, encoding: Encoding::Png, jpeg_quality: 95, target_rgb: None }
     }
 }
 
@@ -80,6 +84,11 @@ impl Effects {
             other => SceneError::Camera(other),
         })?;
         self.motion.validate()?;
+        if let Some(rgb) = &self.output.target_rgb {
+            if rgb.iter().flatten().any(|v| !v.is_finite() || !(0.0..=255.0).contains(v)) {
+                return Err(SceneError::InvalidField { field: "output.target_rgb".into(), reason: format!("grey levels must be in [0, 255], got {rgb:?}") });
+            }
+        }
         if !(1..=100).contains(&self.output.jpeg_quality) {
             return Err(SceneError::InvalidField {
                 field: "output.jpeg_quality".into(),

@@ -63,7 +63,7 @@ pub struct ViewSet {
     /// `samples` views per row (or one set), row-major.
     pub views: Vec<View>,
     /// A bound on how far, in pixels, any view of a row images a target point from where the
-    /// row's first view images it ([`spread_px`]); the shader grows a pixel's footprint by it.
+    /// row's first view images it (`spread_px` in this module); the shader grows a pixel's footprint by it.
     pub spread_px: f64,
 }
 

@@ -312,7 +312,7 @@ fn render_image(renderer: &Renderer, effect: Effect, scene: &Scene, cache: &mut 
     let img = if effect.post_only() {
         let linear = match cache.take() {
             Some(l) => l,
-            None => renderer.render_linear(scene)?,
+            None => renderer.render_radiance(scene)?,
         };
         let img = finish(scene, &linear);
         *cache = Some(linear);

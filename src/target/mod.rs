@@ -156,6 +156,21 @@ impl Target {
         !matches!(self, Target::SPath(_))
     }
 
+    /// The same target with its grey levels replaced: `[dark, light, margin, background]` (a
+    /// dot grid's plate and an S-path's sphere take `light`; they have no separate margin). A
+    /// colour target renders once per channel with that channel's albedo.
+    pub fn with_greys(&self, [dark, light, margin, background]: [f64; 4]) -> Target {
+        let mut t = self.clone();
+        match &mut t {
+            Target::Chessboard(b) => (b.dark, b.light, b.margin, b.background) = (dark, light, margin, background),
+            Target::DotGrid(g) => (g.dark, g.light, g.background) = (dark, light, background),
+            Target::SPath(s) => (s.dark, s.light, s.background) = (dark, light, background),
+            Target::Charuco(c) => (c.look.dark, c.look.light, c.look.margin, c.look.background) = (dark, light, margin, background),
+            Target::AprilGrid(g) => (g.look.dark, g.look.light, g.look.margin, g.look.background) = (dark, light, margin, background),
+        }
+        t
+    }
+
     /// Grey level of the empty background (what rays that miss the target see).
     pub fn background(&self) -> f64 {
         match self {

@@ -226,3 +226,47 @@ fn vignetting_follows_cos4_and_the_radial_polynomial() {
     eprintln!("vignetting: rendered flat field vs cos^4 x polynomial, max |diff| {worst:.4} grey levels (16-bit quantisation: 0.002)");
     assert!(worst < 0.003, "{worst}");
 }
+
+#[test]
+fn colour_targets_render_per_channel_albedo_through_the_colour_filter_array() {
+    // 8 x 6 squares of 60 px, fronto-parallel: square (i, j) spans x 100 + 60 i .. , y 60 + 60 j.
+    let mut s = crate::common::chessboard_scene(camera(640, 480, 600.0, [0.0; 5]), [8, 6], 0.1, 0.0, 1.0, [0.0, 0.0]);
+    let rgb = [[200.0, 30.0, 30.0], [30.0, 200.0, 60.0], [30.0, 200.0, 60.0], [90.0, 90.0, 200.0]];
+    s.render.effects.output.target_rgb = Some(rgb);
+    let colour_at = |x: f64, y: f64| -> [f64; 3] {
+        let p = s.cam_from_target.inverse() * nalgebra::Point3::new((x - 319.5) / 600.0, (y - 239.5) / 600.0, 1.0);
+        let o = s.cam_from_target.inverse() * nalgebra::Point3::origin();
+        let t = -o.z / (p.z - o.z);
+        let (bx, by) = (o.x + t * (p.x - o.x), o.y + t * (p.y - o.y));
+        let dark = s.target.plane_intensity(bx, by).expect("on the board") < 100.0;
+        if dark {
+            rgb[0]
+        } else {
+            rgb[1]
+        }
+    };
+    for (pattern, name) in [(synthcam::camera::sensor::BayerPattern::Rggb, "rggb"), (synthcam::camera::sensor::BayerPattern::Gbrg, "gbrg")] {
+        s.render.effects.output.format = PixelFormat::Bayer(pattern);
+        let GreyImage::U8(raw) = renderer().render(&s).expect("render") else { panic!("raw is one channel") };
+        s.render.effects.output.format = PixelFormat::Rgb(pattern);
+        let GreyImage::Rgb8(img) = renderer().render(&s).expect("render") else { panic!("RGB") };
+        let (mut checked, mut worst) = (0, 0.0f64);
+        // Square centres, 25 px from every edge: flat for the raw image and for the demosaicer.
+        for j in 0..6 {
+            for i in 0..8 {
+                let (cx, cy) = (320.0 - 240.0 + 60.0 * f64::from(i) + 30.0, 240.0 - 180.0 + 60.0 * f64::from(j) + 30.0);
+                let want = colour_at(cx, cy);
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (x, y) = (cx as u32 + dx, cy as u32 + dy);
+                    let c = pattern.channel_at(x as usize, y as usize);
+                    worst = worst.max((f64::from(raw.get_pixel(x, y).0[0]) - want[c]).abs());
+                    let p = img.get_pixel(x, y).0;
+                    worst = worst.max((0..3).map(|k| (f64::from(p[k]) - want[k]).abs()).fold(0.0, f64::max));
+                    checked += 1;
+                }
+            }
+        }
+        eprintln!("colour target, {name}: raw and demosaiced RGB inside the squares vs the albedo, max |diff| {worst} over {checked} pixels");
+        assert!(worst <= 0.5, "{name}: {worst}");
+    }
+}

@@ -37,6 +37,7 @@
 //! encoding = "png"                 # or "jpeg"
 //! jpeg_quality = 95
 //! bit_depth = 8                    # PNG sample depth: 8 or 16 (as [render] bit_depth)
+//! target_rgb = [[20, 20, 90], [235, 200, 60], [235, 200, 60], [110, 110, 110]]  # colour target: dark, light, margin, background
 //! ```
 
 use serde::Deserialize;
@@ -108,6 +109,8 @@ pub struct OutputSpec {
     pub jpeg_quality: Option<u8>,
     /// PNG sample depth, 8 or 16.
     pub bit_depth: Option<u8>,
+    /// Colour target: RGB of the dark, light, margin and background regions.
+    pub target_rgb: Option<[[f64; 3]; 4]>,
 }
 
 impl OutputSpec {
@@ -138,7 +141,7 @@ impl OutputSpec {
             Some("jpeg" | "jpg") => Encoding::Jpeg,
             Some(s) => return Err(invalid("output.encoding", format!("unknown encoding `{s}`: expected png or jpeg"))),
         };
-        Ok(Output { format, demosaic, encoding, jpeg_quality: self.jpeg_quality.unwrap_or(d.jpeg_quality) })
+        Ok(Output { format, demosaic, encoding, jpeg_quality: self.jpeg_quality.unwrap_or(d.jpeg_quality), target_rgb: self.target_rgb })
     }
 }
 
