@@ -1435,6 +1435,21 @@ fn planar_coarse_views(px: vec3<u32>, kind: u32) -> Coarse {
     return out;
 }
 
+// The coverage of the pixel by {board coordinate `axis` >= v} in view s of row y: board_line
+// without the board point. With L = H_axis - v H_2 (rows of the view's homography), the line in
+// pixel offsets is (L.c0, L.c1, -L.d) / W, W = H_2.d > 0, and the half-plane area does not
+// change with a positive scale, so W only decides whether the view sees the plane (else 0).
+fn view_line_area(ray: Ray, y: u32, s: u32, axis: u32, v: f32) -> f32 {
+    let k = 3u * (select(0u, y * P.vw.x, P.vw.y == 1u) + s);
+    let h2 = views[k + 2u];
+    let l = views[k + axis].xyz - v * h2.xyz;
+    let d = ray_d(ray);
+    let w = select(h2.x * d.x + h2.y * d.y + h2.z, dot3(h2.xyz, d), wide());
+    let ld = select(l.x * d.x + l.y * d.y + l.z, dot3(l, d), wide());
+    let n = vec2<f32>(dot_step(l, ray_col(ray, 0u)), dot_step(l, ray_col(ray, 1u)));
+    return select(0.0, halfplane_area(n, -ld), w > 0.0);
+}
+
 // Boards of cells with views. Every view's footprint lies within the first view's, grown by the
 // views' spread (P.vw.z, pixels; src/scene/views.rs) through the board Jacobian, plus 10 %. No
 // line in that region: every view sees one cell. One line: the mean over the views of each
@@ -1467,10 +1482,7 @@ fn cells_coarse_views(ray: Ray, y: u32, coded: bool) -> Coarse {
     let n_line = select(0u, P.vw.x, simple && nlines == 1u);
     var area = 0.0;
     for (var s = 0u; s < n_line; s = s + 1u) {
-        set_view(y, s);
-        let ps = plane_point(ray_d(ray));
-        let line = board_line(axis, l0, ps, ray);
-        area = area + halfplane_area(line.xy, line.z);
+        area = area + view_line_area(ray, y, s, axis, l0);
     }
     area = area / f32(max(n_line, 1u));
     let n_full = select(P.vw.x, 0u, simple);

@@ -350,13 +350,7 @@ impl DatasetSpec {
         }
         let camera = self.camera.to_model().map_err(SceneError::from)?;
         let target = self.target.to_target();
-        let mut render = self.render.to_settings();
-        let tables =
-            crate::scene::file::effects::EffectTables { sensor: self.sensor, optics: self.optics.clone(), motion: self.motion, output: self.output.clone() };
-        render.effects = tables.to_effects()?;
-        if let Some(b) = tables.bit_depth() {
-            render.bit_depth = b;
-        }
+        let render = crate::scene::file::effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?;
         let ranges = self.effect_ranges(&render)?;
         // Validate camera, target and render settings with the scene's own rules (a pose straight
         // ahead keeps the depth check quiet; the sampled poses are checked per image).

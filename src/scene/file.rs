@@ -156,17 +156,12 @@ impl SceneSpec {
     /// # Errors
     /// Any invalid field (named), or a target behind the camera.
     pub fn to_scene(&self) -> Result<Scene, SceneError> {
-        let tables = effects::EffectTables { sensor: self.sensor, optics: self.optics.clone(), motion: self.motion, output: self.output.clone() };
-        let mut render = self.render.to_settings();
-        render.effects = tables.to_effects()?;
+        let render = effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?;
         if render.effects.motion.follow_robot {
             return Err(SceneError::InvalidField {
                 field: "motion.follow_robot".into(),
                 reason: "only a robot scenario moves the camera with its arm; give `twist` here".into(),
             });
-        }
-        if let Some(b) = tables.bit_depth() {
-            render.bit_depth = b;
         }
         let scene = Scene { camera: self.camera.to_model()?, target: self.target.to_target(), cam_from_target: self.pose.to_isometry()?, render };
         scene.validate()?;

@@ -189,11 +189,7 @@ impl ScenarioSpec {
         if self.q_start_rad.iter().any(|v| !v.is_finite()) {
             return Err(SimError::Scenario(format!("q_start_rad must be finite, got {:?}", self.q_start_rad)));
         }
-        let mut render = self.render.to_settings();
-        let tables =
-            crate::scene::file::effects::EffectTables { sensor: self.sensor, optics: self.optics.clone(), motion: self.motion, output: self.output.clone() };
-        render.effects = tables.to_effects()?;
-        render.bit_depth = tables.bit_depth().unwrap_or(render.bit_depth);
+        let render = crate::scene::file::effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?;
         let moving = render.effects.motion.follow_robot && (render.effects.motion.exposure_s > 0.0 || render.effects.motion.line_delay_s > 0.0);
         if (moving || render.effects.optics.thin_lens.is_some()) && matches!(target, Target::SPath(_)) {
             return Err(SimError::Scenario(

@@ -188,3 +188,22 @@ impl EffectTables {
         self.output.as_ref().and_then(|o| o.bit_depth)
     }
 }
+
+/// The `[render]` settings with the four effect tables applied (a scene file, a dataset spec and
+/// a scenario carry the same tables): effects validated, `[output] bit_depth` over `[render]`'s.
+///
+/// # Errors
+/// Any invalid field, named.
+pub fn render_settings(
+    render: &crate::scene::file::RenderSpec,
+    sensor: Option<SensorModel>,
+    optics: Option<&OpticsSpec>,
+    motion: Option<Motion>,
+    output: Option<&OutputSpec>,
+) -> Result<crate::scene::RenderSettings, SceneError> {
+    let tables = EffectTables { sensor, optics: optics.cloned(), motion, output: output.cloned() };
+    let mut settings = render.to_settings();
+    settings.effects = tables.to_effects()?;
+    settings.bit_depth = tables.bit_depth().unwrap_or(settings.bit_depth);
+    Ok(settings)
+}
