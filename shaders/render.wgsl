@@ -43,7 +43,7 @@ struct Params {
     sphere: vec4<f32>,   // s-path: sphere centre (camera frame), radius
     lat: vec4<f32>,      // coded boards: lattice period, origin, first sub-interval, cell
     lat2: vec4<f32>,     // coded boards: board end x, end y, narrowest cell, 0
-    vw: vec4<u32>,       // planar targets: views per pixel, one set per row (1) or one for all (0), 0, 0
+    vw: vec4<u32>,       // planar targets: views per pixel, one set per row (1) or one for all (0), the views' spread (px, f32 bits), 0
 };
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -65,9 +65,14 @@ var<private> H0: vec4<f32>;
 var<private> H1: vec4<f32>;
 var<private> H2: vec4<f32>;
 
+// The index in `views` of the first row of view s of row y.
+fn view_index(y: u32, s: u32) -> u32 {
+    return 3u * (select(0u, y * P.vw.x, P.vw.y == 1u) + s);
+}
+
 // Make view s of the views of row y the current one.
 fn set_view(y: u32, s: u32) {
-    let k = 3u * (select(0u, y * P.vw.x, P.vw.y == 1u) + s);
+    let k = view_index(y, s);
     H0 = views[k];
     H1 = views[k + 1u];
     H2 = views[k + 2u];
@@ -410,16 +415,14 @@ fn coded_lines(lo: f32, hi: f32, end: f32, cells: f32) -> Lines {
 // Target-plane point of the ray d (any length and direction: H is linear); z < 0 when the ray
 // misses (plane behind).
 fn plane_point(d: vec3<f32>) -> vec3<f32> {
-    if (wide()) {
-        let hw = H2.x * d.x + H2.y * d.y + H2.z * d.z;
-        let hx = H0.x * d.x + H0.y * d.y + H0.z * d.z;
-        let hy = H1.x * d.x + H1.y * d.y + H1.z * d.z;
-        return vec3<f32>(hx / hw, hy / hw, hw);
-    }
-    let hw = H2.x * d.x + H2.y * d.y + H2.z;
-    let hx = H0.x * d.x + H0.y * d.y + H0.z;
-    let hy = H1.x * d.x + H1.y * d.y + H1.z;
-    return vec3<f32>(hx / hw, hy / hw, hw);
+    let hw = h_dot(H2.xyz, d);
+    return vec3<f32>(h_dot(H0.xyz, d) / hw, h_dot(H1.xyz, d) / hw, hw);
+}
+
+// A homography row times the ray d (the z = 1 of a non-wide ray as a literal, see wide()).
+fn h_dot(h: vec3<f32>, d: vec3<f32>) -> f32 {
+    if (wide()) { return h.x * d.x + h.y * d.y + h.z * d.z; }
+    return h.x * d.x + h.y * d.y + h.z;
 }
 
 // Box filter by brute force: samples^2 sub-samples, each mapped with the local inverse Jacobian
@@ -1440,12 +1443,12 @@ fn planar_coarse_views(px: vec3<u32>, kind: u32) -> Coarse {
 // pixel offsets is (L.c0, L.c1, -L.d) / W, W = H_2.d > 0, and the half-plane area does not
 // change with a positive scale, so W only decides whether the view sees the plane (else 0).
 fn view_line_area(ray: Ray, y: u32, s: u32, axis: u32, v: f32) -> f32 {
-    let k = 3u * (select(0u, y * P.vw.x, P.vw.y == 1u) + s);
+    let k = view_index(y, s);
     let h2 = views[k + 2u];
     let l = views[k + axis].xyz - v * h2.xyz;
     let d = ray_d(ray);
-    let w = select(h2.x * d.x + h2.y * d.y + h2.z, dot3(h2.xyz, d), wide());
-    let ld = select(l.x * d.x + l.y * d.y + l.z, dot3(l, d), wide());
+    let w = h_dot(h2.xyz, d);
+    let ld = h_dot(l, d);
     let n = vec2<f32>(dot_step(l, ray_col(ray, 0u)), dot_step(l, ray_col(ray, 1u)));
     return select(0.0, halfplane_area(n, -ld), w > 0.0);
 }
@@ -1462,11 +1465,12 @@ fn cells_coarse_views(ray: Ray, y: u32, coded: bool) -> Coarse {
     let a = board_jacobian(pc, ray);
     let spread = bitcast<f32>(P.vw.z);
     let per_px = vec2<f32>(abs(a[0].x) + abs(a[1].x), abs(a[0].y) + abs(a[1].y));
-    let ext = 1.1 * (footprint_extent(a) + spread * per_px);
+    let own = footprint_extent(a);
+    let ext = 1.1 * (own + spread * per_px);
     let lx = board_lines(pc.x - ext.x, pc.x + ext.x, 0u, coded);
     let ly = board_lines(pc.y - ext.y, pc.y + ext.y, 1u, coded);
     let nlines = lx.count + ly.count;
-    let small = 1.1 * max(footprint_extent(a).x, footprint_extent(a).y) < 0.25 * min_cell(coded);
+    let small = 1.1 * max(own.x, own.y) < 0.25 * min_cell(coded);
     let simple = ray.ok && pc.z > 0.0 && spread < 1e29 && small && ray.parts == 1u && nlines <= 1u;
     let hasx = lx.count == 1u;
     let l0 = select(ly.first, lx.first, hasx);

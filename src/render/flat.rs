@@ -23,14 +23,8 @@ impl RayFrame {
     fn new(view: &View) -> Self {
         let target_from_cam = view.cam_from_target.inverse();
         let rot = target_from_cam.rotation.to_rotation_matrix().into_inner();
-        let (a, m) = match view.focus_m {
-            None => (Vector3::zeros(), Matrix3::identity()),
-            Some(f) => {
-                let a = Vector3::new(view.aperture_m[0], view.aperture_m[1], 0.0);
-                (a, Matrix3::identity() * f - a * Vector3::z().transpose())
-            }
-        };
-        Self { origin: rot * a + target_from_cam.translation.vector, dir_from_pinhole: rot * m }
+        let m = view.direction_map().unwrap_or_else(Matrix3::identity);
+        Self { origin: rot * view.aperture() + target_from_cam.translation.vector, dir_from_pinhole: rot * m }
     }
 
     /// The view's ray through pinhole direction `r`: origin and direction in the target frame.

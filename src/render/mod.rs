@@ -20,6 +20,7 @@ pub mod views;
 pub use context::{BackendChoice, GpuContext};
 pub use renderer::Renderer;
 
+use crate::scene::effects::PixelFormat;
 use crate::scene::{Scene, SceneError};
 
 /// Errors of the renderer.
@@ -87,7 +88,7 @@ impl GreyImage {
     /// 8-bit grey values (16-bit images are divided by 257 and rounded; RGB images give their
     /// luma, ITU-R BT.601).
     pub fn to_u8(&self) -> Vec<u8> {
-        let luma = |p: [f64; 3], scale: f64| ((0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2]) / scale).round().clamp(0.0, 255.0) as u8;
+        let luma = |p: [f64; 3], scale: f64| (crate::camera::sensor::luma(p) / scale).round().clamp(0.0, 255.0) as u8;
         match self {
             GreyImage::U8(i) => i.as_raw().clone(),
             GreyImage::U16(i) => i.as_raw().iter().map(|v| ((f64::from(*v)) / 257.0).round() as u8).collect(),
@@ -107,24 +108,18 @@ impl Renderer {
     /// # Errors
     /// As [`Renderer::render_linear`].
     pub fn render_radiance(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
-        let Some(rgb) = scene.render.effects.output.target_rgb else { return self.render_linear(scene) };
+        let Some(albedo) = scene.render.effects.output.target_rgb else { return self.render_linear(scene) };
         let mut channels = Vec::with_capacity(3);
         for c in 0..3 {
-            let greys = rgb.map(|region| region[c]);
-            let s = Scene { target: scene.target.with_greys(greys), ..scene.clone() };
+            let s = Scene { target: scene.target.with_greys(albedo.map(|region| region[c])), ..scene.clone() };
             channels.push(self.render_linear(&s)?);
         }
-        let w = scene.camera.size.width as usize;
-        let pattern = match scene.render.effects.output.format {
-            crate::scene::effects::PixelFormat::Bayer(p) | crate::scene::effects::PixelFormat::Rgb(p) => Some(p),
-            crate::scene::effects::PixelFormat::Grey => None,
-        };
-        Ok((0..channels[0].len())
-            .map(|i| match pattern {
-                Some(p) => channels[p.channel_at(i % w.max(1), i / w.max(1))][i],
-                None => (0.299 * f64::from(channels[0][i]) + 0.587 * f64::from(channels[1][i]) + 0.114 * f64::from(channels[2][i])) as f32,
-            })
-            .collect())
+        let rgb: Vec<[f32; 3]> = (0..channels[0].len()).map(|i| [channels[0][i], channels[1][i], channels[2][i]]).collect();
+        let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
+        match scene.render.effects.output.format {
+            PixelFormat::Bayer(p) | PixelFormat::Rgb(p) => crate::camera::sensor::mosaic(&rgb, w, h, p).map_err(|e| RenderError::Scene(e.into())),
+            PixelFormat::Grey => Ok(crate::camera::sensor::rgb_to_grey(&rgb)),
+        }
     }
 
     /// Render `scene` to a finished grey image (geometry, blur, noise, quantisation).

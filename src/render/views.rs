@@ -6,7 +6,7 @@
 //! satisfies `[r1 r2 t - a] (u, v, 1)^T ~ M d`, so `(u, v, 1) ~ [r1 r2 t - a]^-1 M d`. A pinhole
 //! view (no aperture) is `[r1 r2 t]^-1`.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 
 use super::RenderError;
 use crate::scene::views::{View, ViewSet};
@@ -19,13 +19,9 @@ pub fn homography(view: &View) -> Result<Matrix3<f64>, RenderError> {
     let r = view.cam_from_target.rotation.to_rotation_matrix();
     let t = view.cam_from_target.translation.vector;
     let m = r.matrix();
-    let a = Vector3::new(view.aperture_m[0], view.aperture_m[1], 0.0);
-    let n_from_t = Matrix3::from_columns(&[m.column(0).into_owned(), m.column(1).into_owned(), t - a]);
+    let n_from_t = Matrix3::from_columns(&[m.column(0).into_owned(), m.column(1).into_owned(), t - view.aperture()]);
     let t_from_n = n_from_t.try_inverse().ok_or_else(|| RenderError::Degenerate("the target plane passes through the camera centre".into()))?;
-    let h = match view.focus_m {
-        None => t_from_n,
-        Some(f) => t_from_n * (Matrix3::identity() * f - a * Vector3::z().transpose()),
-    };
+    let h = view.direction_map().map_or(t_from_n, |m| t_from_n * m);
     let scale = h.abs().max();
     if !(scale > 0.0) || !scale.is_finite() {
         return Err(RenderError::Degenerate("singular plane homography".into()));

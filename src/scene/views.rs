@@ -5,10 +5,10 @@
 //! rays pass through the focus plane where the central pinhole's do: the ray of direction `d`
 //! becomes `F d - a d_z` from `a` (`F` the focus distance). Exposure time and aperture are
 //! sampled together (distributed ray tracing, Cook et al. 1984): `n = max(time, aperture)`
-//! samples, time strata and Vogel-spiral aperture points paired by a rank-1 lattice permutation so
-//! that both are stratified and uncorrelated.
+//! samples, time strata and ring aperture points (`ThinLens::aperture_points_m`) paired by a
+//! rank-1 lattice permutation so that both are stratified and uncorrelated.
 
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Vector3};
 
 use super::Scene;
 use crate::camera::optics::{samples_for_coc, ThinLens};
@@ -32,7 +32,7 @@ impl View {
         let at = match self.focus_m {
             None => x,
             Some(f) => {
-                let a = nalgebra::Point3::new(self.aperture_m[0], self.aperture_m[1], 0.0);
+                let a = nalgebra::Point3::from(self.aperture());
                 a + (x - a) * (f / x.z)
             }
         };
@@ -40,16 +40,16 @@ impl View {
         (q.in_front && x.z > 0.0 && q.pixel_px.x.is_finite() && q.pixel_px.y.is_finite()).then_some(q.pixel_px)
     }
 
-    /// The ray of this view through the pinhole direction `d` (camera frame): origin and
-    /// direction, both in the camera frame at the view's time.
-    pub fn ray(&self, d: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
-        match self.focus_m {
-            None => (Vector3::zeros(), *d),
-            Some(f) => {
-                let a = Vector3::new(self.aperture_m[0], self.aperture_m[1], 0.0);
-                (a, d * f - a * d.z)
-            }
-        }
+    /// The aperture point: the origin of this view's rays (camera frame at the view's time).
+    pub fn aperture(&self) -> Vector3<f64> {
+        Vector3::new(self.aperture_m[0], self.aperture_m[1], 0.0)
+    }
+
+    /// The linear map from a pinhole ray direction `d` to this view's ray direction from
+    /// [`View::aperture`]: `F I - a e_z^T` (the ray `F d - a d_z` passes the focus plane where
+    /// the pinhole's does); `None` for a pinhole view (the identity).
+    pub fn direction_map(&self) -> Option<Matrix3<f64>> {
+        self.focus_m.map(|f| Matrix3::identity() * f - self.aperture() * Vector3::z().transpose())
     }
 }
 

@@ -189,10 +189,18 @@ pub fn demosaic(raw: &[f32], width: usize, height: usize, pattern: BayerPattern,
     Ok(out)
 }
 
+/// The ITU-R BT.601 luma weights of R, G and B.
+pub const LUMA_BT601: [f64; 3] = [0.299, 0.587, 0.114];
+
+/// The BT.601 luma of one RGB value, in its own units.
+pub fn luma(rgb: [f64; 3]) -> f64 {
+    LUMA_BT601[0] * rgb[0] + LUMA_BT601[1] * rgb[1] + LUMA_BT601[2] * rgb[2]
+}
+
 /// Grey from RGB by the ITU-R BT.601 luma weights: `0.299 R + 0.587 G + 0.114 B` (equal
 /// channels give the same grey, to f32 rounding).
 pub fn rgb_to_grey(rgb: &[[f32; 3]]) -> Vec<f32> {
-    rgb.iter().map(|p| 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2]).collect()
+    rgb.iter().map(|p| luma(p.map(f64::from)) as f32).collect()
 }
 
 #[cfg(test)]

@@ -32,7 +32,7 @@ pub mod demosaic;
 pub mod emva;
 
 pub use bayer::{grey_to_rgb, mosaic, BayerPattern};
-pub use demosaic::{demosaic, rgb_to_grey, Demosaic};
+pub use demosaic::{demosaic, luma, rgb_to_grey, Demosaic, LUMA_BT601};
 pub use emva::{dn_to_grey, expected_dn, expose, FixedPattern, SensorModel};
 
 /// Errors of the sensor model.
