@@ -42,6 +42,9 @@ fn missing(field: &str, table: &str) -> SceneError {
 /// # Errors
 /// An unknown field, or a field of a `[sensor]` or thin lens the settings do not have.
 pub fn set_field(render: &mut RenderSettings, field: &str, value: f64) -> Result<(), SceneError> {
+    if !FIELDS.contains(&field) {
+        return Err(unknown(field));
+    }
     let linked_exposure = render.effects.sensor.is_some_and(|s| s.exposure_s == render.effects.motion.exposure_s);
     let fx = &mut render.effects;
     let sensor = fx.sensor.as_mut();

@@ -41,8 +41,8 @@ impl EffectLabel {
     }
 }
 
-/// The image of target point `p` at time `t`.
-fn pixel_at(scene: &Scene, p: &Point3<f64>, t: f64) -> Option<Point2<f64>> {
+/// The image of target point `p` at time `t` ([`super::motion`]), or `None` behind the camera.
+pub(crate) fn pixel_at(scene: &Scene, p: &Point3<f64>, t: f64) -> Option<Point2<f64>> {
     let pose = scene.render.effects.motion.cam_from_target_at(&scene.cam_from_target, t);
     let q = scene.camera.project(&(pose * p));
     (q.in_front && q.pixel_px.x.is_finite() && q.pixel_px.y.is_finite()).then_some(q.pixel_px)

@@ -10,6 +10,7 @@
 
 use nalgebra::{Isometry3, Matrix3, Vector3};
 
+use super::effect_truth::pixel_at;
 use super::Scene;
 use crate::camera::optics::{samples_for_coc, ThinLens};
 
@@ -83,17 +84,8 @@ impl ViewSet {
 
 /// Most image motion (pixels) of the target's features over the exposure, at row time 0.
 fn motion_px(scene: &Scene) -> f64 {
-    let m = &scene.render.effects.motion;
-    let (a, b) = (m.cam_from_target_at(&scene.cam_from_target, -0.5 * m.exposure_s), m.cam_from_target_at(&scene.cam_from_target, 0.5 * m.exposure_s));
-    scene
-        .target
-        .feature_points_m()
-        .iter()
-        .map(|p| (scene.camera.project(&(a * p)), scene.camera.project(&(b * p))))
-        .filter(|(qa, qb)| qa.in_front && qb.in_front)
-        .map(|(qa, qb)| (qa.pixel_px - qb.pixel_px).norm())
-        .filter(|d| d.is_finite())
-        .fold(0.0, f64::max)
+    let half = 0.5 * scene.render.effects.motion.exposure_s;
+    scene.target.feature_points_m().iter().filter_map(|p| Some((pixel_at(scene, p, -half)? - pixel_at(scene, p, half)?).norm())).fold(0.0, f64::max)
 }
 
 /// Time samples per pixel: the motion's own setting, else four per pixel of image motion.

@@ -147,6 +147,10 @@ fn bad_specs_fail_cleanly() {
         ("unknown-mode", TINY.replace("mode = \"board\"", "mode = \"orbit\""), "orbit"),
         ("board-on-s-path", TINY.replace("kind = \"chessboard\"\nsquares = [7, 5]\nsquare_m = 0.03", "kind = \"s-path\""), "poses.mode"),
         ("never-fits", TINY.replace("distance_m = [0.45, 0.7]", "distance_m = [0.05, 0.1]"), "full_target_visible"),
+        ("unknown-range", format!("{TINY}\n[ranges]\n\"sensor.exposure\" = [0.001, 0.002]\n"), "ranges.sensor.exposure"),
+        ("range-without-sensor", format!("{TINY}\n[ranges]\n\"sensor.exposure_s\" = [0.001, 0.002]\n"), "[sensor]"),
+        ("range-out-of-bounds", format!("{TINY}\n[sensor]\n[ranges]\n\"sensor.prnu\" = [0.0, 2.0]\n"), "sensor.prnu"),
+        ("inverted-range", format!("{TINY}\n[sensor]\n[ranges]\n\"sensor.exposure_s\" = [0.01, 0.001]\n"), "ranges.sensor.exposure_s"),
     ];
     for (name, text, needle) in cases {
         let root = tmp(&format!("bad-{name}"));
