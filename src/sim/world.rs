@@ -243,8 +243,9 @@ impl<'s> Sim<'s> {
     }
 }
 
-/// The grid's symmetric orderings (rotations and mirrors) as id permutations.
-fn grid_orderings(cols: usize, rows: usize) -> Vec<Vec<usize>> {
+/// The grid's symmetric orderings (rotations and mirrors; the four transposes only for square
+/// grids) as id permutations: entry k (row-major) is the index that id k takes under it.
+pub(crate) fn grid_orderings(cols: usize, rows: usize) -> Vec<Vec<usize>> {
     let at = |r: usize, c: usize| r * cols + c;
     let mut out: Vec<Vec<usize>> = Vec::new();
     let maps: [&dyn Fn(usize, usize) -> Option<usize>; 8] = [

@@ -21,37 +21,6 @@ pub fn truth_points(effect: Effect, scene: &Scene, truth: &TruthLabels) -> Vec<[
         .collect()
 }
 
-/// Index permutations of a `cols` x `rows` row-major grid onto itself: identity, the two
-/// mirrors, the half turn, and for square grids the four transposes.
-fn grid_symmetries(cols: usize, rows: usize) -> Vec<Vec<usize>> {
-    let mut out = Vec::new();
-    for (flip_r, flip_c) in [(false, false), (true, true), (false, true), (true, false)] {
-        let idx = |r: usize, c: usize| {
-            let (r, c) = (if flip_r { rows - 1 - r } else { r }, if flip_c { cols - 1 - c } else { c });
-            (r, c)
-        };
-        out.push(
-            (0..rows * cols)
-                .map(|k| {
-                    let (r, c) = idx(k / cols, k % cols);
-                    r * cols + c
-                })
-                .collect(),
-        );
-        if cols == rows {
-            out.push(
-                (0..rows * cols)
-                    .map(|k| {
-                        let (r, c) = idx(k / cols, k % cols);
-                        c * cols + r
-                    })
-                    .collect(),
-            );
-        }
-    }
-    out
-}
-
 /// Per-corner errors of `found` (detector order, `cols` per row, or `rows` per row when
 /// transposed: `found_cols`) against `truth` (target order): the grid symmetry with the smallest
 /// RMS over the finite truth points. Empty when the counts differ.
@@ -65,7 +34,7 @@ pub fn match_errors(found: &[[f64; 2]], found_cols: usize, truth: &[[f64; 2]], g
     let errors = |perm: &Vec<usize>| -> Vec<f64> {
         perm.iter().zip(truth).filter(|(_, t)| t[0].is_finite() && t[1].is_finite()).map(|(&i, t)| (found[i][0] - t[0]).hypot(found[i][1] - t[1])).collect()
     };
-    grid_symmetries(cols, rows).iter().map(errors).min_by(|a, b| rms(a).total_cmp(&rms(b))).unwrap_or_default()
+    crate::sim::world::grid_orderings(cols, rows).iter().map(errors).min_by(|a, b| rms(a).total_cmp(&rms(b))).unwrap_or_default()
 }
 
 /// Root mean square (NaN for none).
