@@ -91,6 +91,8 @@ fn rolling_shutter_corners_match_the_row_time_truth() {
         rms(&e_ideal)
     );
     assert!(rms(&e_rs) <= 0.03, "RMS {}", rms(&e_rs));
+    let worst = e_rs.iter().cloned().fold(0.0, f64::max);
+    assert!(worst <= 0.05, "max {worst}");
     assert!(rms(&e_ideal) > 1.0, "the motion should move the corners");
 }
 

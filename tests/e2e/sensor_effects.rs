@@ -159,17 +159,17 @@ fn demosaiced_renders_match_the_grey_render_and_the_detector_runs_on_raw_and_rgb
         let max = d.iter().cloned().fold(0.0, f64::max);
         let outside = d.iter().enumerate().filter(|(i, e)| **e > factor * range(i % w, i / w, reach) + 1.0).count();
         let e = nn_errors(&detect(&img, [11, 8]), &truth);
-        eprintln!("demosaic {name}: luma vs the grey render max {max:.0}, RMS {:.3} grey levels, {outside} pixels beyond the documented bound; corners on the RGB image vs truth RMS {:.4} px", rms(&d), rms(&e));
+        eprintln!("demosaic {name}: luma vs the grey render max {max:.0}, RMS {:.3} grey levels, {outside} pixels beyond the documented bound; corners on the RGB image vs truth RMS {:.4} px, max {:.4} px", rms(&d), rms(&e), e.iter().cloned().fold(0.0, f64::max));
         assert_eq!(outside, 0);
-        assert!(rms(&e) <= 0.1);
+        assert!(rms(&e) <= 0.1 && e.iter().all(|x| *x <= 0.3), "corners {e:?}");
     }
     let mut raw = grey.clone();
     raw.render.effects.output.format = PixelFormat::Bayer(synthcam::camera::sensor::BayerPattern::Bggr);
     raw.render.effects.sensor = Some(SensorModel { exposure_s: 0.01, photons_per_s_at_255: 1.5e6, ..SensorModel::default() });
     let img = renderer().render(&raw).expect("render");
     let e = nn_errors(&detect(&img, [11, 8]), &truth);
-    eprintln!("Bayer raw (BGGR, EMVA default sensor, 8-bit): corners vs truth RMS {:.4} px", rms(&e));
-    assert!(rms(&e) <= 0.05);
+    eprintln!("Bayer raw (BGGR, EMVA default sensor, 8-bit): corners vs truth RMS {:.4} px, max {:.4} px", rms(&e), e.iter().cloned().fold(0.0, f64::max));
+    assert!(rms(&e) <= 0.05 && e.iter().all(|x| *x <= 0.1), "corners {e:?}");
 }
 
 #[test]
