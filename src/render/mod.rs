@@ -20,6 +20,8 @@ pub mod views;
 pub use context::{BackendChoice, GpuContext};
 pub use renderer::Renderer;
 
+use rayon::prelude::*;
+
 use crate::scene::effects::PixelFormat;
 use crate::scene::{Scene, SceneError};
 
@@ -109,17 +111,15 @@ impl Renderer {
     /// As [`Renderer::render_linear`].
     pub fn render_radiance(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
         let Some(albedo) = scene.render.effects.output.target_rgb else { return self.render_linear(scene) };
-        let mut channels = Vec::with_capacity(3);
-        for c in 0..3 {
-            let s = Scene { target: scene.target.with_greys(albedo.map(|region| region[c])), ..scene.clone() };
-            channels.push(self.render_linear(&s)?);
-        }
-        let rgb: Vec<[f32; 3]> = (0..channels[0].len()).map(|i| [channels[0][i], channels[1][i], channels[2][i]]).collect();
-        let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
-        match scene.render.effects.output.format {
-            PixelFormat::Bayer(p) | PixelFormat::Rgb(p) => crate::camera::sensor::mosaic(&rgb, w, h, p).map_err(|e| RenderError::Scene(e.into())),
-            PixelFormat::Grey => Ok(crate::camera::sensor::rgb_to_grey(&rgb)),
-        }
+        let channel = |c: usize| self.render_linear(&Scene { target: scene.target.with_greys(albedo.map(|region| region[c])), ..scene.clone() });
+        let channels = [channel(0)?, channel(1)?, channel(2)?];
+        // Per pixel straight from the channel planes (no interleaved copy: this is per frame).
+        let w = (scene.camera.size.width as usize).max(1);
+        let pick = |i: usize| match scene.render.effects.output.format {
+            PixelFormat::Bayer(p) | PixelFormat::Rgb(p) => channels[p.channel_at(i % w, i / w)][i],
+            PixelFormat::Grey => crate::camera::sensor::luma(channels.each_ref().map(|c| f64::from(c[i]))) as f32,
+        };
+        Ok((0..channels[0].len()).into_par_iter().map(pick).collect())
     }
 
     /// Render `scene` to a finished grey image (geometry, blur, noise, quantisation).
