@@ -34,6 +34,7 @@ pub mod detect;
 pub mod error;
 pub mod handeye;
 pub mod math;
+pub mod mesh;
 pub mod pnp;
 #[cfg(feature = "render")]
 pub mod render;

@@ -4,7 +4,7 @@
 use anyhow::Context;
 use synthcam::dataset::encode_png;
 use synthcam::render::finish;
-use synthcam::scene::file::parse_scene;
+use synthcam::scene::file::parse_scene_with;
 
 /// Arguments of `bench`.
 #[derive(Debug, clap::Args)]
@@ -35,6 +35,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let renderer = super::open_renderer(&args.backend)?;
     println!("threads: LP_NUM_THREADS={}", std::env::var("LP_NUM_THREADS").unwrap_or_else(|_| "(default)".into()));
     let mut list: Vec<(String, String)> = Vec::new();
+    let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("."));
     for path in &args.scenes {
         let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
         list.push((path.display().to_string(), text));
@@ -43,7 +44,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         list = super::DEFAULT_SCENES.iter().map(|(n, t)| ((*n).to_string(), (*t).to_string())).collect();
     }
     for (name, text) in &list {
-        let scene = parse_scene(text).with_context(|| format!("scene {name}"))?;
+        let scene = parse_scene_with(text, &|p: &str| meshes.load(p)).with_context(|| format!("scene {name}"))?;
         for _ in 0..3 {
             renderer.render_radiance(&scene)?;
         }

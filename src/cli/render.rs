@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use synthcam::dataset::MeshLibrary;
 use synthcam::dataset::{encode_image, truth_json, write_png_and_json};
-use synthcam::scene::file::parse_scene;
+use synthcam::scene::file::parse_scene_with;
 use synthcam::scene::truth::truth_labels;
 
 /// Arguments of `render`.
@@ -24,7 +25,8 @@ pub struct RenderArgs {
 /// Run `render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(&args.scene).with_context(|| format!("reading {}", args.scene.display()))?;
-    let scene = parse_scene(&text).with_context(|| format!("in scene {}", args.scene.display()))?;
+    let meshes = MeshLibrary::beside(&args.scene);
+    let scene = parse_scene_with(&text, &|p: &str| meshes.load(p)).with_context(|| format!("in scene {}", args.scene.display()))?;
     let renderer = super::open_renderer(&args.backend)?;
     let img = renderer.render(&scene).context("rendering")?;
     let truth = truth_labels(&scene);

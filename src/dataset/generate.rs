@@ -190,7 +190,14 @@ fn existing_png(dir: &Path, k: u64, size: (u32, u32), encoding: Encoding) -> Opt
 }
 
 /// Encode and write one rendered image; returns its manifest entry.
-fn finish_image(dir: &Path, view: &SampledView, scene: &Scene, img: &GreyImage, times: &Mutex<StageTimes>) -> Result<ManifestEntry, DatasetError> {
+fn finish_image(
+    dir: &Path,
+    view: &SampledView,
+    scene: &Scene,
+    img: &GreyImage,
+    extras: [bool; 2],
+    times: &Mutex<StageTimes>,
+) -> Result<ManifestEntry, DatasetError> {
     let t0 = Instant::now();
     let truth = truth_labels(scene);
     let t1 = Instant::now();
@@ -198,7 +205,11 @@ fn finish_image(dir: &Path, view: &SampledView, scene: &Scene, img: &GreyImage, 
     let png = encode_image(img, &output)?;
     let t2 = Instant::now();
     let json = truth_json(&truth)?;
-    write_png_and_json(&dir.join(image_file_as(view.k, output.encoding)), &png, &json)?;
+    let path = dir.join(image_file_as(view.k, output.encoding));
+    if extras.iter().any(|e| *e) {
+        super::extras::write_extras(&path, &crate::scene::depth::depth_mask(scene), extras[0], extras[1])?;
+    }
+    write_png_and_json(&path, &png, &json)?;
     let entry = manifest_entry(view, &png, output.encoding);
     let t3 = Instant::now();
     if let Ok(mut t) = times.lock() {
@@ -288,7 +299,7 @@ fn render_all(
                 if failed() {
                     continue;
                 }
-                match finish_image(dir, view, &scene, &img, times) {
+                match finish_image(dir, view, &scene, &img, plan.extras, times) {
                     Ok(e) => {
                         if let Ok(mut r) = results.lock() {
                             r.push(e);

@@ -1,13 +1,17 @@
 //! Everything that touches files: PNG and JSON output written atomically (temporary name, then
 //! rename), so a failed run never leaves a truncated image behind.
 
+pub mod extras;
 pub mod generate;
 pub mod io;
 pub mod manifest;
+pub mod meshes;
+pub mod objects;
 pub mod poses;
 pub mod spec;
 
 pub use io::{encode_image, encode_jpeg, encode_png, load_grey, load_grey_u8, truth_json, write_atomic, write_image_and_truth, write_png_and_json};
+pub use meshes::MeshLibrary;
 pub use spec::SpecError;
 
 /// File errors.

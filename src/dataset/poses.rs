@@ -178,7 +178,9 @@ pub fn scene_of(plan: &DatasetPlan, view: &SampledView) -> Scene {
         // Fields and both ends were checked when the plan was built.
         let _ = crate::scene::effect_fields::set_field(&mut render, field, v);
     }
-    Scene { camera: plan.camera, target: plan.target.clone(), cam_from_target: view.cam_from_target, render }
+    let mut scene = Scene { camera: plan.camera, target: plan.target.clone(), cam_from_target: view.cam_from_target, render, objects: Vec::new() };
+    plan.objects.place(&mut scene, plan.seed, view.k);
+    scene
 }
 
 #[cfg(test)]

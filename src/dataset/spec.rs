@@ -100,6 +100,18 @@ pub struct DatasetSpec {
     /// ([`crate::scene::effect_fields::FIELDS`]).
     #[serde(default)]
     pub ranges: std::collections::BTreeMap<String, Vec<f64>>,
+    /// `[[object]]` tables: meshes fixed in the camera or the target frame (as in scene files).
+    #[serde(default, rename = "object")]
+    pub objects: Vec<crate::scene::file::ObjectSpec>,
+    /// `[[occluder]]` tables: random occluders ([`super::objects`]).
+    #[serde(default, rename = "occluder")]
+    pub occluders: Vec<super::objects::OccluderSpec>,
+    /// Also write each image's depth (`.depth.npy`, [`super::extras`]).
+    #[serde(default)]
+    pub depth: bool,
+    /// Also write each image's instance mask (`.mask.png`).
+    #[serde(default)]
+    pub masks: bool,
 }
 
 /// `[poses]`: how `cam_from_target` is sampled.
@@ -229,6 +241,10 @@ pub struct DatasetPlan {
     pub margin_px: f64,
     /// Render and effect fields sampled per image from `[lo, hi]` (`[ranges]`), in name order.
     pub ranges: Vec<(String, [f64; 2])>,
+    /// Fixed objects and random occluders, meshes loaded.
+    pub objects: super::objects::DatasetObjects,
+    /// Write depth and instance masks beside each image.
+    pub extras: [bool; 2],
 }
 
 fn invalid(field: &str, reason: impl Into<String>) -> SpecError {
@@ -339,6 +355,14 @@ impl DatasetSpec {
     /// # Errors
     /// The first invalid field.
     pub fn to_plan(&self) -> Result<DatasetPlan, SpecError> {
+        self.to_plan_with(&super::MeshLibrary::new(std::path::Path::new(".")))
+    }
+
+    /// [`DatasetSpec::to_plan`], the `mesh` paths resolved by `meshes`.
+    ///
+    /// # Errors
+    /// As [`DatasetSpec::to_plan`], and a mesh that does not load.
+    pub fn to_plan_with(&self, meshes: &super::MeshLibrary) -> Result<DatasetPlan, SpecError> {
         if self.version != SPEC_VERSION {
             return Err(SpecError::Version { found: self.version });
         }
@@ -354,11 +378,35 @@ impl DatasetSpec {
         let ranges = self.effect_ranges(&render)?;
         // Validate camera, target and render settings with the scene's own rules (a pose straight
         // ahead keeps the depth check quiet; the sampled poses are checked per image).
-        let probe = crate::scene::Scene { camera, target: target.clone(), cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3), render };
+        let probe = crate::scene::Scene {
+            camera,
+            target: target.clone(),
+            cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3),
+            render,
+            objects: Vec::new(),
+        };
         probe.validate()?;
         let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target, &camera)?;
         let inside_fraction = self.poses.inside_fraction()?;
-        Ok(DatasetPlan { count: self.count, seed: self.seed, camera, target, render, mode, full_target_visible, inside_fraction, margin_px, ranges })
+        let objects = super::objects::DatasetObjects::load(&self.objects, &self.occluders, meshes)?;
+        if !objects.is_empty() && (matches!(target, Target::SPath(_)) || render.effects.needs_views()) {
+            return Err(invalid("object", "objects are rendered with planar targets and without defocus, motion or a rolling shutter"));
+        }
+        let extras = [self.depth, self.masks];
+        Ok(DatasetPlan {
+            count: self.count,
+            seed: self.seed,
+            camera,
+            target,
+            render,
+            mode,
+            full_target_visible,
+            inside_fraction,
+            margin_px,
+            ranges,
+            objects,
+            extras,
+        })
     }
 
     /// The `[ranges]`, each checked: a known field, `lo <= hi`, and both ends valid settings.
@@ -382,8 +430,17 @@ impl DatasetSpec {
 /// # Errors
 /// [`SpecError::Parse`] (the parser's message names the field) or a validation error.
 pub fn parse_dataset_spec(text: &str) -> Result<DatasetPlan, SpecError> {
+    parse_dataset_spec_with(text, &super::MeshLibrary::new(std::path::Path::new(".")))
+}
+
+/// [`parse_dataset_spec`], the `mesh` paths resolved by `meshes`
+/// ([`super::MeshLibrary::beside`] the spec file).
+///
+/// # Errors
+/// As [`parse_dataset_spec`].
+pub fn parse_dataset_spec_with(text: &str, meshes: &super::MeshLibrary) -> Result<DatasetPlan, SpecError> {
     let spec: DatasetSpec = toml::from_str(text).map_err(|e| SpecError::Parse(e.to_string()))?;
-    spec.to_plan()
+    spec.to_plan_with(meshes)
 }
 
 #[cfg(test)]

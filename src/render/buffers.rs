@@ -36,4 +36,15 @@ pub(super) struct Buffers {
     pub(super) hard: Slot,
     pub(super) staging_vals: Slot,
     pub(super) staging_hard: Slot,
+    /// Objects: meshes then instances (`super::objects`).
+    pub(super) objs: Slot,
+    /// The meshes whose rows `objs` holds.
+    pub(super) objs_meshes: Option<std::sync::Arc<super::objects::MeshRows>>,
+}
+
+impl Slot {
+    /// The buffer's size in bytes (0 before the first `get`).
+    pub(super) fn size(&self) -> u64 {
+        self.buffer.as_ref().map_or(0, wgpu::Buffer::size)
+    }
 }

@@ -55,9 +55,11 @@ pub const SPATH_KIND: usize = 2;
 pub const SPATH_LIMB_KIND: usize = 3;
 /// The pass kind of coded boards (ChArUco): shaded on their cell lattice.
 pub const CODED_KIND: usize = 4;
-/// Number of pass kinds: the five above and the planar ones with views (chessboard, dot grid,
-/// coded boards: [`VIEWS_KIND`] + 0, 1, 2).
-pub const PASS_KINDS: usize = 8;
+/// Number of pass kinds: the five above, the planar ones with views (chessboard, dot grid,
+/// coded boards: [`VIEWS_KIND`] + 0, 1, 2) and the objects' ([`OBJECTS_KIND`]).
+pub const PASS_KINDS: usize = 9;
+/// The pass kind of the objects (meshes), run after the target's (`shaders/objects.wgsl`).
+pub const OBJECTS_KIND: usize = 8;
 /// The first pass kind with views ([`scene_pass_kind`]).
 pub const VIEWS_KIND: usize = 5;
 

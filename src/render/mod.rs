@@ -12,6 +12,8 @@ pub mod context;
 mod flat;
 pub mod formation;
 pub(crate) mod gpu_scene;
+mod object_pass;
+pub(crate) mod objects;
 pub(crate) mod post;
 pub mod renderer;
 pub(crate) mod uniforms;

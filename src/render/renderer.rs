@@ -10,11 +10,13 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
 use super::context::{BackendChoice, GpuContext};
-use super::gpu_scene::{gpu_scene, lens_variant, scene_pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, PASS_KINDS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX};
+use super::gpu_scene::{
+    gpu_scene, lens_variant, scene_pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, OBJECTS_KIND, PASS_KINDS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX,
+};
 use super::{GreyImage, RenderError};
 use crate::scene::Scene;
 
-const SHADER: &str = include_str!("../../shaders/render.wgsl");
+const SHADER: &str = concat!(include_str!("../../shaders/render.wgsl"), include_str!("../../shaders/objects.wgsl"));
 /// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
 /// S-path tiles without dots, coded boards (the cell lattice), then the planar kinds with views
 /// (defocus, motion: `gpu_scene::scene_pass_kind`).
@@ -27,6 +29,7 @@ const ENTRY_POINTS: [[&str; 2]; PASS_KINDS] = [
     ["cs_coarse_chessboard_views", "cs_fine_chessboard_views"],
     ["cs_coarse_dot_grid_views", "cs_fine_dot_grid_views"],
     ["cs_coarse_coded_views", "cs_fine_coded_views"],
+    ["cs_coarse_objects", "cs_fine_objects"],
 ];
 /// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
 const MAX_GROUPS_X: u64 = 65535;
@@ -46,6 +49,8 @@ pub struct Renderer {
     uniform: wgpu::Buffer,
     buffers: Mutex<Buffers>,
     corner_rays: Mutex<Option<Arc<TileCornerRays>>>,
+    /// The meshes' GPU rows of the last scene with objects (`super::objects`).
+    pub(super) mesh_rows: Mutex<Option<Arc<super::objects::MeshRows>>>,
 }
 
 fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -121,6 +126,7 @@ impl Renderer {
                 storage_entry(5, true),
                 storage_entry(6, false),
                 storage_entry(7, true),
+                storage_entry(8, true),
             ],
         });
         let pipeline_layout =
@@ -140,6 +146,7 @@ impl Renderer {
             uniform,
             buffers: Mutex::new(Buffers::default()),
             corner_rays: Mutex::new(None),
+            mesh_rows: Mutex::new(None),
         }
     }
 
@@ -182,7 +189,7 @@ impl Renderer {
 
     /// One compute pass over `items` work items, then read back `vals` (f32) and, for coarse
     /// passes, the hard flags (u32).
-    fn run_pass(&self, bufs: &mut Buffers, gs: &GpuScene, kind: usize, fine: bool, work: &[u32]) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
+    pub(super) fn run_pass(&self, bufs: &mut Buffers, gs: &GpuScene, kind: usize, fine: bool, work: &[u32]) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
         let t0 = std::time::Instant::now();
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
@@ -212,6 +219,7 @@ impl Renderer {
         queue.write_buffer(work_buf, 0, bytemuck::cast_slice(work));
         let views = bufs.views.get(device, "views", (gs.views.len() * 16) as u64, STORAGE_DST);
         queue.write_buffer(views, 0, bytemuck::cast_slice(&gs.views));
+        let objs = bufs.objs.get(device, "objs", 16, STORAGE_DST);
         let vals = bufs.vals.get(device, "vals", out_bytes, STORAGE_SRC);
         let hard = bufs.hard.get(device, "hard", out_bytes, STORAGE_SRC);
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -226,6 +234,7 @@ impl Renderer {
                 wgpu::BindGroupEntry { binding: 5, resource: work_buf.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 6, resource: hard.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 7, resource: views.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: objs.as_entire_binding() },
             ],
         });
         let staging_vals = bufs.staging_vals.get(device, "staging_vals", out_bytes, READBACK);
@@ -269,7 +278,8 @@ impl Renderer {
         let variant = lens_variant(&scene.camera.lens);
         let kind = scene_pass_kind(scene);
         let limb = (kind == SPATH_KIND).then_some((SPATH_LIMB_KIND, false));
-        for (kind, fine) in [(kind, false), (kind, true)].into_iter().chain(limb) {
+        let objects = if scene.objects.is_empty() { Vec::new() } else { vec![(OBJECTS_KIND, false), (OBJECTS_KIND, true)] };
+        for (kind, fine) in [(kind, false), (kind, true)].into_iter().chain(limb).chain(objects) {
             if self.pipelines[kind][usize::from(fine)][variant].get().is_none() {
                 scope.spawn(move || {
                     self.pipeline(kind, fine, variant);
@@ -281,7 +291,11 @@ impl Renderer {
     /// [`Renderer::render_linear`] of a validated scene.
     fn render_valid(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
         let grid_rays = self.corner_rays(scene)?;
-        let gs: GpuScene = gpu_scene(scene, &grid_rays)?;
+        let mut gs: GpuScene = gpu_scene(scene, &grid_rays)?;
+        let mut bufs = self.buffers.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
+        if !scene.objects.is_empty() {
+            self.upload_objects(&mut bufs, &mut gs, scene)?;
+        }
         let (w, h) = (scene.camera.size.width, scene.camera.size.height);
         let (tiles_x, _) = (gs.params.tiles[0], gs.params.tiles[1]);
         let mut img = vec![0.0f32; w as usize * h as usize];
@@ -301,10 +315,6 @@ impl Renderer {
                 work[k].push(tx | (ty << 16));
             }
         }
-        if work.iter().all(Vec::is_empty) {
-            return Ok(img);
-        }
-        let mut bufs = self.buffers.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
         let mut fine_work = Vec::new();
         for (k, list) in work.iter().enumerate().filter(|(_, l)| !l.is_empty()) {
             let (vals, hard) = self.run_pass(&mut bufs, &gs, k, false, list)?;
@@ -331,6 +341,9 @@ impl Renderer {
             for (packed, v) in fine_work.iter().zip(vals) {
                 img[(packed >> 16) as usize * w as usize + (packed & 0xffff) as usize] = v;
             }
+        }
+        if !scene.objects.is_empty() {
+            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays), &mut img)?;
         }
         Ok(img)
     }

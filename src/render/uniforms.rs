@@ -48,12 +48,19 @@ pub struct Params {
     /// Planar targets: views per pixel, one set of views per row (1) or one for all rows (0),
     /// the views' spread in pixels as f32 bits (`scene::views::ViewSet::spread_px`), 0.
     pub vw: [u32; 4],
+    /// Objects (`shaders/objects.wgsl`): instances, the first instance row in the objects
+    /// buffer, fine-pass samples per axis, 0.
+    pub obj: [u32; 4],
+    /// Planar targets: the target plane `n . x = c` in the camera frame, `(n, c)`.
+    pub plane: [f32; 4],
+    /// Planar targets: the printed sheet in the target plane, `x0, y0, x1, y1`, metres.
+    pub sheet: [f32; 4],
 }
 
 #[cfg(test)]
 mod tests {
     #[test]
-    fn params_is_19_vec4() {
-        assert_eq!(std::mem::size_of::<super::Params>(), 19 * 16);
+    fn params_is_22_vec4() {
+        assert_eq!(std::mem::size_of::<super::Params>(), 22 * 16);
     }
 }

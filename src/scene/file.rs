@@ -36,9 +36,11 @@ use serde::Deserialize;
 
 mod camera;
 pub mod effects;
+pub mod object;
 mod target;
 
 pub use camera::{CameraSpec, ModelName};
+pub use object::{MeshLoader, ObjectFrame, ObjectSpec};
 pub use target::TargetSpec;
 
 use super::{RenderSettings, Scene, SceneError};
@@ -148,6 +150,9 @@ pub struct SceneSpec {
     /// `[output]` (optional).
     #[serde(default)]
     pub output: Option<effects::OutputSpec>,
+    /// `[[object]]` tables (optional; [`object`]).
+    #[serde(default, rename = "object")]
+    pub objects: Vec<ObjectSpec>,
 }
 
 impl SceneSpec {
@@ -156,6 +161,19 @@ impl SceneSpec {
     /// # Errors
     /// Any invalid field (named), or a target behind the camera.
     pub fn to_scene(&self) -> Result<Scene, SceneError> {
+        self.to_scene_with(&|path: &str| {
+            Err(crate::mesh::MeshError::Invalid {
+                path: path.into(),
+                reason: "this scene has objects: load it with a mesh loader (SceneSpec::to_scene_with)".into(),
+            })
+        })
+    }
+
+    /// [`SceneSpec::to_scene`], loading the `[[object]]` meshes with `load`.
+    ///
+    /// # Errors
+    /// As [`SceneSpec::to_scene`], and a mesh that does not load ([`SceneError::Object`]).
+    pub fn to_scene_with(&self, load: MeshLoader<'_>) -> Result<Scene, SceneError> {
         let render = effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?;
         if render.effects.motion.follow_robot {
             return Err(SceneError::InvalidField {
@@ -163,7 +181,9 @@ impl SceneSpec {
                 reason: "only a robot scenario moves the camera with its arm; give `twist` here".into(),
             });
         }
-        let scene = Scene { camera: self.camera.to_model()?, target: self.target.to_target(), cam_from_target: self.pose.to_isometry()?, render };
+        let cam_from_target = self.pose.to_isometry()?;
+        let objects = object::scene_objects(&self.objects, &cam_from_target, load)?;
+        let scene = Scene { camera: self.camera.to_model()?, target: self.target.to_target(), cam_from_target, render, objects };
         scene.validate()?;
         Ok(scene)
     }
@@ -175,12 +195,27 @@ impl SceneSpec {
 /// [`SceneError::Parse`] with the parser's message (which names missing or unknown fields), or a
 /// validation error.
 pub fn parse_scene(text: &str) -> Result<Scene, SceneError> {
-    let spec: SceneSpec = if text.trim_start().starts_with('{') {
-        serde_json::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?
+    parse_spec(text)?.to_scene()
+}
+
+/// [`parse_scene`], loading `[[object]]` meshes with `load`.
+///
+/// # Errors
+/// As [`parse_scene`] and [`SceneSpec::to_scene_with`].
+pub fn parse_scene_with(text: &str, load: MeshLoader<'_>) -> Result<Scene, SceneError> {
+    parse_spec(text)?.to_scene_with(load)
+}
+
+/// Scene text (JSON when it starts with `{`, TOML otherwise) into its spec, unvalidated.
+///
+/// # Errors
+/// [`SceneError::Parse`].
+pub fn parse_spec(text: &str) -> Result<SceneSpec, SceneError> {
+    if text.trim_start().starts_with('{') {
+        serde_json::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))
     } else {
-        toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?
-    };
-    spec.to_scene()
+        toml::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))
+    }
 }
 
 #[cfg(test)]

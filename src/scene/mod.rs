@@ -7,12 +7,14 @@
 //! to every image.
 
 pub mod builder;
+pub mod depth;
 pub mod effect_fields;
 pub mod effect_truth;
 pub mod effects;
 pub mod exact;
 pub mod file;
 pub mod motion;
+pub mod objects;
 pub mod poses;
 pub mod reference;
 pub mod scanline;
@@ -78,6 +80,14 @@ pub enum SceneError {
     /// The sensor is invalid.
     #[error(transparent)]
     Sensor(#[from] crate::camera::sensor::SensorError),
+    /// An object's mesh does not load.
+    #[error("[[object]] {index}: {source}")]
+    Object {
+        /// The object's index (its `[[object]]` table, from 0).
+        index: usize,
+        /// Why.
+        source: crate::mesh::MeshError,
+    },
     /// The pose puts the target behind the camera (outside a fisheye's reach, for one whose
     /// reach passes 90 degrees).
     #[error("[pose]: the target is behind the camera (mean depth of its features {mean_depth_m:.4} m <= 0, outside the lens's reach)")]
@@ -98,6 +108,8 @@ pub struct Scene {
     pub cam_from_target: Isometry3<f64>,
     /// Anti-aliasing, blur, noise and output settings.
     pub render: RenderSettings,
+    /// The user's objects (meshes) in front of, around or behind the target ([`objects`]).
+    pub objects: Vec<objects::SceneObject>,
 }
 
 impl Scene {
@@ -137,6 +149,7 @@ impl Scene {
                 reason: "defocus and motion are rendered for planar targets (chessboard, dot grid, ChArUco, AprilGrid); the S-path is not supported yet".into(),
             });
         }
+        self.validate_objects()?;
         let pts = self.target.feature_points_m();
         let n = pts.len().max(1) as f64;
         let mean_cam = pts.iter().map(|p| (self.cam_from_target * p).coords).sum::<nalgebra::Vector3<f64>>() / n;
@@ -144,6 +157,31 @@ impl Scene {
         let seen = mean_cam.z > 0.0 || mean_cam.xy().norm().atan2(mean_cam.z) < self.camera.lens.max_angle_rad();
         if !seen {
             return Err(SceneError::TargetBehindCamera { mean_depth_m: mean_cam.z });
+        }
+        Ok(())
+    }
+}
+
+impl Scene {
+    /// Objects are rendered with planar targets and sharp views (the renderer's object pass).
+    fn validate_objects(&self) -> Result<(), SceneError> {
+        if self.objects.is_empty() {
+            return Ok(());
+        }
+        for (i, o) in self.objects.iter().enumerate() {
+            o.validate(i, self.camera.lens.max_angle_rad())?;
+        }
+        if matches!(self.target, Target::SPath(_)) {
+            return Err(SceneError::InvalidField {
+                field: "object".into(),
+                reason: "objects are rendered with planar targets (chessboard, dot grid, ChArUco, AprilGrid); the S-path is not supported yet".into(),
+            });
+        }
+        if self.render.effects.needs_views() {
+            return Err(SceneError::InvalidField {
+                field: "object".into(),
+                reason: "objects are not rendered under defocus, motion blur or a rolling shutter yet".into(),
+            });
         }
         Ok(())
     }

@@ -103,6 +103,13 @@ impl<'a> Tracer<'a> {
         self.trace_px_in(q_px, Some(candidates))
     }
 
+    /// What an object nearer than `t_max` along `t d_cam` shows, if one is.
+    fn object_in_front(&self, d_cam: &Vector3<f64>, t_max: f64) -> Option<Hit> {
+        let objects = &self.scene.objects;
+        let h = super::objects::cast_objects(objects, d_cam, t_max)?;
+        Some(Hit { intensity: objects[h.object].shade(&h.hit, d_cam), feature: None })
+    }
+
     fn trace_px_in(&self, q_px: &Point2<f64>, candidates: Option<&[usize]>) -> Hit {
         match self.scene.camera.unproject_ray(q_px) {
             Ok(ray) => self.trace_ray_among(&ray, candidates),
@@ -117,14 +124,15 @@ impl<'a> Tracer<'a> {
             Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) => {
                 let o = self.target_from_cam.translation.vector;
                 let d = self.target_from_cam.rotation * d_cam;
-                if d.z == 0.0 {
-                    return background;
-                }
                 let t = -o.z / d.z;
-                if !(t > 0.0) || !t.is_finite() {
-                    return background;
+                if d.z == 0.0 || !(t > 0.0) || !t.is_finite() {
+                    return self.object_in_front(d_cam, f64::INFINITY).unwrap_or(background);
                 }
                 let (x, y) = (o.x + t * d.x, o.y + t * d.y);
+                let on_sheet = target.extent_m().is_some_and(|[x0, y0, x1, y1]| x >= x0 && x < x1 && y >= y0 && y < y1);
+                if let Some(h) = self.object_in_front(d_cam, if on_sheet { t } else { f64::INFINITY }) {
+                    return h;
+                }
                 let intensity = target.plane_intensity(x, y).unwrap_or(background.intensity);
                 let feature = match target {
                     Target::DotGrid(g) if intensity == g.dark => dot_grid_index(g, x, y),

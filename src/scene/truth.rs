@@ -66,8 +66,13 @@ pub struct FeatureLabel {
     pub in_front: bool,
     /// Projected pixel inside the image.
     pub in_image: bool,
-    /// In front, inside the image and (for dots) at least partly unoccluded.
+    /// In front, inside the image, not hidden by an object (`occluded`) and (for dots) at
+    /// least partly unoccluded by the target itself.
     pub visible: bool,
+    /// An object ([`super::objects`]) lies between the camera and the feature point (exact ray
+    /// cast to the point); written only when true.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub occluded: bool,
     /// Dots: intensity-weighted centroid of the rendered (box-filtered) blob, pixels: what an
     /// intensity-centroid detector measures on the noise-free image. `None` when nothing is rendered.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -268,6 +273,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
         .map(|(id, p)| {
             let p_cam = scene.cam_from_target * p;
             let proj = scene.camera.project(&p_cam);
+            let occluded = super::objects::occluded(&scene.objects, &p_cam);
             let mut label = FeatureLabel {
                 id,
                 point_target_m: [p.x, p.y, p.z],
@@ -275,7 +281,8 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 depth_m: p_cam.z,
                 in_front: proj.in_front,
                 in_image: proj.in_image,
-                visible: proj.visible(),
+                visible: proj.visible() && !occluded,
+                occluded,
                 centroid_px: None,
                 area_px: None,
                 area_centroid_px: None,
@@ -337,8 +344,10 @@ fn marker_labels(scene: &Scene) -> Vec<MarkerLabel> {
     markers
         .iter()
         .map(|(id, corners_m)| {
-            let p = corners_m.map(|q| scene.camera.project(&(scene.cam_from_target * q)));
-            MarkerLabel { id: *id, corners_px: p.map(|p| [p.pixel_px.x, p.pixel_px.y]), visible: p.iter().all(|p| p.visible()) }
+            let cam = corners_m.map(|q| scene.cam_from_target * q);
+            let p = cam.map(|q| scene.camera.project(&q));
+            let hidden = cam.iter().any(|q| super::objects::occluded(&scene.objects, q));
+            MarkerLabel { id: *id, corners_px: p.map(|p| [p.pixel_px.x, p.pixel_px.y]), visible: !hidden && p.iter().all(|p| p.visible()) }
         })
         .collect()
 }

@@ -103,7 +103,16 @@ impl EyeInHand {
         let n = self.target.feature_points_m().len();
         let used = features.iter().filter(|f| f.id < n);
         let dots = Dots { ids: used.clone().map(|f| f.id).collect(), pixels_px: used.map(|f| f.pixel_px).collect() };
-        (dots, Scene { camera: self.camera, target: self.target.clone(), cam_from_target: Isometry3::identity(), render: RenderSettings::default() })
+        (
+            dots,
+            Scene {
+                camera: self.camera,
+                target: self.target.clone(),
+                cam_from_target: Isometry3::identity(),
+                render: RenderSettings::default(),
+                objects: Vec::new(),
+            },
+        )
     }
 
     /// PnP with `rounds` rounds of the S-path's centroid correction (0: plain PnP).

@@ -140,6 +140,7 @@ pub fn run_sweep_with(
                             target: Target::Chessboard(board),
                             cam_from_target: pose * Isometry3::from_parts(shift, UnitQuaternion::identity()),
                             render: RenderSettings { noise_sigma: 1.0, seed: rng.random(), ..Default::default() },
+                            objects: Vec::new(),
                         };
                         let Ok(img) = r.render(&scene) else { continue };
                         let Ok(grey) = ImageF32::from_u8(cam.size.width as usize, cam.size.height as usize, &img.to_u8()) else { continue };

@@ -188,7 +188,7 @@ impl<'s> Sim<'s> {
 
     fn scene(&self, cam_from_target: Isometry3<f64>) -> Scene {
         let render = RenderSettings { seed: self.scenario.render.seed.wrapping_add(self.frame), ..self.scenario.render };
-        Scene { camera: self.scenario.camera, target: self.scenario.target.clone(), cam_from_target, render }
+        Scene { camera: self.scenario.camera, target: self.scenario.target.clone(), cam_from_target, render, objects: Vec::new() }
     }
 
     fn truth(&self, cam_from_target: Isometry3<f64>) -> FrameTruth {

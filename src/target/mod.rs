@@ -213,6 +213,19 @@ impl Target {
         }
     }
 
+    /// The printed sheet of a planar target, margin included, `[x0, y0, x1, y1]` metres in its
+    /// plane: where [`Target::plane_intensity`] is not the background (`None` for the S-path).
+    /// Objects in front of or behind the target are compared with it there.
+    pub fn extent_m(&self) -> Option<[f64; 4]> {
+        let grow = |[x0, y0, x1, y1]: [f64; 4], m: f64| Some([x0 - m, y0 - m, x1 + m, y1 + m]);
+        match self {
+            Target::Chessboard(b) => grow([0.0, 0.0, b.square_m * f64::from(b.squares[0]), b.square_m * f64::from(b.squares[1])], b.margin_m),
+            Target::DotGrid(g) => grow([-0.5 * g.edge_m, -0.5 * g.edge_m, 0.5 * g.edge_m, 0.5 * g.edge_m], g.margin_m),
+            Target::Charuco(_) | Target::AprilGrid(_) => self.coded_look().and_then(|(look, e)| grow(e, look.margin_m)),
+            Target::SPath(_) => None,
+        }
+    }
+
     /// A coded board's look and extent `[x0, y0, x1, y1]` (border excluded), metres.
     pub fn coded_look(&self) -> Option<(BoardLook, [f64; 4])> {
         match self {

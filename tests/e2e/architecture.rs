@@ -1,14 +1,14 @@
 //! Layering rules, enforced by reading the sources: only `render` names wgpu; only `dataset`,
 //! `report` and the CLI touch the filesystem; no module imports a layer above it.
 //!
-//! Layers, lowest first: `math` -> `camera` / `target` / `robot` -> `scene` -> `detect` / `calib` /
+//! Layers, lowest first: `math` -> `camera` / `target` / `robot` / `mesh` -> `scene` -> `detect` / `calib` /
 //! `pnp` / `handeye` / `servo` -> `render` -> `sim` -> `dataset` -> `report` -> `cli`.
 
 use std::path::Path;
 
 /// Every layer, lowest first.
-const ORDER: [&str; 15] =
-    ["math", "camera", "target", "robot", "scene", "detect", "calib", "pnp", "handeye", "servo", "render", "sim", "dataset", "report", "cli"];
+const ORDER: [&str; 16] =
+    ["math", "camera", "target", "robot", "mesh", "scene", "detect", "calib", "pnp", "handeye", "servo", "render", "sim", "dataset", "report", "cli"];
 /// Layers that may read or write files.
 const FILE_LAYERS: [&str; 4] = ["dataset", "report", "cli", "main"];
 

@@ -35,7 +35,7 @@ fn random_charuco_scene(rng: &mut ChaCha8Rng) -> Scene {
     let cell_m = board.marker_m / (dictionary.marker_bits() as f64 + 2.0);
     let centre = Vector3::new(0.5 * s * f64::from(squares[0]), 0.5 * s * f64::from(squares[1]), 0.0);
     let pose = random_pose(rng, &camera, cell_m, cell_px, centre);
-    Scene { camera, target: Target::Charuco(CharucoTarget { board, look }), cam_from_target: pose, render: RenderSettings::default() }
+    Scene { camera, target: Target::Charuco(CharucoTarget { board, look }), cam_from_target: pose, render: RenderSettings::default(), objects: Vec::new() }
 }
 
 /// The renderer's fine pass is exact up to this many lattice cells per axis in a pixel
@@ -70,7 +70,7 @@ fn random_aprilgrid_scene(rng: &mut ChaCha8Rng) -> Scene {
     let cell_px = (rng.random_range(3f64.ln()..30f64.ln())).exp();
     let [_, _, x1, y1] = grid.extent_m();
     let pose = random_pose(rng, &camera, grid.cell_m(), cell_px, Vector3::new(0.5 * x1, 0.5 * y1, 0.0));
-    Scene { camera, target: Target::AprilGrid(AprilGridTarget { grid, look }), cam_from_target: pose, render: RenderSettings::default() }
+    Scene { camera, target: Target::AprilGrid(AprilGridTarget { grid, look }), cam_from_target: pose, render: RenderSettings::default(), objects: Vec::new() }
 }
 
 #[test]
@@ -147,7 +147,13 @@ fn example_scene() -> Scene {
     let rot = nalgebra::UnitQuaternion::from_euler_angles(0.5, 0.2, 0.5);
     let centre = Vector3::new(0.22, 0.16, 0.0);
     let pose = nalgebra::Isometry3::from_parts(nalgebra::Translation3::from(Vector3::new(0.0, 0.0, 0.75) - rot * centre), rot);
-    Scene { camera, target: Target::Charuco(CharucoTarget { board, look: BoardLook::default() }), cam_from_target: pose, render: RenderSettings::default() }
+    Scene {
+        camera,
+        target: Target::Charuco(CharucoTarget { board, look: BoardLook::default() }),
+        cam_from_target: pose,
+        render: RenderSettings::default(),
+        objects: Vec::new(),
+    }
 }
 
 fn detect_spec(img: &synthcam::detect::ImageF32, spec: &str) -> synthcam::detect::target::Detection {

@@ -21,6 +21,7 @@ mod fidelity;
 mod golden;
 mod handeye;
 mod lens_models;
+mod objects;
 mod open_scenario;
 mod options_proptest;
 mod robot_motion;

@@ -24,6 +24,7 @@ fn flat_field(level: f64, sensor: SensorModel, seed: u64) -> Scene {
         target: Target::Chessboard(board),
         cam_from_target: Isometry3::from_parts(Translation3::new(50.0, 0.0, 1.0), UnitQuaternion::identity()),
         render: Default::default(),
+        objects: Vec::new(),
     };
     s.render.effects.sensor = Some(sensor);
     s.render.bit_depth = 16;

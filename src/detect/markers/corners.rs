@@ -55,6 +55,13 @@ pub struct CornerParams {
     pub refine: SaddleFitParams,
     /// Refine the corners in parallel (rayon) when there are at least this many.
     pub parallel_min_corners: usize,
+    /// A corner whose fit residual exceeds this fraction of its amplitude *and* that moved more
+    /// than `occlusion_shift_px` from its prediction is taken as partly hidden and dropped
+    /// (measured on 20 occluded scenes: the one hidden corner that passed the other checks had
+    /// 0.27 and 0.88 px; of 22 207 clean corners none had both above 0.2 and 0.5 px).
+    pub occlusion_residual_rate: f64,
+    /// See `occlusion_residual_rate`, pixels.
+    pub occlusion_shift_px: f64,
 }
 
 impl Default for CornerParams {
@@ -69,6 +76,8 @@ impl Default for CornerParams {
             min_contrast: 20.0,
             refine: SaddleFitParams::default(),
             parallel_min_corners: 16,
+            occlusion_residual_rate: 0.2,
+            occlusion_shift_px: 0.5,
         }
     }
 }
@@ -81,8 +90,16 @@ impl CornerParams {
             return bad("max_corner_shift_rate and max_homography_rms_rate must be in [0, 1]");
         }
         let finite_non_negative = |v: f64| v >= 0.0 && v.is_finite();
-        if ![self.max_corner_shift_px, self.max_predicted_shift_px, self.max_fit_residual_rate, self.min_contrast].into_iter().all(finite_non_negative) {
-            return bad("max_corner_shift_px, max_predicted_shift_px, max_fit_residual_rate and min_contrast must be finite and non-negative");
+        let all = [
+            self.max_corner_shift_px,
+            self.max_predicted_shift_px,
+            self.max_fit_residual_rate,
+            self.min_contrast,
+            self.occlusion_residual_rate,
+            self.occlusion_shift_px,
+        ];
+        if !all.into_iter().all(finite_non_negative) {
+            return bad("max_corner_shift_px, max_predicted_shift_px, max_fit_residual_rate, min_contrast, occlusion_residual_rate and occlusion_shift_px must be finite and non-negative");
         }
         if self.max_half_window < 2 || self.max_half_window > 50 {
             return bad("max_half_window must be in 2..=50");
@@ -153,6 +170,10 @@ pub(crate) fn refine_junction(img: &ImageF32, j: &Junction, params: &CornerParam
     let edge_ok = |t: f64, d: &Vector2<f64>| Vector2::new(t.cos(), t.sin()).perp(&d.normalize()).abs() <= MAX_EDGE_SINE;
     let fit_ok = 2.0 * fit.amplitude.abs() >= params.min_contrast && fit.rms_residual <= params.max_fit_residual_rate * fit.amplitude.abs();
     let ok = sign_ok && fit_ok && edge_ok(fit.angles[0], &dx) && edge_ok(fit.angles[1], &dy);
+    // A fit both poor and pulled far from its prediction: something else in the window (an
+    // object hiding part of the corner, issue 19) drags it; a clean corner has one or the other.
+    let occluded = fit.rms_residual > params.occlusion_residual_rate * fit.amplitude.abs() && (fit.point - p).norm() > params.occlusion_shift_px;
+    let ok = ok && !occluded;
     ok.then_some(fit.point)
 }
 

@@ -25,7 +25,13 @@ pub fn chessboard_scene(camera: CameraModel, squares: [u32; 2], square_m: f64, t
     let rot = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), tilt_deg.to_radians());
     let centre = Vector3::new(0.5 * square_m * f64::from(squares[0]), 0.5 * square_m * f64::from(squares[1]), 0.0);
     let t = Vector3::new(offset_m[0], offset_m[1], distance_m) - rot * centre;
-    Scene { camera, target: Target::Chessboard(board), cam_from_target: Isometry3::from_parts(Translation3::from(t), rot), render: RenderSettings::default() }
+    Scene {
+        camera,
+        target: Target::Chessboard(board),
+        cam_from_target: Isometry3::from_parts(Translation3::from(t), rot),
+        render: RenderSettings::default(),
+        objects: Vec::new(),
+    }
 }
 
 /// A camera of the given size and focal length, principal point at the centre, with distortion.
