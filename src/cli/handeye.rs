@@ -47,7 +47,8 @@ pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
             (run_handeye(renderer.as_ref(), obs, &cell, args.views, args.seed).context("hand-eye experiment")?, x, wb)
         }
         ScenarioFile::Open(spec) => {
-            let sc = spec.to_scenario().context("scenario")?;
+            let meshes = synthcam::dataset::MeshLibrary::beside(args.scenario.as_deref().unwrap_or(std::path::Path::new(".")));
+            let sc = spec.to_scenario_with(&|p: &str| meshes.load(p)).context("scenario")?;
             let (x, wb) = (sc.tool_from_cam, sc.world_from_target.inverse() * sc.world_from_base);
             let robot = spec.robot.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;
             (run_handeye_on(renderer.as_ref(), obs, sc, robot, args.views, args.spread, args.seed).context("hand-eye experiment")?, x, wb)

@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use synthcam::dataset::extras::{encode_mask_png, encode_npy_f32};
 use synthcam::dataset::MeshLibrary;
-use synthcam::dataset::{encode_image, truth_json, write_png_and_json};
+use synthcam::dataset::{encode_image, truth_json, write_atomic, write_png_and_json};
 use synthcam::scene::file::parse_scene_with;
 use synthcam::scene::truth::truth_labels;
 
@@ -20,6 +21,12 @@ pub struct RenderArgs {
     /// GPU backend: auto (Vulkan, then GL), vulkan or gl.
     #[arg(long, default_value = "auto")]
     pub backend: String,
+    /// Also write the depth image (NPY, float32 metres, camera z; NaN where nothing is seen).
+    #[arg(long)]
+    pub depth: Option<PathBuf>,
+    /// Also write the instance mask (16-bit PNG: 0 nothing, 1 the target, 2 + i object i).
+    #[arg(long)]
+    pub mask: Option<PathBuf>,
 }
 
 /// Run `render`.
@@ -31,6 +38,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let img = renderer.render(&scene).context("rendering")?;
     let truth = truth_labels(&scene);
     // PNG or JPEG as the scene's [output] asks (the bytes go to --out whatever its extension).
+    let extras = (args.depth.is_some() || args.mask.is_some()).then(|| synthcam::scene::depth::depth_mask(&scene));
+    if let (Some(path), Some(m)) = (&args.depth, &extras) {
+        write_atomic(path, &encode_npy_f32(m.width, m.height, &m.depth_m))?;
+    }
+    if let (Some(path), Some(m)) = (&args.mask, &extras) {
+        write_atomic(path, &encode_mask_png(m)?)?;
+    }
     write_png_and_json(&args.out, &encode_image(&img, &scene.render.effects.output)?, &truth_json(&truth)?)?;
     let visible = truth.features.iter().filter(|f| f.visible).count();
     println!("wrote {} and {} ({} of {} features visible)", args.out.display(), args.out.with_extension("json").display(), visible, truth.features.len());

@@ -166,7 +166,8 @@ fn load_scenario(args: &ServoArgs) -> anyhow::Result<Loaded> {
     match super::scenario_file::read::<ServoScenario>(args.scenario.as_deref(), "the course's servo format")? {
         ScenarioFile::Open(spec) => {
             let where_ = args.scenario.as_deref().map_or_else(String::new, |p| p.display().to_string());
-            Ok((spec.to_scenario().with_context(|| format!("in scenario {where_}"))?, spec.robot, None))
+            let meshes = synthcam::dataset::MeshLibrary::beside(args.scenario.as_deref().unwrap_or(std::path::Path::new(".")));
+            Ok((spec.to_scenario_with(&|p: &str| meshes.load(p)).with_context(|| format!("in scenario {where_}"))?, spec.robot, None))
         }
         ScenarioFile::Course(s) => Ok((s.to_sim_scenario(args.seed).context("scenario")?, RobotSpec::Named("irb1200".into()), Some(s.handeye.q0_rad.to_vec()))),
     }

@@ -46,7 +46,8 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let spec = ScenarioSpec::parse(&text).with_context(|| format!("in scenario {}", args.scenario.display()))?;
     let base = args.scenario.parent().map(PathBuf::from).unwrap_or_default();
     let robot = spec.robot.build(&|p| std::fs::read_to_string(base.join(p)).map_err(|e| e.to_string()))?;
-    let scenario = spec.to_scenario()?;
+    let meshes = synthcam::dataset::MeshLibrary::beside(&args.scenario);
+    let scenario = spec.to_scenario_with(&|p: &str| meshes.load(p))?;
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
     let sensor: Box<dyn Sensor> = match &renderer {
         Some(r) => Box::new(RenderedSensor { renderer: r }),

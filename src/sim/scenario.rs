@@ -143,6 +143,10 @@ pub struct ScenarioSpec {
     /// `"enforce"` (default) or `"ignore"`.
     #[serde(default)]
     pub joint_limits: JointLimits,
+    /// `[[object]]` tables: meshes in the world, carried by the tool, or fixed to the camera or
+    /// the target (`frame`; [`crate::scene::file::object`]).
+    #[serde(default, rename = "object")]
+    pub objects: Vec<crate::scene::file::ObjectSpec>,
 }
 
 /// A validated scenario, everything a [`super::Sim`] needs but the robot model.
@@ -166,6 +170,9 @@ pub struct SimScenario {
     pub q_start_rad: Vec<f64>,
     /// Joint limits enforced or not.
     pub joint_limits: JointLimits,
+    /// Objects, each with the frame its pose is given in (`cam_from_object` holds
+    /// `frame_from_object`; [`super::world`] places them every frame).
+    pub objects: Vec<(crate::scene::file::ObjectFrame, crate::scene::objects::SceneObject)>,
 }
 
 impl ScenarioSpec {
@@ -182,6 +189,19 @@ impl ScenarioSpec {
     /// # Errors
     /// An invalid camera, target or pose (named).
     pub fn to_scenario(&self) -> Result<SimScenario, SimError> {
+        self.to_scenario_with(&|path: &str| {
+            Err(crate::mesh::MeshError::Invalid {
+                path: path.into(),
+                reason: "this scenario has objects: load it with a mesh loader (ScenarioSpec::to_scenario_with)".into(),
+            })
+        })
+    }
+
+    /// [`ScenarioSpec::to_scenario`], loading `[[object]]` meshes with `load`.
+    ///
+    /// # Errors
+    /// As [`ScenarioSpec::to_scenario`], and a mesh that does not load or an invalid object field.
+    pub fn to_scenario_with(&self, load: crate::scene::file::MeshLoader<'_>) -> Result<SimScenario, SimError> {
         let camera = self.camera.to_model().map_err(crate::scene::SceneError::from)?;
         camera.validate().map_err(crate::scene::SceneError::from)?;
         let target = self.target.to_target();
@@ -196,6 +216,9 @@ impl ScenarioSpec {
                 "[motion] follow_robot and [optics] f_number render planar targets only (chessboard, dot grid, ChArUco, AprilGrid), not the S-path".into(),
             ));
         }
+        if !self.objects.is_empty() && (matches!(target, Target::SPath(_)) || render.effects.needs_views()) {
+            return Err(SimError::Scenario("[[object]] renders with planar targets and without defocus, motion blur or a rolling shutter".into()));
+        }
         Ok(SimScenario {
             camera,
             target,
@@ -206,6 +229,12 @@ impl ScenarioSpec {
             goal_cam_from_target: self.goal_cam_from_target.to_isometry()?,
             q_start_rad: self.q_start_rad.clone(),
             joint_limits: self.joint_limits,
+            objects: self
+                .objects
+                .iter()
+                .enumerate()
+                .map(|(i, o)| Ok((o.frame, o.to_object(i, &Isometry3::identity(), load)?)))
+                .collect::<Result<_, crate::scene::SceneError>>()?,
         })
     }
 }
@@ -226,5 +255,6 @@ pub fn course_world(cell: &crate::robot::Cell, q_start_rad: &[f64], goal_cam_fro
         goal_cam_from_target,
         q_start_rad: q_start_rad.to_vec(),
         joint_limits: JointLimits::Ignore,
+        objects: Vec::new(),
     }
 }

@@ -16,6 +16,8 @@ use super::sensor::{Capture, Feature, Sensor};
 use super::{SimError, SimScenario};
 use crate::render::GreyImage;
 use crate::robot::Robot;
+use crate::scene::file::ObjectFrame;
+use crate::scene::objects::SceneObject;
 use crate::scene::{RenderSettings, Scene};
 use crate::target::Target;
 
@@ -186,9 +188,27 @@ impl<'s> Sim<'s> {
         Ok(())
     }
 
-    fn scene(&self, cam_from_target: Isometry3<f64>) -> Scene {
+    /// The scene this simulation renders with the camera at `cam_from_target`: the scenario's
+    /// camera, target and render settings (this frame's seed), and its objects placed in the
+    /// camera frame (world objects through the target's world pose, tool objects through the
+    /// hand-eye transform).
+    pub fn scene_at(&self, cam_from_target: Isometry3<f64>) -> Scene {
         let render = RenderSettings { seed: self.scenario.render.seed.wrapping_add(self.frame), ..self.scenario.render };
-        Scene { camera: self.scenario.camera, target: self.scenario.target.clone(), cam_from_target, render, objects: Vec::new() }
+        let sc = &self.scenario;
+        let objects = sc
+            .objects
+            .iter()
+            .map(|(frame, o)| {
+                let cam_from_frame = match frame {
+                    ObjectFrame::Camera => Isometry3::identity(),
+                    ObjectFrame::Target => cam_from_target,
+                    ObjectFrame::World => cam_from_target * sc.world_from_target.inverse(),
+                    ObjectFrame::Tool => sc.tool_from_cam.inverse(),
+                };
+                SceneObject { cam_from_object: cam_from_frame * o.cam_from_object, ..o.clone() }
+            })
+            .collect();
+        Scene { camera: sc.camera, target: sc.target.clone(), cam_from_target, render, objects }
     }
 
     fn truth(&self, cam_from_target: Isometry3<f64>) -> FrameTruth {
@@ -231,7 +251,7 @@ impl<'s> Sim<'s> {
     /// Observe at `cam_from_target`, the camera moving with `twist` during the exposure when given.
     fn observe_with(&mut self, cam_from_target: Isometry3<f64>, twist: Option<[f64; 6]>) -> Result<Observation, SimError> {
         let truth = self.truth(cam_from_target);
-        let mut scene = self.scene(cam_from_target);
+        let mut scene = self.scene_at(cam_from_target);
         if let Some(t) = twist {
             scene.render.effects.motion.twist = t;
         }

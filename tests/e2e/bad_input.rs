@@ -64,3 +64,56 @@ fn unwritable_output_fails_without_leftovers() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("cannot write"));
 }
+
+/// Issue 19: bad meshes and object poses: an error naming the file or field, a non-zero exit, no
+/// output (image, truth, depth or mask); degenerate triangles among good ones are skipped with a
+/// warning.
+#[test]
+fn bad_objects_fail_cleanly() {
+    let quad = "v 0 0 0\nv 0.1 0 0\nv 0.1 0.1 0\nv 0 0.1 0\n";
+    let files: Vec<(&str, Vec<u8>)> = vec![
+        ("malformed.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n".to_vec()),
+        ("textured.obj", format!("mtllib textured.mtl\n{quad}vt 0 0\nvt 1 0\nvt 1 1\nusemtl t\nf 1/1 2/2 3/3\n").into_bytes()),
+        ("textured.mtl", b"newmtl t\nKd 1 1 1\nmap_Kd broken.png\n".to_vec()),
+        ("broken.png", b"\x89PNG this is not an image".to_vec()),
+        ("degenerate.obj", format!("{quad}f 1 2 2\nf 1 1 1\nf 1 2 3\n").into_bytes()),
+        ("soup.obj", format!("{quad}f 1 2 2\nf 3 3 3\n").into_bytes()),
+        ("good.obj", format!("{quad}f 1 2 3\nf 1 3 4\n").into_bytes()),
+    ];
+    let object = |mesh: &str, t: &str| format!("{GOOD}\n[[object]]\nmesh = \"{mesh}\"\nrvec = [0.0, 0.0, 0.0]\nt_m = {t}\n");
+    let cases: Vec<(&str, String, &str)> = vec![
+        ("missing-obj", object("nowhere.obj", "[0.0, 0.0, 0.3]"), "nowhere.obj"),
+        ("malformed-obj", object("malformed.obj", "[0.0, 0.0, 0.3]"), "malformed.obj"),
+        ("bad-texture", object("textured.obj", "[0.0, 0.0, 0.3]"), "broken.png"),
+        ("degenerate-soup", object("soup.obj", "[0.0, 0.0, 0.3]"), "soup.obj"),
+        ("behind", object("good.obj", "[0.0, 0.0, -0.3]"), "object[0].pose"),
+        ("nan-scale", object("good.obj", "[0.0, 0.0, 0.3]\nscale = nan"), "object[0].scale"),
+        ("albedo", object("good.obj", "[0.0, 0.0, 0.3]\nalbedo = 300.0"), "object[0].albedo"),
+        ("frame-tool", object("good.obj", "[0.0, 0.0, 0.3]\nframe = \"tool\""), "object[0].frame"),
+    ];
+    let dir = std::env::temp_dir().join(format!("synthcam-bad-objects-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    for (name, bytes) in &files {
+        std::fs::write(dir.join(name), bytes).expect("write");
+    }
+    let run = |name: &str, text: &str| {
+        let scene = dir.join(format!("{name}.toml"));
+        std::fs::write(&scene, text).expect("write");
+        let out = dir.join(format!("{name}.png"));
+        let (depth, mask) = (dir.join(format!("{name}.npy")), dir.join(format!("{name}.mask.png")));
+        let o = Command::new(bin()).arg("render").arg(&scene).arg("-o").arg(&out).arg("--depth").arg(&depth).arg("--mask").arg(&mask).output().expect("run");
+        let wrote = [&out, &out.with_extension("json"), &depth, &mask].iter().any(|p| p.exists());
+        (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned(), wrote)
+    };
+    for (name, text, needle) in &cases {
+        let (ok, stderr, wrote) = run(name, text);
+        assert!(!ok, "{name}: exit status 0");
+        assert!(!stderr.contains("panicked"), "{name}: panicked: {stderr}");
+        assert!(stderr.contains(needle), "{name}: error does not name `{needle}`: {stderr}");
+        assert!(!wrote, "{name}: wrote an output file");
+    }
+    let (ok, stderr, wrote) = run("degenerate", &object("degenerate.obj", "[0.0, 0.0, 0.3]"));
+    assert!(ok && wrote, "a mesh with some degenerate triangles renders: {stderr}");
+    assert!(stderr.contains("degenerate"), "the skipped triangles are reported: {stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

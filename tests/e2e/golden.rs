@@ -55,8 +55,12 @@ fn cases() -> Vec<Case> {
     let charuco = small(parse_scene(include_str!("../../assets/scenes/charuco_k1.toml")).expect("scene"), 320, 256);
     let aprilgrid = small(parse_scene(include_str!("../../assets/scenes/aprilgrid_k1.toml")).expect("scene"), 320, 256);
     let real = small(parse_scene(include_str!("../../assets/scenes/effects/real_camera.toml")).expect("scene"), 320, 256);
+    let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("assets/scenes/objects"));
+    let gripper_text = include_str!("../../assets/scenes/objects/gripper_charuco.toml");
+    let gripper = small(synthcam::scene::file::parse_scene_with(gripper_text, &|p: &str| meshes.load(p)).expect("scene"), 320, 256);
     vec![
         Case { name: "real_camera_320", scene: real, max_abs: 1, max_mean: 0.01 },
+        Case { name: "gripper_charuco_320", scene: gripper, max_abs: 1, max_mean: 0.01 },
         Case { name: "charuco_k1_320", scene: charuco, max_abs: 1, max_mean: 0.01 },
         Case { name: "aprilgrid_k1_320", scene: aprilgrid, max_abs: 1, max_mean: 0.01 },
         Case { name: "chessboard_k1_320", scene: board, max_abs: 1, max_mean: 0.01 },

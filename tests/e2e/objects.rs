@@ -17,6 +17,8 @@ use synthcam::dataset::MeshLibrary;
 use synthcam::detect::target::detect;
 use synthcam::mesh::bvh::intersect_triangle;
 use synthcam::scene::truth::truth_labels;
+use synthcam::sim::sensor::RenderedSensor;
+use synthcam::sim::{ScenarioSpec, Sim};
 
 use crate::common::{camera, chessboard_scene, renderer};
 
@@ -243,4 +245,37 @@ fn depth_of_a_plane_and_a_sphere_mesh_matches_the_analytic_surfaces() {
     eprintln!("depth: plane {} px, max |error| {:.2e} m; sphere {} px, max |error| {:.2e} m", counts[0], worst[0], counts[1], worst[1]);
     assert!(counts[0] > 1000 && counts[1] > 1000);
     assert!(worst[0] <= 1e-4 && worst[1] <= 1e-4, "{worst:?}");
+}
+
+/// Issue 19: a robot scenario with a gripper carried by the tool and a sphere fixed in the world
+/// (`assets/scenarios/ur5e_gripper_chessboard.toml`): the gripper keeps its place in the image as
+/// the arm moves, the sphere keeps its place in the world, and the board is still detected.
+#[test]
+fn scenario_objects_ride_on_the_tool_and_stay_in_the_world() {
+    let path = std::path::Path::new("assets/scenarios/ur5e_gripper_chessboard.toml");
+    let spec = ScenarioSpec::parse(&std::fs::read_to_string(path).unwrap()).expect("parses");
+    let meshes = MeshLibrary::beside(path);
+    let sc = spec.to_scenario_with(&|p: &str| meshes.load(p)).expect("valid");
+    let robot = spec.robot.build(&|_| Err("no files".into())).expect("robot");
+    let mut sim = Sim::new(sc.clone(), robot, Box::new(RenderedSensor { renderer: renderer() })).expect("sim");
+    let world_from_object = sc.objects[1].1.cam_from_object;
+    let mut gripper_px = Vec::new();
+    for dq in [0.0, 0.05] {
+        let q: Vec<f64> = sc.q_start_rad.iter().enumerate().map(|(i, q)| q + if i == 0 { dq } else { 0.0 }).collect();
+        sim.set_joints(&q).expect("joints");
+        let obs = sim.observe().expect("observe");
+        if let (Some(img), true) = (&obs.image, std::env::var("SYNTHCAM_DEBUG_IMAGES").is_ok()) {
+            synthcam::dataset::write_atomic(std::path::Path::new(&format!("/tmp/sc/ur5e_{dq}.png")), &synthcam::dataset::encode_png(img).unwrap()).ok();
+        }
+        assert_eq!(obs.features.len(), 48, "the board is found beside the objects: {:?}", obs.note);
+        let scene = sim.scene_at(obs.truth.cam_from_target);
+        let cam_from_world = obs.truth.cam_from_target * sc.world_from_target.inverse();
+        let err = (scene.objects[1].cam_from_object.translation.vector - (cam_from_world * world_from_object).translation.vector).norm();
+        assert!(err < 1e-12, "the world object moves with the world: {err}");
+        let mask = depth_mask(&scene).instance;
+        gripper_px.push(mask.iter().filter(|&&id| id == FIRST_OBJECT_ID).count());
+        assert!(mask.contains(&(FIRST_OBJECT_ID + 1)) || dq > 0.0, "the world sphere is in view at the start");
+    }
+    eprintln!("gripper pixels at two arm poses: {gripper_px:?}");
+    assert!(gripper_px[0] > 1000 && gripper_px[0] == gripper_px[1], "the tool's gripper stays put in the image: {gripper_px:?}");
 }
