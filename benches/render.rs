@@ -22,6 +22,12 @@ fn bench_render(c: &mut Criterion) {
         };
         group.bench_function(name, |b| b.iter(|| renderer.render_linear(&scene).map(|v| v.len()).unwrap_or(0)));
     }
+    // Issue 19's speed goal: the chessboard scene plus a 100 820-triangle icosphere in front of it.
+    let scene = match synthcam::scene::objects::with_benchmark_mesh(parse_scene(scenes[0].1)) {
+        Ok(s) => s,
+        Err(e) => panic!("mesh scene: {e}"),
+    };
+    group.bench_function("chessboard_k1_mesh_100k", |b| b.iter(|| renderer.render_linear(&scene).map(|v| v.len()).unwrap_or(0)));
     group.finish();
 }
 

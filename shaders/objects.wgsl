@@ -6,7 +6,7 @@
 //     triangle offset, texture offset, texture width) as u32 bits; row 4 = (albedo, texture
 //     height as u32 bits, flags: bit 0 head light, 0).
 //   node (4 rows): (lo0, child0), (hi0, child1), (lo1, 0), (hi1, 0); a child with bit 31 set is
-//     a triangle (src/mesh/bvh.rs).
+//     a leaf, a run of up to 4 triangle rows (src/mesh/bvh.rs).
 //   triangle (4 rows): (v0, albedo: >= 0 its material, -1 the instance's, -2 textured),
 //     (e1, uv0.x), (e2, uv0.y), (uv1, uv2).
 //   texture: per row, the prefix sums of its texels (width + 1 each), four per row of objs.
@@ -55,6 +55,19 @@ fn hit_triangle(tri_base: u32, k: u32, o: vec3<f32>, d: vec3<f32>, best: MeshHit
     return best;
 }
 
+// A leaf child: LEAF_BIT | (count - 1) << 27 | first triangle row (src/mesh/bvh.rs leaf_run).
+fn leaf_first(c: u32) -> u32 { return c & 0x7ffffffu; }
+fn leaf_end(c: u32) -> u32 { return (c & 0x7ffffffu) + ((c >> 27u) & 0xfu) + 1u; }
+
+// The closest hit among the leaf's triangles.
+fn hit_leaf(tri_base: u32, c: u32, o: vec3<f32>, d: vec3<f32>, best_in: MeshHit, inst: u32) -> MeshHit {
+    var best = best_in;
+    for (var k = leaf_first(c); k < leaf_end(c); k = k + 1u) {
+        best = hit_triangle(tri_base, k, o, d, best, inst);
+    }
+    return best;
+}
+
 // The ray t d_cam (camera centre origin) in instance `inst`'s mesh frame: origin, direction.
 fn instance_ray(inst: u32, d_cam: vec3<f32>) -> array<vec3<f32>, 2> {
     let base = P.obj.y + 5u * inst;
@@ -86,8 +99,8 @@ fn cast_instance(inst: u32, d_cam: vec3<f32>, best_in: MeshHit) -> MeshHit {
         let c1 = bitcast<u32>(b.w);
         var go0 = t0 >= 0.0;
         var go1 = t1 >= 0.0;
-        if (go0 && (c0 & LEAF_BIT) != 0u) { best = hit_triangle(info.y, c0 & ~LEAF_BIT, o, d, best, inst); go0 = false; }
-        if (go1 && (c1 & LEAF_BIT) != 0u) { best = hit_triangle(info.y, c1 & ~LEAF_BIT, o, d, best, inst); go1 = false; }
+        if (go0 && (c0 & LEAF_BIT) != 0u) { best = hit_leaf(info.y, c0, o, d, best, inst); go0 = false; }
+        if (go1 && (c1 & LEAF_BIT) != 0u) { best = hit_leaf(info.y, c1, o, d, best, inst); go1 = false; }
         if (go0 && go1) {
             let first = t1 < t0;
             stack[sp] = select(c1, c0, first);
@@ -199,42 +212,16 @@ fn hit_point_value(h: MeshHit, d_cam: vec3<f32>) -> f32 {
     return a * hit_light(h, d_cam);
 }
 
-// ---- coarse pass: the 9 x 9 pixel-corner rays of the tile, shared in workgroup memory.
-var<workgroup> corner_inst: array<u32, 81>;
-var<workgroup> corner_tri: array<u32, 81>;
-var<workgroup> corner_val: array<f32, 81>;
-var<workgroup> corner_st: array<vec2<f32>, 81>;
+// ---- coarse pass: one ray per pixel centre. The value (the object's shade, its texture
+// box-filtered over the pixel's footprint) and a class (0 no object in front, else instance + 1,
+// and for textured triangles bit 30 and the triangle in bits 8..29) go back; the CPU compares each pixel's class and value with its neighbours'
+// (src/render/object_pass.rs) and sends the pixels on an edge to the fine pass.
+const TEXTURED_CLASS: u32 = 0x40000000u;
 
-fn object_corner(tile_xy: vec2<u32>, c: u32) {
-    let q = vec2<f32>(f32(tile_xy.x * 8u + c % 9u) - 0.5, f32(tile_xy.y * 8u + c / 9u) - 0.5);
-    let ray = pixel_ray(q);
-    let d = ray_d(ray);
-    var h = no_hit(0.0);
-    if (ray.ok) { h = cast_objects(d, target_t(d)); }
-    corner_inst[c] = h.inst;
-    corner_tri[c] = h.tri;
-    var val = 0.0;
-    var st = vec2<f32>(0.0, 0.0);
-    if (h.inst != NO_OBJECT) {
-        let a = hit_albedo(h);
-        val = a * hit_light(h, d);
-        if (a == -2.0) {
-            st = hit_texel(h);
-            val = -2.0 - hit_light(h, d);  // textured: the light, encoded below -2
-        }
-    }
-    corner_val[c] = val;
-    corner_st[c] = st;
-}
-
-// The mean texture over the pixel whose corners (k: top-left, top-right, bottom-left,
-// bottom-right) map to texels corner_st: 4 x 4 sub-pixels, each box-filtered over the bounding
-// box of its (bilinearly interpolated) footprint.
-fn texture_subpixels(inst: u32, k: array<u32, 4>) -> f32 {
-    let s00 = corner_st[k[0]];
-    let s10 = corner_st[k[1]];
-    let s01 = corner_st[k[2]];
-    let s11 = corner_st[k[3]];
+// The mean texture over the footprint whose corners (top-left, top-right, bottom-left,
+// bottom-right) map to texels s00, s10, s01, s11: 4 x 4 sub-pixels, each box-filtered over the
+// bounding box of its (bilinearly interpolated) footprint, which bounds it closely.
+fn texture_subpixels(inst: u32, s00: vec2<f32>, s10: vec2<f32>, s01: vec2<f32>, s11: vec2<f32>) -> f32 {
     var acc = 0.0;
     for (var j = 0u; j < 4u; j = j + 1u) {
         let v0 = f32(j) * 0.25;
@@ -256,86 +243,264 @@ fn texture_subpixels(inst: u32, k: array<u32, 4>) -> f32 {
     return acc * 0.0625;
 }
 
-// The pixel's value from its four corners (k: their indices), and 0 keep the target's value,
-// 1 use this value, 2 needs the fine pass.
-fn corner_pixel(k: array<u32, 4>) -> vec2<f32> {
-    let i0 = corner_inst[k[0]];
-    var same = true;
-    var same_tri = true;
-    var lo = 1e30;
-    var hi = -1e30;
-    var st_lo = vec2<f32>(1e30, 1e30);
-    var st_hi = vec2<f32>(-1e30, -1e30);
-    var light = 0.0;
-    for (var j = 0u; j < 4u; j = j + 1u) {
-        same = same && corner_inst[k[j]] == i0;
-        same_tri = same_tri && corner_tri[k[j]] == corner_tri[k[0]];
-        let v = corner_val[k[j]];
-        lo = min(lo, v);
-        hi = max(hi, v);
-        st_lo = min(st_lo, corner_st[k[j]]);
-        st_hi = max(st_hi, corner_st[k[j]]);
-        light = light + max(-2.0 - v, 0.0);
+// The texture over the footprint of the pixel whose centre ray `ray` hit h: the texel
+// coordinates' Jacobian from the ray's (ray differentials on the triangle's plane:
+// dp/dq = t (D - d (n . D) / (n . d)), D = dd/dq in the mesh frame).
+fn texture_footprint(h: MeshHit, ray: Ray) -> f32 {
+    let base = P.obj.y + 5u * h.inst;
+    let info = bitcast<vec4<u32>>(objs[base + 3u]);
+    let b = info.y + 4u * h.tri;
+    let e1 = objs[b + 1u].xyz;
+    let e2 = objs[b + 2u].xyz;
+    let uv0 = vec2<f32>(objs[b + 1u].w, objs[b + 2u].w);
+    let r3 = objs[b + 3u];
+    let n = cross(e1, e2);
+    let nn = dot(n, n);
+    let da = cross(e2, n) / nn;
+    let db = cross(n, e1) / nn;
+    let d = instance_ray(h.inst, ray_d(ray))[1];
+    let size = vec2<f32>(f32(info.w), f32(bitcast<u32>(objs[base + 4u].y)));
+    var jac: array<vec2<f32>, 2>;
+    for (var k = 0u; k < 2u; k = k + 1u) {
+        let c = ray_col(ray, k);
+        let dk = vec3<f32>(dot(objs[base].xyz, c), dot(objs[base + 1u].xyz, c), dot(objs[base + 2u].xyz, c));
+        let dp = h.t * (dk - d * (dot(n, dk) / dot(n, d)));
+        let duv = (r3.xy - uv0) * dot(da, dp) + (r3.zw - uv0) * dot(db, dp);
+        jac[k] = vec2<f32>(duv.x * size.x, -duv.y * size.y);
     }
-    if (!same) { return vec2<f32>(0.0, 2.0); }
-    if (i0 == NO_OBJECT) { return vec2<f32>(0.0, 0.0); }
-    if (lo <= -2.0) {
-        // Textured: one triangle (one continuous uv map) is box-filtered over the footprints of
-        // 4 x 4 sub-pixels (the box of each bounds its footprint's parallelogram closely).
-        if (!same_tri || hi > -2.0) { return vec2<f32>(0.0, 2.0); }
-        return vec2<f32>(0.25 * light * texture_subpixels(i0, k), 1.0);
-    }
-    if (hi - lo > 0.25) { return vec2<f32>(0.0, 2.0); }
-    return vec2<f32>(0.25 * (corner_val[k[0]] + corner_val[k[1]] + corner_val[k[2]] + corner_val[k[3]]), 1.0);
+    let st = hit_texel(h);
+    let hx = 0.5 * jac[0];
+    let hy = 0.5 * jac[1];
+    return texture_subpixels(h.inst, st - hx - hy, st + hx - hy, st - hx + hy, st + hx + hy);
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_objects(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
     uniform_view();
-    let tile_xy = vec2<u32>(px.x / 8u, px.y / 8u);
-    let me = lid.y * 8u + lid.x;
-    object_corner(tile_xy, me);
-    // The 17 corners past the first 64, on consecutive lanes (llvmpipe runs lanes in groups).
-    for (var c = 64u + me; c < 81u; c = c + 64u) { object_corner(tile_xy, c); }
-    workgroupBarrier();
-    let c = lid.y * 9u + lid.x;
-    let r = corner_pixel(array<u32, 4>(c, c + 1u, c + 9u, c + 10u));
-    let slot = (wg.y * 65535u + wg.x) * 64u + me;
-    out_vals[slot] = r.x;
-    out_hard[slot] = u32(r.y);
+    let ray = pixel_ray(vec2<f32>(f32(px.x), f32(px.y)));
+    let d = ray_d(ray);
+    var h = no_hit(0.0);
+    if (ray.ok) { h = cast_objects(d, target_t(d)); }
+    var val = 0.0;
+    var cls = 0u;
+    if (h.inst != NO_OBJECT) {
+        let a = hit_albedo(h);
+        let light = hit_light(h, d);
+        val = a * light;
+        cls = h.inst + 1u;
+        if (a == -2.0) {
+            // The triangle too: one uv map is continuous only within a triangle.
+            val = light * texture_footprint(h, ray);
+            cls = cls | TEXTURED_CLASS | ((h.tri & 0x3fffffu) << 8u);
+        }
+    }
+    let slot = (wg.y * 65535u + wg.x) * 64u + lid.y * 8u + lid.x;
+    out_vals[slot] = val;
+    out_hard[slot] = cls;
 }
 
-// ---- fine pass: P.obj.z^2 sub-samples, each its own exact ray; the nearer of the objects
-// and the target (point-sampled) at each.
+// ---- fine pass (below): the triangles a sub-sample can hit lie in the pixel's
+// frustum: one traversal gathers them (up to MAX_CANDIDATES), then each sub-sample tests only
+// those; more, and each sub-sample walks the hierarchy itself.
+const MAX_CANDIDATES: u32 = 128u;
+var<private> cand: array<u32, MAX_CANDIDATES>;
+var<private> cand_count: u32;
+
+// Whether the box lo..hi meets the pyramid from o bounded by the planes n[i] . (x - o) >= 0:
+// outside when its corner farthest along some n[i] is behind that plane.
+fn box_in_frustum(lo: vec3<f32>, hi: vec3<f32>, o: vec3<f32>, n: array<vec3<f32>, 4>) -> bool {
+    var inside = lo.x <= hi.x;
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        let far = select(lo, hi, n[i] > vec3<f32>(0.0, 0.0, 0.0));
+        inside = inside && dot(n[i], far - o) >= 0.0;
+    }
+    return inside;
+}
+
+// Whether triangle k (rows from tri_base) may be a first hit from o: always, unless `cull` and
+// o is behind its plane (outward normals: counter-clockwise seen from outside).
+fn faces(tri_base: u32, k: u32, o: vec3<f32>, cull: bool) -> bool {
+    let b = tri_base + 4u * k;
+    let n = cross(objs[b + 1u].xyz, objs[b + 2u].xyz);
+    return !cull || dot(n, o - objs[b].xyz) >= 0.0;
+}
+
+// Add the leaf's triangles that may be a first hit to the candidates; false on overflow.
+fn gather_leaf(tri_base: u32, c: u32, o: vec3<f32>, cull: bool, inst: u32) -> bool {
+    for (var k = leaf_first(c); k < leaf_end(c); k = k + 1u) {
+        if (faces(tri_base, k, o, cull)) {
+            if (cand_count == MAX_CANDIDATES) { return false; }
+            cand[cand_count] = (inst << 24u) | k;
+            cand_count = cand_count + 1u;
+        }
+    }
+    return true;
+}
+
+// Gather the triangles of instance `inst` in the frustum of the camera rays c (corners, in
+// order around the pixel) and centre d; false when they overflow the list.
+fn gather_instance(inst: u32, c: array<vec3<f32>, 4>, d: vec3<f32>) -> bool {
+    let info = bitcast<vec4<u32>>(objs[P.obj.y + 5u * inst + 3u]);
+    let o = instance_ray(inst, d)[0];
+    let dc = instance_ray(inst, d)[1];
+    var m: array<vec3<f32>, 4>;
+    for (var i = 0u; i < 4u; i = i + 1u) { m[i] = instance_ray(inst, c[i])[1]; }
+    var n: array<vec3<f32>, 4>;
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        let p = cross(m[i], m[(i + 1u) % 4u]);
+        n[i] = select(-p, p, dot(p, dc) >= 0.0);
+    }
+    // A closed mesh seen from outside: its back faces are never a first hit.
+    let cull = (bitcast<u32>(objs[P.obj.y + 5u * inst + 4u].z) & 2u) != 0u;
+    var stack: array<u32, MESH_STACK>;
+    var sp = 0u;
+    var node = 0u;
+    loop {
+        let nb = info.x + 4u * node;
+        let a = objs[nb];
+        let b = objs[nb + 1u];
+        let c0 = bitcast<u32>(a.w);
+        let c1 = bitcast<u32>(b.w);
+        var go0 = box_in_frustum(a.xyz, b.xyz, o, n);
+        var go1 = box_in_frustum(objs[nb + 2u].xyz, objs[nb + 3u].xyz, o, n);
+        if (go0 && (c0 & LEAF_BIT) != 0u && !gather_leaf(info.y, c0, o, cull, inst)) { return false; }
+        if ((c0 & LEAF_BIT) != 0u) { go0 = false; }
+        if (go1 && (c1 & LEAF_BIT) != 0u && c1 != c0 && !gather_leaf(info.y, c1, o, cull, inst)) { return false; }
+        if (go1 && (c1 & LEAF_BIT) != 0u) { go1 = false; }
+        if (go0 && go1) {
+            stack[sp] = c1;
+            sp = min(sp + 1u, MESH_STACK - 1u);
+            node = c0;
+        } else if (go0) {
+            node = c0;
+        } else if (go1) {
+            node = c1;
+        } else {
+            if (sp == 0u) { break; }
+            sp = sp - 1u;
+            node = stack[sp];
+        }
+    }
+    return true;
+}
+
+// The closest candidate along t d_cam nearer than t_max.
+fn cast_candidates(d_cam: vec3<f32>, t_max: f32) -> MeshHit {
+    var best = no_hit(t_max);
+    for (var k = 0u; k < cand_count; k = k + 1u) {
+        let inst = cand[k] >> 24u;
+        let od = instance_ray(inst, d_cam);
+        let info = bitcast<vec4<u32>>(objs[P.obj.y + 5u * inst + 3u]);
+        best = hit_triangle(info.y, cand[k] & 0xffffffu, od[0], od[1], best, inst);
+    }
+    return best;
+}
+
+// What one sub-sample of the pixel at q (centre ray `centre`) sees at offset o: the grey level
+// and a class (0: the target or the background; else the object's instance + 1).
+struct Seen1 { v: f32, cls: u32, };
+
+fn see(q: vec2<f32>, centre: Ray, o: vec2<f32>, gathered: bool) -> Seen1 {
+    // A fisheye's rays bend across the pixel: each its own inversion; the other models' pixels
+    // are linear to 1e-4 px (the target passes' assumption too).
+    var ray = centre;
+    var d = ray_at(centre, o);
+    if (wide()) {
+        ray = pixel_ray(q + o);
+        d = ray_d(ray);
+    }
+    if (!ray.ok) { return Seen1(P.grey.w, 0u); }
+    let pp = plane_point(d);
+    var h: MeshHit;
+    if (gathered) { h = cast_candidates(d, target_t(d)); } else { h = cast_objects(d, target_t(d)); }
+    if (h.inst != NO_OBJECT) { return Seen1(hit_point_value(h, d), h.inst + 1u); }
+    return Seen1(select(P.grey.w, plane_value(pp.xy), pp.z > 0.0), 0u);
+}
+
+fn same_side(a: Seen1, b: Seen1) -> bool { return a.cls == b.cls && abs(a.v - b.v) <= 1.0; }
+
+// Bisections of a crossing along a scan line: its place to 1/128 px.
+const CROSSING_BISECTIONS: u32 = 6u;
+
+// The mean along the scan line through the pixel at `pos` across `axis` (0: a row, 1: a
+// column): samples at its ends and middle; between two that differ (another object, the
+// target, or a step of more than a grey level) the crossing is bisected and each side is
+// integrated by the trapezoid rule up to it; elsewhere the trapezoid rule.
+fn scan_line(q: vec2<f32>, centre: Ray, gathered: bool, axis: u32, pos: f32) -> f32 {
+    var acc = 0.0;
+    var sa = -0.5;
+    var a = see(q, centre, select(vec2<f32>(sa, pos), vec2<f32>(pos, sa), axis == 1u), gathered);
+    for (var seg = 0u; seg < 2u; seg = seg + 1u) {
+        let sb = sa + 0.5;
+        let b = see(q, centre, select(vec2<f32>(sb, pos), vec2<f32>(pos, sb), axis == 1u), gathered);
+        if (same_side(a, b)) {
+            acc = acc + 0.25 * (a.v + b.v);
+        } else {
+            var lo = sa;
+            var hi = sb;
+            var v_lo = a.v;
+            var v_hi = b.v;
+            for (var k = 0u; k < CROSSING_BISECTIONS; k = k + 1u) {
+                let mid = 0.5 * (lo + hi);
+                let m = see(q, centre, select(vec2<f32>(mid, pos), vec2<f32>(pos, mid), axis == 1u), gathered);
+                if (same_side(m, a)) {
+                    lo = mid;
+                    v_lo = m.v;
+                } else {
+                    hi = mid;
+                    v_hi = m.v;
+                }
+            }
+            // Each side by the trapezoid rule between its end and its sample nearest the crossing
+            // (a lit object's shade changes fastest near its outline).
+            let c = 0.5 * (lo + hi);
+            acc = acc + 0.5 * (a.v + v_lo) * (c - sa) + 0.5 * (v_hi + b.v) * (sb - c);
+        }
+        a = b;
+        sa = sb;
+    }
+    return acc;
+}
+
+// Fine pass: pixels on an edge. Between two untextured regions, P.obj.z scan lines across the
+// edge (the CPU sets bit 15 of the work item's x for columns: a more horizontal edge), each
+// integrated exactly up to its crossings' bisection: a straight edge's coverage is linear along
+// the other axis, so the lines' mean (midpoint rule) is exact for it. Elsewhere (bit 31:
+// textures, steps inside an object, three regions) a grid of P.obj.w^2 sub-samples.
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_objects(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let it = fine_item(gid);
+    let i = min(gid.y * 65535u * 64u + gid.x, P.tiles.w - 1u);
+    let packed = work[i];
+    let axis = (packed >> 15u) & 1u;
+    let grid = (packed >> 31u) == 1u;
+    let q = vec2<f32>(f32(packed & 0x7fffu), f32((packed >> 16u) & 0x7fffu));
     uniform_view();
-    let n = P.obj.z;
-    let inv = 1.0 / f32(n);
-    var acc = 0.0;
-    let q = vec2<f32>(f32(it.x), f32(it.y));
     let centre = pixel_ray(q);
-    for (var k = 0u; k < n * n; k = k + 1u) {
-        let o = (vec2<f32>(f32(k % n), f32(k / n)) + 0.5) * inv - 0.5;
-        // A fisheye's rays bend across the pixel: each its own inversion; the other models'
-        // pixels are linear to 1e-4 px (the target passes' assumption too).
-        var ray = centre;
-        var d = ray_at(centre, o);
-        if (wide()) {
-            ray = pixel_ray(q + o);
-            d = ray_d(ray);
-        }
-        let pp = plane_point(d);
-        var v = select(P.grey.w, plane_value(pp.xy), pp.z > 0.0);
-        if (ray.ok) {
-            let h = cast_objects(d, target_t(d));
-            if (h.inst != NO_OBJECT) { v = hit_point_value(h, d); }
-        } else {
-            v = P.grey.w;
-        }
-        acc = acc + v;
+    // The frustum: the pixel's corners, a hundredth of a pixel wider (the sub-samples' rays are
+    // the same linearisation, or for a fisheye each its own inversion: margin for its bending).
+    var c: array<vec3<f32>, 4>;
+    let corner = array<vec2<f32>, 4>(vec2<f32>(-0.51, -0.51), vec2<f32>(0.51, -0.51), vec2<f32>(0.51, 0.51), vec2<f32>(-0.51, 0.51));
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        c[k] = ray_at(centre, corner[k]);
+        if (wide()) { c[k] = ray_d(pixel_ray(q + corner[k] * 1.02)); }
     }
-    out_vals[gid.y * 65535u * 64u + gid.x] = acc * inv * inv;
+    cand_count = 0u;
+    var gathered = centre.ok;
+    for (var k = 0u; k < P.obj.x; k = k + 1u) {
+        gathered = gathered && gather_instance(k, c, ray_d(centre));
+    }
+    // Per-lane trip counts: a lane runs its own loop only (llvmpipe leaves a loop when no lane
+    // is active in it).
+    let lines = select(P.obj.z, 0u, grid);
+    var acc = 0.0;
+    for (var j = 0u; j < lines; j = j + 1u) {
+        acc = acc + scan_line(q, centre, gathered, axis, (f32(j) + 0.5) / f32(lines) - 0.5);
+    }
+    let n = select(0u, P.obj.w, grid);
+    let inv = 1.0 / f32(max(n, 1u));
+    for (var k = 0u; k < n * n; k = k + 1u) {
+        acc = acc + see(q, centre, (vec2<f32>(f32(k % n), f32(k / n)) + 0.5) * inv - 0.5, gathered).v * inv;
+    }
+    out_vals[gid.y * 65535u * 64u + gid.x] = select(acc / f32(max(lines, 1u)), acc * inv, grid);
 }

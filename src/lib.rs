@@ -8,7 +8,7 @@
 //! course's ABB IRB 1200).
 //!
 //! ## Module map (dependencies point one way)
-//! `math` <- `camera` / `target` / `robot` <- `scene` <- `detect` / `calib` <- `render` / `dataset`
+//! `math` <- `camera` / `target` / `robot` / [`mesh`] <- `scene` <- `detect` / `calib` <- `render` / `dataset`
 //! <- `cli`.
 //! Modules below `render` are pure (no file I/O, no wgpu, no global state). Only [`render`] names
 //! wgpu; only [`dataset`] and `cli` touch the filesystem (checked by `tests/e2e/architecture.rs`).

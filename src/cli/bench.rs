@@ -19,6 +19,10 @@ pub struct BenchArgs {
     /// detect + law every step, no early stop), e.g. 200.
     #[arg(long)]
     pub servo_steps: Option<usize>,
+    /// Also time the chessboard scene with a 100 820-triangle icosphere in front of it (issue 19's
+    /// speed goal: <= 100 ms on lavapipe).
+    #[arg(long)]
+    pub mesh: bool,
     /// Scene files to time instead of the embedded scenes.
     pub scenes: Vec<std::path::PathBuf>,
 }
@@ -28,6 +32,38 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
         return f64::NAN;
     }
     sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+/// Time `frames` renders of `scene` (after 3 untimed) and print the medians.
+fn time_scene(renderer: &synthcam::render::Renderer, name: &str, scene: &synthcam::scene::Scene, frames: usize) -> anyhow::Result<()> {
+    for _ in 0..3 {
+        renderer.render_radiance(scene)?;
+    }
+    let mut render_ms = Vec::new();
+    let mut post_ms = Vec::new();
+    for _ in 0..frames.max(1) {
+        let t0 = std::time::Instant::now();
+        let linear = renderer.render_radiance(scene)?;
+        let t1 = std::time::Instant::now();
+        let img = finish(scene, &linear)?;
+        let _png = encode_png(&img)?;
+        let t2 = std::time::Instant::now();
+        render_ms.push((t1 - t0).as_secs_f64() * 1e3);
+        post_ms.push((t2 - t1).as_secs_f64() * 1e3);
+    }
+    render_ms.sort_by(f64::total_cmp);
+    post_ms.sort_by(f64::total_cmp);
+    println!(
+        "{name:>14} {}x{}: render+readback median {:.1} ms (p10 {:.1}, p90 {:.1}); quantise+PNG median {:.1} ms; {} frames",
+        scene.camera.size.width,
+        scene.camera.size.height,
+        percentile(&render_ms, 0.5),
+        percentile(&render_ms, 0.1),
+        percentile(&render_ms, 0.9),
+        percentile(&post_ms, 0.5),
+        render_ms.len()
+    );
+    Ok(())
 }
 
 /// Run the benchmark.
@@ -43,35 +79,19 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     if list.is_empty() {
         list = super::DEFAULT_SCENES.iter().map(|(n, t)| ((*n).to_string(), (*t).to_string())).collect();
     }
+    let mut scenes = Vec::new();
     for (name, text) in &list {
-        let scene = parse_scene_with(text, &|p: &str| meshes.load(p)).with_context(|| format!("scene {name}"))?;
-        for _ in 0..3 {
-            renderer.render_radiance(&scene)?;
-        }
-        let mut render_ms = Vec::new();
-        let mut post_ms = Vec::new();
-        for _ in 0..args.frames.max(1) {
-            let t0 = std::time::Instant::now();
-            let linear = renderer.render_radiance(&scene)?;
-            let t1 = std::time::Instant::now();
-            let img = finish(&scene, &linear)?;
-            let _png = encode_png(&img)?;
-            let t2 = std::time::Instant::now();
-            render_ms.push((t1 - t0).as_secs_f64() * 1e3);
-            post_ms.push((t2 - t1).as_secs_f64() * 1e3);
-        }
-        render_ms.sort_by(f64::total_cmp);
-        post_ms.sort_by(f64::total_cmp);
-        println!(
-            "{name:>14} {}x{}: render+readback median {:.1} ms (p10 {:.1}, p90 {:.1}); quantise+PNG median {:.1} ms; {} frames",
-            scene.camera.size.width,
-            scene.camera.size.height,
-            percentile(&render_ms, 0.5),
-            percentile(&render_ms, 0.1),
-            percentile(&render_ms, 0.9),
-            percentile(&post_ms, 0.5),
-            render_ms.len()
-        );
+        scenes.push((name.clone(), parse_scene_with(text, &|p: &str| meshes.load(p)).with_context(|| format!("scene {name}"))?));
+    }
+    if args.mesh {
+        let board = super::DEFAULT_SCENES.iter().find(|(n, _)| *n == "chessboard_k1").map_or("", |(_, t)| *t);
+        scenes.push((
+            "chessboard_k1+mesh100k".into(),
+            synthcam::scene::objects::with_benchmark_mesh(synthcam::scene::file::parse_scene(board)).context("mesh scene")?,
+        ));
+    }
+    for (name, scene) in &scenes {
+        time_scene(&renderer, name, scene, args.frames)?;
     }
     if let Some(steps) = args.servo_steps {
         use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};

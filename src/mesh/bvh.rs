@@ -16,11 +16,22 @@ use nalgebra::{Point3, Vector3};
 
 use super::Mesh;
 
-/// Flag of a child index that names a triangle (a leaf) rather than a node.
+/// Flag of a child index that names a leaf (a run of triangles) rather than a node.
 pub const LEAF: u32 = 1 << 31;
+/// Most triangles in one leaf: subtrees of the built hierarchy with this many or fewer become one
+/// leaf (fewer, shorter traversals; the triangles are tested in a loop).
+pub const LEAF_SIZE: u32 = 1;
+/// A leaf child: [`LEAF`] | (count - 1) << 27 | first, a run of [`MeshBvh::order`].
+const COUNT_SHIFT: u32 = 27;
+const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
 
-/// One inner node: the boxes of its two children and their indices (a node index, or
-/// [`LEAF`] | triangle index). An empty child has an inverted box (`lo > hi`).
+/// The run of [`MeshBvh::order`] a leaf child names: (first, count).
+pub fn leaf_run(child: u32) -> (u32, u32) {
+    (child & FIRST_MASK, ((child & !LEAF) >> COUNT_SHIFT) + 1)
+}
+
+/// One inner node: the boxes of its two children and their indices (a node index, or a leaf:
+/// [`leaf_run`]). An empty child has an inverted box (`lo > hi`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BvhNode {
     /// Lower corners of the children's boxes.
@@ -36,6 +47,8 @@ pub struct BvhNode {
 pub struct MeshBvh {
     /// Inner nodes, root first.
     pub nodes: Vec<BvhNode>,
+    /// The mesh's triangle indices in leaf order: leaves name runs of it.
+    pub order: Vec<u32>,
 }
 
 /// The closest hit of a ray.
@@ -82,20 +95,18 @@ impl MeshBvh {
             .collect();
         let empty = BvhNode { lo: [Point3::from([f64::INFINITY; 3]); 2], hi: [Point3::from([f64::NEG_INFINITY; 3]); 2], child: [LEAF; 2] };
         if shapes.is_empty() {
-            return Self { nodes: vec![empty] };
+            return Self { nodes: vec![empty], order: Vec::new() };
         }
         let built = bvh::bvh::Bvh::build_with_executor(&mut shapes, bvh::bvh::rayon_executor);
-        let mut nodes = Vec::with_capacity(shapes.len());
-        match built.nodes[0] {
-            bvh::bvh::BvhNode::Leaf { shape_index, .. } => {
-                let s = &shapes[shape_index];
-                nodes.push(BvhNode { lo: [s.aabb.min, empty.lo[1]], hi: [s.aabb.max, empty.hi[1]], child: [LEAF | s.triangle, LEAF | s.triangle] });
-            }
-            bvh::bvh::BvhNode::Node { .. } => {
-                relay(&built.nodes, &shapes, 0, &mut nodes);
-            }
+        let mut relay = Relay { src: &built.nodes, shapes: &shapes, nodes: Vec::with_capacity(shapes.len()), order: Vec::with_capacity(shapes.len()) };
+        if relay.count(0) <= LEAF_SIZE as usize {
+            let (lo, hi) = shapes.iter().fold((empty.lo[0], empty.hi[0]), |(lo, hi), s| (lo.inf(&s.aabb.min), hi.sup(&s.aabb.max)));
+            let leaf = relay.leaf(0);
+            relay.nodes.push(BvhNode { lo: [lo, empty.lo[1]], hi: [hi, empty.hi[1]], child: [leaf, leaf] });
+        } else {
+            relay.node(0);
         }
-        Self { nodes }
+        Self { nodes: relay.nodes, order: relay.order }
     }
 
     /// The longest root-to-leaf path, in inner nodes (the stack a traversal needs is at most this).
@@ -141,9 +152,12 @@ impl MeshBvh {
             for &k in &ks[..count] {
                 let c = node.child[k];
                 if c & LEAF != 0 {
-                    if let Some(h) = hit_triangle(mesh, c & !LEAF, origin, dir, t_min, t_far) {
-                        t_far = h.t;
-                        best = Some(h);
+                    let (first, count) = leaf_run(c);
+                    for &tri in &self.order[first as usize..(first + count) as usize] {
+                        if let Some(h) = hit_triangle(mesh, tri, origin, dir, t_min, t_far) {
+                            t_far = h.t;
+                            best = Some(h);
+                        }
                     }
                 } else {
                     stack.push(c);
@@ -166,21 +180,50 @@ fn order(enter: [Option<f64>; 2]) -> ([usize; 2], usize) {
     }
 }
 
-/// Re-lay the crate's node `i` (an inner node) and its subtree; returns its index in `out`.
-fn relay(src: &[bvh::bvh::BvhNode<f64, 3>], shapes: &[Shape], i: usize, out: &mut Vec<BvhNode>) -> u32 {
-    let bvh::bvh::BvhNode::Node { child_l_index, child_l_aabb, child_r_index, child_r_aabb, .. } = src[i] else {
-        return LEAF; // Unreachable: callers pass inner nodes.
-    };
-    let me = out.len();
-    out.push(BvhNode { lo: [child_l_aabb.min, child_r_aabb.min], hi: [child_l_aabb.max, child_r_aabb.max], child: [0, 0] });
-    for (k, c) in [child_l_index, child_r_index].into_iter().enumerate() {
-        let idx = match src[c] {
-            bvh::bvh::BvhNode::Leaf { shape_index, .. } => LEAF | shapes[shape_index].triangle,
-            bvh::bvh::BvhNode::Node { .. } => relay(src, shapes, c, out),
-        };
-        out[me].child[k] = idx;
+/// The crate's hierarchy re-laid: inner nodes with both children's boxes, small subtrees
+/// collapsed into leaves.
+struct Relay<'a> {
+    src: &'a [bvh::bvh::BvhNode<f64, 3>],
+    shapes: &'a [Shape],
+    nodes: Vec<BvhNode>,
+    order: Vec<u32>,
+}
+
+impl Relay<'_> {
+    /// Triangles under the crate's node `i`.
+    fn count(&self, i: usize) -> usize {
+        match self.src[i] {
+            bvh::bvh::BvhNode::Leaf { .. } => 1,
+            bvh::bvh::BvhNode::Node { child_l_index, child_r_index, .. } => self.count(child_l_index) + self.count(child_r_index),
+        }
     }
-    me as u32
+
+    /// Append the triangles under node `i` to the order; the leaf child naming them.
+    fn leaf(&mut self, i: usize) -> u32 {
+        let first = self.order.len() as u32;
+        let mut todo = vec![i];
+        while let Some(n) = todo.pop() {
+            match self.src[n] {
+                bvh::bvh::BvhNode::Leaf { shape_index, .. } => self.order.push(self.shapes[shape_index].triangle),
+                bvh::bvh::BvhNode::Node { child_l_index, child_r_index, .. } => todo.extend([child_r_index, child_l_index]),
+            }
+        }
+        LEAF | ((self.order.len() as u32 - first - 1) << COUNT_SHIFT) | first
+    }
+
+    /// Re-lay the crate's inner node `i` and its subtree; returns its index.
+    fn node(&mut self, i: usize) -> u32 {
+        let bvh::bvh::BvhNode::Node { child_l_index, child_l_aabb, child_r_index, child_r_aabb, .. } = self.src[i] else {
+            return LEAF; // Unreachable: callers pass inner nodes.
+        };
+        let me = self.nodes.len();
+        self.nodes.push(BvhNode { lo: [child_l_aabb.min, child_r_aabb.min], hi: [child_l_aabb.max, child_r_aabb.max], child: [0, 0] });
+        for (k, c) in [child_l_index, child_r_index].into_iter().enumerate() {
+            let idx = if self.count(c) <= LEAF_SIZE as usize { self.leaf(c) } else { self.node(c) };
+            self.nodes[me].child[k] = idx;
+        }
+        me as u32
+    }
 }
 
 /// Entry parameter of the ray into the box, if it meets it within `(t_min, t_max)`.

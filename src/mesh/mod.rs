@@ -128,6 +128,21 @@ impl Mesh {
     }
 }
 
+impl Mesh {
+    /// Whether the mesh is closed and consistently oriented: every directed edge appears exactly
+    /// once and its reverse exactly once (each edge shared by two triangles that wind it in
+    /// opposite directions).
+    pub fn is_closed(&self) -> bool {
+        let mut edges = std::collections::HashMap::new();
+        for t in &self.triangles {
+            for k in 0..3 {
+                *edges.entry((t.v[k], t.v[(k + 1) % 3])).or_insert(0u32) += 1;
+            }
+        }
+        edges.iter().all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
+    }
+}
+
 /// Whether the triangle `p` has (numerically) zero area: its doubled area is below `1e-12`
 /// of its longest edge squared (a sliver the ray test cannot hit reliably).
 pub fn is_degenerate(p: &[Point3<f64>; 3]) -> bool {

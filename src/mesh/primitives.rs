@@ -1,7 +1,5 @@
-//! Meshes the project makes itself (a geodesic sphere, boxes, a gripper, a calibration cube), a
-//! chessboard texture, and the writers of OBJ/MTL text and PNG bytes that make the committed
-//! files under `assets/meshes/` ([`assets`]; `cargo run --release --example make_meshes`
-//! rewrites them).
+//! Meshes the project makes itself (a geodesic sphere, boxes, a gripper, a calibration cube), a chessboard texture, and the
+//! writers of OBJ/MTL text and PNG bytes of the files under `assets/meshes/` ([`assets`]; `--example make_meshes` rewrites them).
 //!
 //! Every mesh is centred on its own frame's origin, in metres, with outward counter-clockwise
 //! triangles. Boxes are axis-aligned; a box face's texture is upright seen from outside, "up"

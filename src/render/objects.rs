@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use glam::{Mat3, Vec3, Vec4};
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use super::gpu_scene::{TileCornerRays, TILE_PX};
 use super::uniforms::Params;
@@ -57,6 +58,13 @@ impl MeshRows {
     /// [`RenderError::Degenerate`] for a hierarchy deeper than the shader's stack.
     pub fn new(scene: &Scene) -> Result<Self, RenderError> {
         let assets = distinct_assets(scene);
+        // The fine pass packs (instance, triangle) into one word: 8 and 24 bits.
+        if scene.objects.len() > 255 {
+            return Err(RenderError::Degenerate(format!("{} objects: the renderer takes up to 255", scene.objects.len())));
+        }
+        if let Some(a) = assets.iter().find(|a| a.mesh.triangles.len() >= 1 << 24) {
+            return Err(RenderError::Degenerate(format!("mesh `{}`: {} triangles, the renderer takes fewer than 2^24", a.mesh.name, a.mesh.triangles.len())));
+        }
         let mut rows = Vec::new();
         let mut offsets = Vec::new();
         for a in &assets {
@@ -117,7 +125,9 @@ fn push_mesh(rows: &mut Vec<[f32; 4]>, a: &MeshAsset) -> MeshOffsets {
     }
     let tri = rows.len() as u32;
     let textured = a.mesh.texture.is_some();
-    for (i, t) in a.mesh.triangles.iter().enumerate() {
+    // In leaf order: a leaf names a run of rows.
+    for &i in &a.bvh.order {
+        let (i, t) = (i as usize, &a.mesh.triangles[i as usize]);
         let [p0, p1, p2] = a.mesh.corners_m(i);
         let v = |p: Vector3<f64>| Vec3::new(p.x as f32, p.y as f32, p.z as f32);
         let uv = t.uv.unwrap_or([[0.0; 2]; 3]);
@@ -158,7 +168,10 @@ pub(crate) fn instance_rows(scene: &Scene, meshes: &MeshRows) -> Vec<[f32; 4]> {
             rows.push(m.row(row).extend(b[row] as f32).to_array());
         }
         rows.push([off.node, off.tri, off.tex, off.tex_size[0]].map(f32::from_bits));
-        let flags = u32::from(o.shading == Shading::HeadLight);
+        // Back faces may be skipped when the mesh is closed and the camera outside its ball.
+        let (c, r) = o.asset.bounds[0];
+        let outside = (o.cam_from_object * (c * o.scale)).coords.norm() > r * o.scale * (1.0 + 1e-6);
+        let flags = u32::from(o.shading == Shading::HeadLight) | (u32::from(o.asset.closed && outside) << 1);
         rows.push(Vec4::new(o.albedo as f32, f32::from_bits(off.tex_size[1]), f32::from_bits(flags), 0.0).to_array());
     }
     rows
@@ -167,7 +180,9 @@ pub(crate) fn instance_rows(scene: &Scene, meshes: &MeshRows) -> Vec<[f32; 4]> {
 /// The object uniforms: instance count and first row, fine samples, and the target's plane and
 /// sheet (where objects and the target meet).
 pub(crate) fn object_params(p: &mut Params, scene: &Scene, instance_row: usize) {
-    p.obj = [scene.objects.len() as u32, instance_row as u32, scene.render.samples.min(16), 0];
+    // Edge pixels: scan lines, an eighth of `samples` (2 to 8; crossings are bisected, and the
+    // lines' mean is exact for a straight edge), or a grid of half `samples` (2 to 16) squared.
+    p.obj = [scene.objects.len() as u32, instance_row as u32, (scene.render.samples / 8).clamp(2, 8), (scene.render.samples / 2).clamp(2, 16)];
     let n = scene.cam_from_target.rotation * Vector3::z();
     let c = n.dot(&scene.cam_from_target.translation.vector);
     p.plane = [n.x as f32, n.y as f32, n.z as f32, c as f32];
@@ -185,22 +200,8 @@ pub(crate) fn object_tiles(scene: &Scene, grid: &TileCornerRays) -> Vec<u32> {
     let meets = |rays: &[Vector3<f64>; 4], b: &[(Vector3<f64>, f64)]| cone_meets(rays, &b[0].0, b[0].1) && b[1..].iter().any(|(c, r)| cone_meets(rays, c, *r));
     let (w, h) = (scene.camera.size.width, scene.camera.size.height);
     let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));
-    let mut out = Vec::new();
-    for ty in 0..tiles_y {
-        for tx in 0..tiles_x {
-            if grid.beyond_lens(tx, ty) {
-                continue;
-            }
-            let Some(rays) = grid.tile(tx, ty) else {
-                out.push(tx | (ty << 16));
-                continue;
-            };
-            if balls.iter().any(|b| meets(&rays, b)) {
-                out.push(tx | (ty << 16));
-            }
-        }
-    }
-    out
+    let covers = |tx: u32, ty: u32| !grid.beyond_lens(tx, ty) && grid.tile(tx, ty).is_none_or(|rays| balls.iter().any(|b| meets(&rays, b)));
+    (0..tiles_y).into_par_iter().flat_map_iter(|ty| (0..tiles_x).filter(move |&tx| covers(tx, ty)).map(move |tx| tx | (ty << 16))).collect()
 }
 
 /// Whether the cone around the four corner rays of a tile (widened by an eighth of the tile's

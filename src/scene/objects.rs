@@ -22,6 +22,10 @@ pub struct MeshAsset {
     /// their box, then the balls of the hierarchy's boxes three levels down (the renderer picks
     /// the tiles an object may cover with them).
     pub bounds: Vec<(Point3<f64>, f64)>,
+    /// The mesh is closed, consistently oriented and wound outwards (every edge used once in
+    /// each direction, positive signed volume): seen from outside, a ray's first hit is on a
+    /// triangle facing it.
+    pub closed: bool,
 }
 
 impl MeshAsset {
@@ -37,7 +41,10 @@ impl MeshAsset {
         let radius = mesh.positions_m.iter().map(|p| (p - centre).norm()).fold(0.0, f64::max);
         let mut bounds = vec![(centre, radius)];
         bounds.extend(bvh.boxes_at(3).iter().map(|(lo, hi)| (nalgebra::center(lo, hi), 0.5 * (hi - lo).norm())));
-        Ok(Arc::new(Self { mesh, bvh, bounds }))
+        // Closed and wound outwards (positive signed volume): back faces can be culled.
+        let volume6: f64 = (0..mesh.triangles.len()).map(|i| mesh.corners_m(i)).map(|[a, b, c]| a.coords.dot(&b.coords.cross(&c.coords))).sum();
+        let closed = mesh.is_closed() && volume6 > 0.0;
+        Ok(Arc::new(Self { mesh, bvh, bounds, closed }))
     }
 }
 
@@ -168,4 +175,22 @@ pub fn cast_objects(objects: &[SceneObject], d_cam: &Vector3<f64>, t_max: f64) -
 /// an object's surface) does not hide it.
 pub fn occluded(objects: &[SceneObject], p_cam: &Point3<f64>) -> bool {
     cast_objects(objects, &p_cam.coords, 1.0 - 1e-9).is_some()
+}
+
+/// The scene of the objects' speed benchmark (issue 19): `scene` (the embedded 1280 x 1024
+/// chessboard under k1 = -0.25) with a 100 820-triangle icosphere of radius 6 cm (geodesic
+/// frequency 71), 0.5 m in front of the camera and a little off its axis, unlit (albedo 200; a
+/// head light on facets about a pixel wide puts a shading step in nearly every pixel, and each
+/// such pixel is supersampled).
+///
+/// # Errors
+/// As `scene` (passed through), or the mesh.
+pub fn with_benchmark_mesh(scene: Result<super::Scene, SceneError>) -> Result<super::Scene, SceneError> {
+    let mut scene = scene?;
+    let asset = MeshAsset::new(crate::mesh::primitives::icosphere(0.06, 71)).map_err(|source| SceneError::Object { index: 0, source })?;
+    let mut o = SceneObject::new(asset, Isometry3::translation(0.03, 0.02, 0.5));
+    o.albedo = 200.0;
+    scene.objects.push(o);
+    scene.validate()?;
+    Ok(scene)
 }

@@ -134,11 +134,10 @@ pub fn run_sweep_with(
                         // A chessboard whose N x N inner corners are the grid points.
                         let s = 0.4 / (n - 1) as f64;
                         let board = Chessboard { squares: [n as u32 + 1, n as u32 + 1], square_m: s, margin_m: 0.5 * s, ..Default::default() };
-                        let shift = Translation3::new(-0.2 - s, -0.2 - s, 0.0);
                         let scene = Scene {
                             camera: cam,
                             target: Target::Chessboard(board),
-                            cam_from_target: pose * Isometry3::from_parts(shift, UnitQuaternion::identity()),
+                            cam_from_target: pose * Isometry3::from_parts(Translation3::new(-0.2 - s, -0.2 - s, 0.0), UnitQuaternion::identity()),
                             render: RenderSettings { noise_sigma: 1.0, seed: rng.random(), ..Default::default() },
                             objects: Vec::new(),
                         };
