@@ -9,6 +9,16 @@
 //!
 //! No file I/O here: [`obj::load_obj`] takes a `read` function (the CLI passes `std::fs::read`).
 //!
+//! ```
+//! use synthcam::mesh::{primitives::icosphere, MeshBvh};
+//! use synthcam::nalgebra::{Point3, Vector3};
+//!
+//! let sphere = icosphere(0.05, 8); // 1280 triangles, radius 5 cm
+//! let bvh = MeshBvh::build(&sphere);
+//! let hit = bvh.cast(&sphere, &Point3::new(0.0, 0.0, -1.0), &Vector3::z(), 0.0, f64::INFINITY).expect("hit");
+//! assert!((hit.t - 0.95).abs() < 1e-3); // the facets lie within 0.2 mm of the sphere
+//! ```
+//!
 //! Texture coordinates follow OBJ: `(u, v)` in [0, 1], `v = 0` at the *bottom* row of the image;
 //! coordinates outside [0, 1] are clamped (no repeat).
 

@@ -34,7 +34,14 @@ fn scenes() -> Vec<(&'static str, synthcam::scene::Scene)> {
     let mut fisheye_fx = fisheye.clone();
     fisheye_fx.render.effects = real.render.effects;
     fisheye_fx.render.effects.motion.exposure_s = 0.002;
+    // Meshes: the gripper over the ChArUco board (OpenCV lens), the textured cube (fisheye).
+    let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("assets/scenes/objects"));
+    let load = |text: &str| synthcam::scene::file::parse_scene_with(text, &|p: &str| meshes.load(p)).expect("scene");
+    let gripper = load(include_str!("../../assets/scenes/objects/gripper_charuco.toml"));
+    let cube = load(include_str!("../../assets/scenes/objects/calibration_cube.toml"));
     vec![
+        ("gripper", gripper),
+        ("cube-fisheye", cube),
         ("real-camera", real),
         ("fisheye-effects", fisheye_fx),
         ("chessboard", board),
