@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use synthcam::dataset::generate::{generate, GenerateParams, Shard, SPEC_COPY};
 use synthcam::dataset::manifest::merge_manifests;
-use synthcam::dataset::spec::parse_dataset_spec;
+use synthcam::dataset::spec::parse_dataset_spec_with;
+use synthcam::dataset::MeshLibrary;
 
 /// Arguments of `dataset`.
 #[derive(Debug, clap::Args)]
@@ -49,7 +50,7 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     let out = args.out.as_ref().context("missing -o DIR (usage: synthcam dataset SPEC.toml -o DIR)")?;
     anyhow::ensure!(args.jobs >= 1, "--jobs must be at least 1");
     let text = std::fs::read_to_string(spec_path).with_context(|| format!("reading {}", spec_path.display()))?;
-    let plan = parse_dataset_spec(&text).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
+    let plan = parse_dataset_spec_with(&text, &MeshLibrary::beside(spec_path)).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
     synthcam::dataset::poses::check_feasible(&plan).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
     let renderer = super::open_renderer(&args.backend)?;
     let params = GenerateParams { out_dir: out.clone(), spec_text: text, shard: args.shard, jobs: args.jobs };
@@ -92,8 +93,9 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
 fn merge(dir: &Path) -> anyhow::Result<()> {
     let spec_path = dir.join(SPEC_COPY);
     let text = std::fs::read_to_string(&spec_path).with_context(|| format!("reading {} (is {} a dataset folder?)", spec_path.display(), dir.display()))?;
-    let plan = parse_dataset_spec(&text).with_context(|| format!("in {}", spec_path.display()))?;
-    let report = merge_manifests(dir, plan.count).with_context(|| format!("merging {}", dir.display()))?;
+    // Only the count matters here: the copy's mesh paths may be relative to the original spec.
+    let spec: synthcam::dataset::spec::DatasetSpec = toml::from_str(&text).with_context(|| format!("in {}", spec_path.display()))?;
+    let report = merge_manifests(dir, spec.count).with_context(|| format!("merging {}", dir.display()))?;
     println!(
         "merged {} manifest(s) into {}: {} images, all present, SHA-256 verified",
         report.sources.len(),

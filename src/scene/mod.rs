@@ -80,8 +80,8 @@ pub enum SceneError {
     /// The sensor is invalid.
     #[error(transparent)]
     Sensor(#[from] crate::camera::sensor::SensorError),
-    /// An object's mesh does not load.
-    #[error("[[object]] {index}: {source}")]
+    /// An object's mesh does not load (the mesh error, naming the file, is the source).
+    #[error("[[object]] {index}")]
     Object {
         /// The object's index (its `[[object]]` table, from 0).
         index: usize,

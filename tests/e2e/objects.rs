@@ -279,3 +279,34 @@ fn scenario_objects_ride_on_the_tool_and_stay_in_the_world() {
     eprintln!("gripper pixels at two arm poses: {gripper_px:?}");
     assert!(gripper_px[0] > 1000 && gripper_px[0] == gripper_px[1], "the tool's gripper stays put in the image: {gripper_px:?}");
 }
+
+/// Issue 19: a dataset with random occluders writes each image's depth (NPY float32, NaN where
+/// nothing is seen) and instance mask (16-bit PNG) beside it, consistent with each other.
+#[test]
+fn occluded_dataset_writes_depth_and_masks() {
+    let dir = std::env::temp_dir().join(format!("synthcam-occ-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let o = std::process::Command::new(crate::common::bin())
+        .args(["dataset", "assets/specs/charuco_occluded_640.toml", "-o"])
+        .arg(&dir)
+        .args(["--shard", "0/10"])
+        .output()
+        .expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for k in [0, 10] {
+        let stem = dir.join(format!("images/{k:06}"));
+        let npy = std::fs::read(stem.with_extension("depth.npy")).expect("depth");
+        let header_len = usize::from(u16::from_le_bytes([npy[8], npy[9]]));
+        assert!(std::str::from_utf8(&npy[10..10 + header_len]).unwrap().contains("'shape': (512, 640)"));
+        let depth: Vec<f32> = npy[10 + header_len..].chunks(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
+        let mask = synthcam::image::open(stem.with_extension("mask.png")).expect("mask").into_luma16();
+        assert_eq!(depth.len(), mask.as_raw().len());
+        let occluder_px = mask.as_raw().iter().filter(|&&id| id >= FIRST_OBJECT_ID).count();
+        assert!(occluder_px > 0, "image {k}: an occluder is in view");
+        for (d, id) in depth.iter().zip(mask.as_raw()) {
+            assert_eq!(d.is_nan(), *id == 0, "depth is NaN exactly where nothing is seen");
+            assert!(d.is_nan() || (0.05..2.0).contains(d), "depth {d}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
