@@ -1,4 +1,4 @@
-//! `synthcam dataset SPEC.toml -o DIR [--shard I/N] [--jobs J]` and `synthcam dataset merge DIR`.
+//! `synthcam dataset SPEC.toml -o DIR [--shard I/N | auto] [--jobs J]` and `synthcam dataset merge DIR`.
 
 use std::path::{Path, PathBuf};
 
@@ -21,9 +21,10 @@ pub struct DatasetArgs {
     /// Output folder (images/, manifest, spec.toml copy).
     #[arg(short, long)]
     pub out: Option<PathBuf>,
-    /// Render only shard I of N: the images k with k % N == I (merge afterwards).
+    /// Render only shard I of N: the images k with k % N == I (merge afterwards); `auto`: the
+    /// shard of a Slurm job array or a Kubernetes Indexed Job, from the environment.
     #[arg(long, default_value = "0/1")]
-    pub shard: Shard,
+    pub shard: String,
     /// Encoding and writing threads beside the render thread.
     #[arg(long, default_value_t = 1)]
     pub jobs: usize,
@@ -53,7 +54,8 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     let plan = parse_dataset_spec_with(&text, &MeshLibrary::beside(spec_path)).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
     synthcam::dataset::poses::check_feasible(&plan).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
     let renderer = super::open_renderer(&args.backend)?;
-    let params = GenerateParams { out_dir: out.clone(), spec_text: text, shard: args.shard, jobs: args.jobs };
+    let shard = if args.shard == "auto" { Shard::from_env(&|k| std::env::var(k).ok())? } else { args.shard.parse()? };
+    let params = GenerateParams { out_dir: out.clone(), spec_text: text, shard, jobs: args.jobs };
     let bar = indicatif::ProgressBar::new(0);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} images, {per_sec}, ETA {eta}")
@@ -68,8 +70,8 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     let t = report.times;
     println!(
         "shard {}/{}: {} images ({} kept, {} rendered, {} leftover temp files removed) in {:.2} s: {:.2} images/s rendered",
-        args.shard.index,
-        args.shard.count,
+        shard.index,
+        shard.count,
         report.images,
         report.kept,
         report.rendered,

@@ -4,6 +4,7 @@
 
 mod architecture;
 mod bad_input;
+mod batch;
 mod calibrate_cli;
 mod calibration;
 mod camera_effects;
