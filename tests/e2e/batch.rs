@@ -110,3 +110,32 @@ fn kubernetes_indexed_job_contract_shards_like_the_unsharded_run() {
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("SLURM_ARRAY_TASK_ID"));
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// Issue 20: the sbatch script as a real 4-task job array on a single-node Slurm cluster
+/// (`.ci/slurm-local.sh`, started by `.ci/run`, which sets `SYNTHCAM_SLURM=1`): merged, it equals
+/// the unsharded run byte for byte.
+#[test]
+fn slurm_job_array_on_a_local_cluster_matches_the_unsharded_run() {
+    if std::env::var("SYNTHCAM_SLURM").as_deref() != Ok("1") {
+        eprintln!("skipped: no local Slurm cluster (run .ci/slurm-local.sh as root and set SYNTHCAM_SLURM=1)");
+        return;
+    }
+    let root = tmp("sbatch");
+    let spec = spec(&root);
+    let out = root.join("array");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/batch/dataset-array.sbatch");
+    let path = format!("{}:{}", Path::new(bin()).parent().unwrap().display(), std::env::var("PATH").unwrap_or_default());
+    let t0 = std::time::Instant::now();
+    let o = Command::new("sbatch")
+        .arg("--wait")
+        .arg(format!("--export=ALL,SPEC={},OUT={},PATH={path}", spec.display(), out.display()))
+        .arg(format!("--output={}/slurm-%a.out", root.display()))
+        .arg(&script)
+        .output()
+        .expect("sbatch");
+    let logs: String = (0..4).map(|a| std::fs::read_to_string(root.join(format!("slurm-{a}.out"))).unwrap_or_default()).collect();
+    assert!(o.status.success(), "sbatch: {}\n{}\n{logs}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    eprintln!("4-task Slurm array, 16 images: {:.1} s wall (submit to last task done)", t0.elapsed().as_secs_f64());
+    same_as_unsharded(&root, &spec, &out);
+    let _ = std::fs::remove_dir_all(&root);
+}
