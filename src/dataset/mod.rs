@@ -8,6 +8,7 @@ pub mod manifest;
 pub mod meshes;
 pub mod objects;
 pub mod poses;
+pub mod shard;
 pub mod spec;
 
 pub use io::{encode_image, encode_jpeg, encode_png, load_grey, load_grey_u8, truth_json, write_atomic, write_image_and_truth, write_png_and_json};
