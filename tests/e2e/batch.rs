@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use crate::common::bin;
+use crate::common::{bin, images};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("synthcam-batch-{}-{name}", std::process::id()));
@@ -19,14 +19,6 @@ fn spec(dir: &Path) -> PathBuf {
     let p = dir.join("spec.toml");
     std::fs::write(&p, include_str!("../../assets/specs/tiny.toml").replace("count = 200", "count = 16")).expect("spec");
     p
-}
-
-fn images(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir.join("images"))
-        .expect("images/")
-        .flatten()
-        .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).expect("read")))
-        .collect()
 }
 
 fn check(o: &std::process::Output) {

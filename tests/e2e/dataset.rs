@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use crate::common::bin;
+use crate::common::{bin, images};
 
 const TINY: &str = include_str!("../../assets/specs/tiny.toml");
 
@@ -33,15 +33,6 @@ fn ok(o: &Output) -> String {
     let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(o.status.success(), "failed: {}\n{stdout}", String::from_utf8_lossy(&o.stderr));
     stdout
-}
-
-/// Every file under `dir/images`, name -> bytes.
-fn images(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir.join("images"))
-        .expect("images/")
-        .flatten()
-        .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).expect("read")))
-        .collect()
 }
 
 #[test]

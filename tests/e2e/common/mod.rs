@@ -59,3 +59,12 @@ pub fn percentile(sorted: &[f64], p: f64) -> f64 {
 pub fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_synthcam")
 }
+
+/// Every file under `dir/images`, name -> bytes.
+pub fn images(dir: &std::path::Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir.join("images"))
+        .expect("images/")
+        .flatten()
+        .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).expect("read")))
+        .collect()
+}
