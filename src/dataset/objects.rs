@@ -105,11 +105,7 @@ impl DatasetObjects {
     pub fn place(&self, scene: &mut Scene, seed: u64, k: u64) {
         for (spec, pose, asset) in &self.fixed {
             let frame = if spec.frame == ObjectFrame::Target { scene.cam_from_target } else { Isometry3::identity() };
-            let mut o = SceneObject::new(asset.clone(), frame * pose);
-            o.scale = spec.scale.unwrap_or(1.0);
-            o.albedo = spec.albedo.unwrap_or(o.albedo);
-            o.shading = spec.shading;
-            scene.objects.push(o);
+            scene.objects.push(spec.place(asset.clone(), frame * pose));
         }
         let mut rng = super::poses::image_rng(seed ^ 0x6f63_636c_7564_6572, k);
         let points = scene.target.feature_points_m();

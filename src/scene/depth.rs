@@ -44,9 +44,7 @@ fn target_t(scene: &Scene, d_cam: &Vector3<f64>) -> Option<f64> {
             let inv = scene.cam_from_target.inverse();
             let (o, d) = (inv.translation.vector, inv.rotation * d_cam);
             let t = -o.z / d.z;
-            let [x0, y0, x1, y1] = target.extent_m()?;
-            let (x, y) = (o.x + t * d.x, o.y + t * d.y);
-            (t > 0.0 && t.is_finite() && x >= x0 && x < x1 && y >= y0 && y < y1).then_some(t)
+            (t > 0.0 && t.is_finite() && target.on_sheet(o.x + t * d.x, o.y + t * d.y)).then_some(t)
         }
     }
 }

@@ -129,8 +129,7 @@ impl<'a> Tracer<'a> {
                     return self.object_in_front(d_cam, f64::INFINITY).unwrap_or(background);
                 }
                 let (x, y) = (o.x + t * d.x, o.y + t * d.y);
-                let on_sheet = target.extent_m().is_some_and(|[x0, y0, x1, y1]| x >= x0 && x < x1 && y >= y0 && y < y1);
-                if let Some(h) = self.object_in_front(d_cam, if on_sheet { t } else { f64::INFINITY }) {
+                if let Some(h) = self.object_in_front(d_cam, if target.on_sheet(x, y) { t } else { f64::INFINITY }) {
                     return h;
                 }
                 let intensity = target.plane_intensity(x, y).unwrap_or(background.intensity);

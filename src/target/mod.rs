@@ -226,6 +226,12 @@ impl Target {
         }
     }
 
+    /// Whether the target-plane point (x, y), metres, lies on the printed sheet
+    /// ([`Target::extent_m`]; never for the S-path).
+    pub fn on_sheet(&self, x: f64, y: f64) -> bool {
+        self.extent_m().is_some_and(|[x0, y0, x1, y1]| x >= x0 && x < x1 && y >= y0 && y < y1)
+    }
+
     /// A coded board's look and extent `[x0, y0, x1, y1]` (border excluded), metres.
     pub fn coded_look(&self) -> Option<(BoardLook, [f64; 4])> {
         match self {

@@ -85,11 +85,17 @@ impl ObjectSpec {
     /// [`SceneError::Object`] when the mesh does not load; invalid pose fields.
     pub fn to_object(&self, i: usize, frame_pose: &Isometry3<f64>, load: MeshLoader<'_>) -> Result<SceneObject, SceneError> {
         let asset = load(&self.mesh).map_err(|source| SceneError::Object { index: i, source })?;
-        let mut o = SceneObject::new(asset, frame_pose * self.pose(i)?);
+        Ok(self.place(asset, frame_pose * self.pose(i)?))
+    }
+
+    /// The object of this table with its mesh `asset` at `cam_from_object` (its scale, albedo
+    /// and shading as written, or their defaults).
+    pub fn place(&self, asset: Arc<MeshAsset>, cam_from_object: Isometry3<f64>) -> SceneObject {
+        let mut o = SceneObject::new(asset, cam_from_object);
         o.scale = self.scale.unwrap_or(o.scale);
         o.albedo = self.albedo.unwrap_or(o.albedo);
         o.shading = self.shading;
-        Ok(o)
+        o
     }
 }
 
