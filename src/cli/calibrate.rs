@@ -178,16 +178,11 @@ const MIN_VIEW_POINTS: usize = 8;
 /// The board points by id: a chessboard's inner corners row by row, a ChArUco board's corners by
 /// OpenCV's id; `square` metres per square.
 fn board_points(target: &TargetSpec, square: f64) -> anyhow::Result<Vec<Point3<f64>>> {
-    match *target {
-        TargetSpec::Chessboard { cols, rows } => {
-            Ok((0..cols * rows).map(|k| Point3::new((k % cols) as f64 * square, (k / cols) as f64 * square, 0.0)).collect())
-        }
-        TargetSpec::Charuco { .. } => Ok(target.charuco_board(square).map(|b| b.chessboard_corners_m()).unwrap_or_default()),
-        TargetSpec::Aprilgrid { .. } => Ok(target.aprilgrid(square).map(|g| g.corners_by_id_m()).unwrap_or_default()),
-        _ => anyhow::bail!(
+    target.board_points_m(square).ok_or_else(|| {
+        anyhow::anyhow!(
             "calibrate takes a chessboard, ChArUco or AprilGrid target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO, aprilgrid:NXxNY:tag36h11:SPACING)"
-        ),
-    }
+        )
+    })
 }
 
 impl Found {

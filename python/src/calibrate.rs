@@ -1,0 +1,119 @@
+//! `calibrate(detections, target, square_m, image_size, ...)`.
+
+use nalgebra::{Point2, Point3};
+use pyo3::prelude::*;
+use synthcam::calib::{calibrate as calibrate_views, CalibModel, CalibParams, CalibResult, View};
+use synthcam::camera::{intrinsic_names, ImageSize};
+use synthcam::scene::file::CameraSpec;
+
+use crate::convert::{chain, err, to_py};
+use crate::detect::target_spec;
+
+/// One view from a detection dict: its board points (by `ids`, or the whole board in order).
+fn view_from(i: usize, det: &Bound<'_, PyAny>, board: &[Point3<f64>]) -> PyResult<Option<View>> {
+    if !det.get_item("found").and_then(|f| f.extract::<bool>()).unwrap_or(true) {
+        return Ok(None);
+    }
+    let pts: Vec<[f64; 2]> = det.py().import("numpy")?.call_method1("asarray", (det.get_item("points_px")?, "float64"))?.call_method0("tolist")?.extract()?;
+    let ids: Option<Vec<usize>> = det.get_item("ids").ok().filter(|v| !v.is_none()).map(|v| v.extract()).transpose()?;
+    let ids = match ids {
+        Some(ids) if ids.len() == pts.len() => ids,
+        Some(ids) => return Err(err(format!("detection {i}: {} ids for {} points", ids.len(), pts.len()))),
+        None if pts.len() == board.len() => (0..board.len()).collect(),
+        None => return Err(err(format!("detection {i}: {} points, the board has {} (give `ids` for partial views)", pts.len(), board.len()))),
+    };
+    let mut view = View::new();
+    for (id, p) in ids.into_iter().zip(pts) {
+        let x = board.get(id).ok_or_else(|| err(format!("detection {i}: id {id} is not on the board ({} points)", board.len())))?;
+        view.push((*x, Point2::new(p[0], p[1])));
+    }
+    Ok(Some(view))
+}
+
+#[derive(serde::Serialize)]
+struct ViewOut {
+    rms_px: f64,
+    max_px: f64,
+    rvec: [f64; 3],
+    tvec: [f64; 3],
+}
+
+#[derive(serde::Serialize)]
+struct Output {
+    rms_px: f64,
+    model: &'static str,
+    #[serde(rename = "K")]
+    k: [[f64; 3]; 3],
+    dist: Vec<f64>,
+    camera: CameraSpec,
+    std: serde_json::Map<String, serde_json::Value>,
+    views: Vec<ViewOut>,
+    /// Index into the detections of each view used (detections not found are skipped).
+    used: Vec<usize>,
+    iterations: usize,
+    converged: bool,
+}
+
+fn output(r: &CalibResult, model: CalibModel, used: Vec<usize>) -> Output {
+    let c = &r.camera;
+    let k = c.intrinsics;
+    let std = intrinsic_names(c.lens.kind()).iter().zip(r.std).filter(|(_, v)| v.is_finite()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect();
+    let views = r.views.iter().map(|v| ViewOut { rms_px: v.rms_px, max_px: v.max_px, rvec: v.rvec.into(), tvec: v.tvec.into() }).collect();
+    Output {
+        rms_px: r.rms_px,
+        model: model.name(),
+        k: [[k.fx, k.skew, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
+        dist: c.lens.params()[..model.n_lens_params()].to_vec(),
+        camera: CameraSpec::from_model(c),
+        std,
+        views,
+        used,
+        iterations: r.iterations,
+        converged: r.converged,
+    }
+}
+
+/// Calibrate a camera from detections of a planar board (Zhang's closed form, then
+/// Levenberg-Marquardt over every view, as OpenCV's `calibrateCamera`).
+///
+/// `detections`: dicts as `detect` returns them (`points_px`, and `ids` for coded boards;
+/// `found: False` ones are skipped). `target`: the board ("chessboard:9x6", ChArUco, AprilGrid;
+/// see `detect`). `square_m`: square edge (AprilGrid: tag edge), metres. `image_size`: (width,
+/// height). `model`: "opencv5" (k1 k2 p1 p2 k3; also opencv4, opencv8, opencv12, opencv14,
+/// "fisheye" (Kannala-Brandt), "ds" (Double Sphere)).
+///
+/// Returns a dict: `rms_px`, `K` (3 x 3), `dist` (the lens parameters: OpenCV's coefficients in OpenCV's order; fisheye k1..k4; Double
+/// Sphere xi, alpha),
+/// `camera` (the scene-file camera, usable in a scene dict), `std` (standard deviation of each
+/// estimated intrinsic), `views` (per view `rms_px`, `max_px`, `rvec`, `tvec` in metres),
+/// `used`, `iterations`, `converged`. The GIL is released while solving.
+#[pyfunction]
+#[pyo3(signature = (detections, target, square_m, image_size, model="opencv5", estimate_skew=false))]
+pub fn calibrate<'py>(
+    py: Python<'py>,
+    detections: Vec<Bound<'py, PyAny>>,
+    target: &Bound<'py, PyAny>,
+    square_m: f64,
+    image_size: (u32, u32),
+    model: &str,
+    estimate_skew: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    if !(square_m > 0.0 && square_m.is_finite()) {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!("square_m must be a positive length in metres, got {square_m}")));
+    }
+    let model: CalibModel = model.parse().map_err(|e: String| pyo3::exceptions::PyValueError::new_err(e))?;
+    let spec = target_spec(target)?;
+    let board =
+        spec.board_points_m(square_m).ok_or_else(|| pyo3::exceptions::PyValueError::new_err("calibrate takes a chessboard, ChArUco or AprilGrid target"))?;
+    let (mut views, mut used) = (Vec::new(), Vec::new());
+    for (i, d) in detections.iter().enumerate() {
+        if let Some(v) = view_from(i, d, &board)? {
+            views.push(v);
+            used.push(i);
+        }
+    }
+    let size = ImageSize { width: image_size.0, height: image_size.1 };
+    let params = CalibParams { estimate_skew, model, ..CalibParams::default() };
+    let r = py.detach(move || calibrate_views(&views, size, &params)).map_err(|e| err(format!("calibrating: {}", chain(&e))))?;
+    to_py(py, &output(&r, model, used))
+}

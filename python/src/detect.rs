@@ -1,0 +1,51 @@
+//! `detect(image, target)`.
+
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyString};
+use synthcam::detect::target::{detect_u8, TargetSpec};
+use synthcam::scene::file::parse_scene;
+
+use crate::convert::{chain, err, image_from_py, points_to_py, text_or_json};
+
+/// What to detect: a target description such as "chessboard:9x6" or
+/// "charuco:11x8:DICT_5X5_100:0.733" (`synthcam detect --help`), or a scene (text or dict)
+/// whose target is meant.
+pub fn target_spec(target: &Bound<'_, PyAny>) -> PyResult<TargetSpec> {
+    if target.is_instance_of::<PyString>() {
+        let s: String = target.extract()?;
+        if let Ok(spec) = s.parse::<TargetSpec>() {
+            return Ok(spec);
+        }
+        if !s.contains('=') && !s.trim_start().starts_with('{') {
+            return Err(pyo3::exceptions::PyValueError::new_err(s.parse::<TargetSpec>().err().unwrap_or_default()));
+        }
+    }
+    let text = text_or_json(target, "target")?;
+    let scene = parse_scene(&text).map_err(|e| err(format!("target given as a scene: {}", chain(&e))))?;
+    Ok(TargetSpec::for_target(&scene.target))
+}
+
+/// Detect a target's points in a grey image.
+///
+/// `image`: a (H, W) NumPy array, uint8 (uint16 is divided by 257, floats are rounded).
+/// `target`: a description such as "chessboard:9x6" (inner corners), "dot-grid:3x3", "s-path",
+/// "charuco:11x8:DICT_5X5_100:0.733", "aprilgrid:6x6:tag36h11:0.3", or a scene (TOML/JSON text or
+/// dict) whose target is meant.
+///
+/// Returns a dict: `found` (bool), `points_px` ((N, 2) float64, OpenCV's pixel convention: the
+/// centre of the top-left pixel is (0, 0)), `ids` (coded boards: each point's id, else None),
+/// `indices` (S-path: each dot's path index, else None), `note` (why nothing was found). The GIL
+/// is released while detecting.
+#[pyfunction]
+pub fn detect<'py>(py: Python<'py>, image: &Bound<'py, PyAny>, target: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
+    let spec = target_spec(target)?;
+    let img = image_from_py(image)?;
+    let det = py.detach(move || detect_u8(&img, &spec)).map_err(|e| err(format!("detecting: {}", chain(&e))))?;
+    let out = PyDict::new(py);
+    out.set_item("found", det.found)?;
+    out.set_item("points_px", points_to_py(py, det.points_px.iter().map(|p| [p.x, p.y]))?)?;
+    out.set_item("ids", det.ids)?;
+    out.set_item("indices", det.indices)?;
+    out.set_item("note", det.note)?;
+    Ok(out)
+}

@@ -1,0 +1,77 @@
+"""Typed stubs of the extension module `synthcam._synthcam` (written by hand beside the Rust
+source in python/src/; the docstrings there are the reference)."""
+
+from os import PathLike
+from typing import Any, Dict, List, Optional, Sequence, Tuple, TypedDict, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+Text = Union[str, Dict[str, Any]]
+"""A scene, target or scenario: TOML or JSON text, or the same as a dict."""
+
+class SynthcamError(Exception):
+    """An error of the synthcam library; the message gives the cause chain."""
+
+class Detection(TypedDict):
+    found: bool
+    points_px: npt.NDArray[np.float64]
+    ids: Optional[List[int]]
+    indices: Optional[List[int]]
+    note: Optional[str]
+
+class Observation(TypedDict):
+    frame: int
+    time_s: float
+    q_rad: List[float]
+    ids: List[int]
+    pixels_px: npt.NDArray[np.float64]
+    note: Optional[str]
+    render_ms: float
+    detect_ms: float
+    cam_from_target: List[List[float]]
+    world_from_cam: List[List[float]]
+    truth_px: npt.NDArray[np.float64]
+    image: Optional[np.ndarray]
+
+def render(scene: Text, base_dir: Optional[Union[str, PathLike[str]]] = None) -> Tuple[np.ndarray, Dict[str, Any]]:
+    """Render a scene: ((H, W) uint8/uint16 or (H, W, 3) image, truth dict). GIL released."""
+
+def render_depth_mask(scene: Text, base_dir: Optional[Union[str, PathLike[str]]] = None) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint16]]:
+    """(depth in metres along the camera's z, NaN where nothing; instance ids: 0 none, 1 target, 2+i object i)."""
+
+def adapter() -> str:
+    """The GPU adapter the renderer runs on, opening it if needed."""
+
+def load_image(path: Union[str, PathLike[str]]) -> np.ndarray:
+    """Read a PNG or JPEG as stored: (H, W) uint8/uint16, or (H, W, 3)."""
+
+def detect(image: np.ndarray, target: Text) -> Detection:
+    """Detect a target ("chessboard:9x6", "charuco:...", "aprilgrid:...", "dot-grid:3x3", "s-path", or a scene)."""
+
+def calibrate(
+    detections: Sequence[Union[Detection, Dict[str, Any]]],
+    target: Text,
+    square_m: float,
+    image_size: Tuple[int, int],
+    model: str = "opencv5",
+    estimate_skew: bool = False,
+) -> Dict[str, Any]:
+    """Zhang + Levenberg-Marquardt: rms_px, K, dist, camera, std, views, used, iterations, converged."""
+
+class Sim:
+    """A robot, a camera on its tool and a target in the loop (render, detect, command, move)."""
+
+    def __init__(self, scenario: Optional[Text] = None, base_dir: Optional[Union[str, PathLike[str]]] = None) -> None: ...
+    def observe(self, image: bool = False) -> Observation: ...
+    def observe_goal(self, image: bool = False) -> Observation: ...
+    def command(self, qdot: Sequence[float], dt_s: float = 0.1) -> None: ...
+    def set_joints(self, q: Sequence[float]) -> None: ...
+    def project(self, q: Sequence[float]) -> npt.NDArray[np.float64]: ...
+    def close(self) -> None: ...
+    @property
+    def info(self) -> Dict[str, Any]: ...
+    @property
+    def dof(self) -> int: ...

@@ -1,0 +1,76 @@
+"""`Dataset`: a folder written by `synthcam dataset` as a sequence of (image, truth) samples."""
+
+from __future__ import annotations
+
+import glob
+import json
+import os
+from typing import Any, Dict, Iterator, List, NamedTuple
+
+import numpy as np
+
+from ._synthcam import SynthcamError, load_image
+
+
+class Sample(NamedTuple):
+    """One image of a dataset: the pixels, its truth labels and its manifest entry."""
+
+    image: np.ndarray
+    """(H, W) uint8 or uint16 (16-bit specs), (H, W, 3) for colour output."""
+    truth: Dict[str, Any]
+    """The truth JSON: camera, cam_from_target, every feature's exact pixel and visibility."""
+    entry: Dict[str, Any]
+    """The manifest line: k, file, sha256, truth, seed, pose."""
+
+
+class Dataset:
+    """A dataset folder (`synthcam dataset SPEC -o DIR`), in image-index order.
+
+    Reads `manifest.jsonl` (or, before `synthcam dataset merge`, every shard's
+    `manifest-*.jsonl`); images are decoded on access. `len(ds)`, `ds[i]`, and iteration yield
+    `Sample(image, truth, entry)`, which unpacks as `image, truth, entry`.
+    """
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = os.fspath(path)
+        self.entries: List[Dict[str, Any]] = _read_manifests(self.path)
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def __getitem__(self, i: int) -> Sample:
+        entry = self.entries[i]
+        image = load_image(os.path.join(self.path, entry["file"]))
+        with open(os.path.join(self.path, entry["truth"]), encoding="utf-8") as f:
+            truth = json.load(f)
+        return Sample(image, truth, entry)
+
+    def __iter__(self) -> Iterator[Sample]:
+        for i in range(len(self)):
+            yield self[i]
+
+    def __repr__(self) -> str:
+        return f"Dataset({self.path!r}, {len(self)} images)"
+
+
+def _read_manifests(path: str) -> List[Dict[str, Any]]:
+    """The manifest entries of `path`, sorted by image index, duplicates refused."""
+    merged = os.path.join(path, "manifest.jsonl")
+    files = [merged] if os.path.exists(merged) else sorted(glob.glob(os.path.join(path, "manifest-*.jsonl")))
+    if not files:
+        raise SynthcamError(f"{path}: no manifest.jsonl (is it a folder written by `synthcam dataset`?)")
+    entries: Dict[int, Dict[str, Any]] = {}
+    for name in files:
+        with open(name, encoding="utf-8") as f:
+            for line_no, line in enumerate(f, 1):
+                if not line.strip():
+                    continue
+                try:
+                    entry = json.loads(line)
+                    k = int(entry["k"])
+                except (ValueError, KeyError, TypeError) as e:
+                    raise SynthcamError(f"{name}:{line_no}: not a manifest entry ({e})") from e
+                if k in entries:
+                    raise SynthcamError(f"{name}:{line_no}: image {k} is listed twice")
+                entries[k] = entry
+    return [entries[k] for k in sorted(entries)]

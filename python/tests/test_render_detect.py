@@ -1,0 +1,85 @@
+"""render + detect from Python against the truth labels (independent: the truth is the exact
+f64 projection of each corner, the detector sees only the pixels)."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+
+import synthcam
+
+tomllib = pytest.importorskip("tomllib", reason="skipped: tomllib needs Python 3.11")
+
+
+def corner_rms(found, truth):
+    truth_px = np.array([f["pixel_px"] for f in truth["features"]])
+    assert found["points_px"].shape == truth_px.shape
+    return float(np.sqrt(((found["points_px"] - truth_px) ** 2).sum(axis=1).mean()))
+
+
+def test_distorted_board_corners_within_0_015_px(board_scene_text):
+    image, truth = synthcam.render(board_scene_text)
+    assert image.shape == (1024, 1280) and image.dtype == np.uint8
+    found = synthcam.detect(image, "chessboard:11x8")
+    assert found["found"]
+    rms = corner_rms(found, truth)
+    print(f"88 corners, RMS error vs truth {rms:.4f} px")
+    assert rms <= 0.015
+
+
+def test_scene_as_dict_renders_the_same_pixels(board_scene_text):
+    image_text, _ = synthcam.render(board_scene_text)
+    scene = tomllib.loads(board_scene_text)
+    image_dict, truth = synthcam.render(scene)
+    assert np.array_equal(image_text, image_dict)
+    # The target may also be given as the scene itself.
+    assert synthcam.detect(image_dict, scene)["found"]
+    assert truth["camera"]["dist"][0] == pytest.approx(-0.25)
+
+
+def test_render_releases_the_gil(board_scene_text):
+    """A Python thread keeps counting while the GPU renders (it could not if the GIL were held)."""
+    synthcam.render(board_scene_text)  # open the GPU and compile first
+    count, stop = [0], threading.Event()
+
+    def spin():
+        while not stop.is_set():
+            count[0] += 1
+
+    worker = threading.Thread(target=spin)
+    worker.start()
+    time.sleep(0.05)
+    before = count[0]
+    t0 = time.perf_counter()
+    synthcam.render(board_scene_text)
+    elapsed = time.perf_counter() - t0
+    during = count[0] - before
+    stop.set()
+    worker.join()
+    print(f"render {elapsed * 1e3:.0f} ms, other thread counted {during} meanwhile")
+    assert during > 1000
+
+
+def test_depth_and_mask(board_scene_text):
+    depth, mask = synthcam.render_depth_mask(board_scene_text)
+    assert depth.shape == mask.shape == (1024, 1280)
+    assert depth.dtype == np.float32 and mask.dtype == np.uint16
+    on_board = mask == 1
+    assert on_board.mean() > 0.3
+    # The board is 0.5-1.0 m away.
+    assert 0.4 < float(np.nanmin(depth[on_board])) and float(np.nanmax(depth[on_board])) < 1.2
+
+
+def test_bad_input_is_a_clear_error(board_scene_text):
+    with pytest.raises(synthcam.SynthcamError, match="scene"):
+        synthcam.render("[camera]\nwidth = -3\n")
+    with pytest.raises(TypeError):
+        synthcam.render(42)
+    with pytest.raises(TypeError, match="2-D"):
+        synthcam.detect(np.zeros((4, 4, 3), np.uint8), "chessboard:9x6")
+    with pytest.raises(ValueError, match="unknown target"):
+        synthcam.detect(np.zeros((8, 8), np.uint8), "hexboard:3")
+    blank = synthcam.detect(np.full((64, 64), 128, np.uint8), "chessboard:9x6")
+    assert not blank["found"] and blank["points_px"].shape == (0, 2) and blank["note"]
