@@ -56,11 +56,7 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     let renderer = super::open_renderer(&args.backend)?;
     let shard = if args.shard == "auto" { Shard::from_env(&|k| std::env::var(k).ok())? } else { args.shard.parse()? };
     let params = GenerateParams { out_dir: out.clone(), spec_text: text, shard, jobs: args.jobs };
-    let bar = indicatif::ProgressBar::new(0);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} images, {per_sec}, ETA {eta}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
+    let bar = super::progress::bar(0, "dataset", "images");
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
         bar.set_position(done);

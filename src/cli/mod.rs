@@ -11,6 +11,7 @@ mod demo;
 mod detect;
 mod experiment;
 mod handeye;
+mod progress;
 mod render;
 mod scenario_file;
 mod servo;

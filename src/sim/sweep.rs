@@ -99,65 +99,33 @@ pub fn run_sweep_with(
     seeds: u64,
     renderer: Option<&Renderer>,
 ) -> Result<Vec<SweepRun>, super::SimError> {
+    run_sweep_reporting(setup, mode, ms, ns, seeds, renderer, &mut |_, _| {})
+}
+
+/// [`run_sweep_with`], calling `progress(done, total)` after each (N, seed) pool is calibrated
+/// (`total` = N values x seeds).
+///
+/// # Errors
+/// As [`run_sweep_with`].
+pub fn run_sweep_reporting(
+    setup: &SweepSetup,
+    mode: SweepMode,
+    ms: &[usize],
+    ns: &[usize],
+    seeds: u64,
+    renderer: Option<&Renderer>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<SweepRun>, super::SimError> {
     if ms.is_empty() || ns.is_empty() || ns.iter().any(|n| *n < 2) || ms.iter().any(|m| *m < 3) {
         return Err(super::SimError::Scenario(format!("the sweep needs M >= 3 and N >= 2 values, got M {ms:?}, N {ns:?}")));
     }
     let cam = setup.camera;
     cam.validate().map_err(|e| super::SimError::Scenario(format!("sweep camera: {e}")))?;
     let m_max = ms.iter().copied().max().unwrap_or(0);
-    let mut out = Vec::new();
-    for &n in ns {
+    let (mut out, total) = (Vec::new(), ns.len() * seeds as usize);
+    for (ni, &n) in ns.iter().enumerate() {
         for seed in 0..seeds {
-            let mut rng = ChaCha8Rng::seed_from_u64(1000 * n as u64 + seed);
-            let pts = grid_points(n);
-            let mut pool: Vec<View> = Vec::new();
-            let mut attempts = 0;
-            while pool.len() < m_max && attempts < 50 * m_max {
-                attempts += 1;
-                let pose = crate::scene::poses::course_pose(&mut rng);
-                let proj: Vec<_> = pts.iter().map(|p| cam.project(&(pose * p))).collect();
-                if !proj.iter().all(|p| p.visible()) {
-                    continue;
-                }
-                match mode {
-                    SweepMode::Ideal => {
-                        let noise = Normal::new(0.0, 0.5).unwrap_or_else(|_| unreachable!());
-                        pool.push(
-                            pts.iter()
-                                .zip(&proj)
-                                .map(|(p, q)| (*p, q.pixel_px + nalgebra::Vector2::new(noise.sample(&mut rng), noise.sample(&mut rng))))
-                                .collect(),
-                        );
-                    }
-                    SweepMode::Rendered => {
-                        let Some(r) = renderer else { return Err(super::SimError::Scenario("the rendered sweep needs a renderer".into())) };
-                        // A chessboard whose N x N inner corners are the grid points.
-                        let s = 0.4 / (n - 1) as f64;
-                        let board = Chessboard { squares: [n as u32 + 1, n as u32 + 1], square_m: s, margin_m: 0.5 * s, ..Default::default() };
-                        let scene = Scene {
-                            camera: cam,
-                            target: Target::Chessboard(board),
-                            cam_from_target: pose * Isometry3::from_parts(Translation3::new(-0.2 - s, -0.2 - s, 0.0), UnitQuaternion::identity()),
-                            render: RenderSettings { noise_sigma: 1.0, seed: rng.random(), ..Default::default() },
-                            objects: Vec::new(),
-                        };
-                        let Ok(img) = r.render(&scene) else { continue };
-                        let Ok(grey) = ImageF32::from_u8(cam.size.width as usize, cam.size.height as usize, &img.to_u8()) else { continue };
-                        let Ok(det) = detect(&grey, &TargetSpec::Chessboard { cols: n, rows: n }) else { continue };
-                        if !det.found {
-                            continue;
-                        }
-                        // The detector's own order (row-major, no mirror): board point (k % n, k / n).
-                        let view: View = det
-                            .points_px
-                            .iter()
-                            .enumerate()
-                            .map(|(k, q)| (Point3::new(s * (k % n) as f64, s * (k / n) as f64, 0.0), Point2::new(q.x, q.y)))
-                            .collect();
-                        pool.push(view);
-                    }
-                }
-            }
+            let pool = view_pool(&cam, mode, n, seed, m_max, renderer)?;
             for &m in ms {
                 if pool.len() < m {
                     continue;
@@ -167,7 +135,57 @@ pub fn run_sweep_with(
                 let pct = |a: f64, b: f64| 100.0 * (a - b).abs() / b;
                 out.push(SweepRun { mode, m, n, seed, err_pct: [pct(k.fx, kt.fx), pct(k.fy, kt.fy), pct(k.cx, kt.cx), pct(k.cy, kt.cy)], rms_px: r.rms_px });
             }
+            progress(ni * seeds as usize + seed as usize + 1, total);
         }
     }
     Ok(out)
+}
+
+/// Up to `m_max` views of the N x N grid for one seed (fewer when views keep failing).
+fn view_pool(cam: &CameraModel, mode: SweepMode, n: usize, seed: u64, m_max: usize, renderer: Option<&Renderer>) -> Result<Vec<View>, super::SimError> {
+    let cam = *cam;
+    let mut rng = ChaCha8Rng::seed_from_u64(1000 * n as u64 + seed);
+    let pts = grid_points(n);
+    let mut pool: Vec<View> = Vec::new();
+    let mut attempts = 0;
+    while pool.len() < m_max && attempts < 50 * m_max {
+        attempts += 1;
+        let pose = crate::scene::poses::course_pose(&mut rng);
+        let proj: Vec<_> = pts.iter().map(|p| cam.project(&(pose * p))).collect();
+        if !proj.iter().all(|p| p.visible()) {
+            continue;
+        }
+        match mode {
+            SweepMode::Ideal => {
+                let noise = Normal::new(0.0, 0.5).unwrap_or_else(|_| unreachable!());
+                pool.push(
+                    pts.iter().zip(&proj).map(|(p, q)| (*p, q.pixel_px + nalgebra::Vector2::new(noise.sample(&mut rng), noise.sample(&mut rng)))).collect(),
+                );
+            }
+            SweepMode::Rendered => {
+                let Some(r) = renderer else { return Err(super::SimError::Scenario("the rendered sweep needs a renderer".into())) };
+                // A chessboard whose N x N inner corners are the grid points.
+                let s = 0.4 / (n - 1) as f64;
+                let board = Chessboard { squares: [n as u32 + 1, n as u32 + 1], square_m: s, margin_m: 0.5 * s, ..Default::default() };
+                let scene = Scene {
+                    camera: cam,
+                    target: Target::Chessboard(board),
+                    cam_from_target: pose * Isometry3::from_parts(Translation3::new(-0.2 - s, -0.2 - s, 0.0), UnitQuaternion::identity()),
+                    render: RenderSettings { noise_sigma: 1.0, seed: rng.random(), ..Default::default() },
+                    objects: Vec::new(),
+                };
+                let Ok(img) = r.render(&scene) else { continue };
+                let Ok(grey) = ImageF32::from_u8(cam.size.width as usize, cam.size.height as usize, &img.to_u8()) else { continue };
+                let Ok(det) = detect(&grey, &TargetSpec::Chessboard { cols: n, rows: n }) else { continue };
+                if !det.found {
+                    continue;
+                }
+                // The detector's own order (row-major, no mirror): board point (k % n, k / n).
+                let view: View =
+                    det.points_px.iter().enumerate().map(|(k, q)| (Point3::new(s * (k % n) as f64, s * (k / n) as f64, 0.0), Point2::new(q.x, q.y))).collect();
+                pool.push(view);
+            }
+        }
+    }
+    Ok(pool)
 }

@@ -25,6 +25,7 @@ mod lens_models;
 mod objects;
 mod open_scenario;
 mod options_proptest;
+mod progress;
 mod robot_motion;
 mod robustness;
 mod robustness_experiment;
