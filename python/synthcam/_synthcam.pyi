@@ -2,27 +2,28 @@
 source in python/src/; the docstrings there are the reference)."""
 
 from os import PathLike
-from typing import Any, Dict, List, Optional, Sequence, Tuple, TypedDict, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, TypedDict, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
+__all__ = ["Sim", "SynthcamError", "__version__", "adapter", "calibrate", "detect", "load_image", "render", "render_depth_mask"]
 __version__: str
 
-Text = Union[str, Dict[str, Any]]
+_Text = Union[str, Dict[str, Any]]
 """A scene, target or scenario: TOML or JSON text, or the same as a dict."""
 
 class SynthcamError(Exception):
     """An error of the synthcam library; the message gives the cause chain."""
 
-class Detection(TypedDict):
+class _Detection(TypedDict):
     found: bool
     points_px: npt.NDArray[np.float64]
     ids: Optional[List[int]]
     indices: Optional[List[int]]
     note: Optional[str]
 
-class Observation(TypedDict):
+class _Observation(TypedDict):
     frame: int
     time_s: float
     q_rad: List[float]
@@ -36,10 +37,10 @@ class Observation(TypedDict):
     truth_px: npt.NDArray[np.float64]
     image: Optional[np.ndarray]
 
-def render(scene: Text, base_dir: Optional[Union[str, PathLike[str]]] = None) -> Tuple[np.ndarray, Dict[str, Any]]:
+def render(scene: _Text, base_dir: Optional[Union[str, PathLike[str]]] = None) -> Tuple[np.ndarray, Dict[str, Any]]:
     """Render a scene: ((H, W) uint8/uint16 or (H, W, 3) image, truth dict). GIL released."""
 
-def render_depth_mask(scene: Text, base_dir: Optional[Union[str, PathLike[str]]] = None) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint16]]:
+def render_depth_mask(scene: _Text, base_dir: Optional[Union[str, PathLike[str]]] = None) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint16]]:
     """(depth in metres along the camera's z, NaN where nothing; instance ids: 0 none, 1 target, 2+i object i)."""
 
 def adapter() -> str:
@@ -48,12 +49,12 @@ def adapter() -> str:
 def load_image(path: Union[str, PathLike[str]]) -> np.ndarray:
     """Read a PNG or JPEG as stored: (H, W) uint8/uint16, or (H, W, 3)."""
 
-def detect(image: np.ndarray, target: Text) -> Detection:
+def detect(image: np.ndarray, target: _Text) -> _Detection:
     """Detect a target ("chessboard:9x6", "charuco:...", "aprilgrid:...", "dot-grid:3x3", "s-path", or a scene)."""
 
 def calibrate(
-    detections: Sequence[Union[Detection, Dict[str, Any]]],
-    target: Text,
+    detections: Sequence[Union[_Detection, Dict[str, Any]]],
+    target: _Text,
     square_m: float,
     image_size: Tuple[int, int],
     model: str = "opencv5",
@@ -61,12 +62,13 @@ def calibrate(
 ) -> Dict[str, Any]:
     """Zhang + Levenberg-Marquardt: rms_px, K, dist, camera, std, views, used, iterations, converged."""
 
+@final
 class Sim:
     """A robot, a camera on its tool and a target in the loop (render, detect, command, move)."""
 
-    def __init__(self, scenario: Optional[Text] = None, base_dir: Optional[Union[str, PathLike[str]]] = None) -> None: ...
-    def observe(self, image: bool = False) -> Observation: ...
-    def observe_goal(self, image: bool = False) -> Observation: ...
+    def __new__(cls, scenario: Optional[_Text] = None, base_dir: Optional[Union[str, PathLike[str]]] = None) -> "Sim": ...
+    def observe(self, image: bool = False) -> _Observation: ...
+    def observe_goal(self, image: bool = False) -> _Observation: ...
     def command(self, qdot: Sequence[float], dt_s: float = 0.1) -> None: ...
     def set_joints(self, q: Sequence[float]) -> None: ...
     def project(self, q: Sequence[float]) -> npt.NDArray[np.float64]: ...
