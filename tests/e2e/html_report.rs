@@ -1,7 +1,7 @@
-//! `report.html` of `servo`, `calibrate --report`, `experiment robustness` and `demo`: one
-//! self-contained page each (tables, plots and frames as `data:` URIs, inline CSS, no network
-//! resource), opened in headless Chromium: the DOM holds the tables and images, and the
-//! screenshot is not blank.
+//! `report.html` of `servo`, `calibrate --report`, `experiment robustness`, `experiment
+//! calib-sweep` and `demo`: one self-contained page each (tables, plots and frames as `data:`
+//! URIs, inline CSS, no network resource), opened in headless Chromium: the DOM holds the tables
+//! and images, and the screenshot is not blank.
 //!
 //! Without Chromium (`chromium` or `chromium-browser` on the PATH) the browser checks say that
 //! they skipped, unless `SYNTHCAM_CHROMIUM=1` (CI sets it), where a missing browser fails.
@@ -149,7 +149,7 @@ fn calibrate_report_renders_in_chromium() {
 }
 
 #[test]
-fn experiment_report_renders_in_chromium() {
+fn robustness_report_renders_in_chromium() {
     let out = out_dir("robustness");
     let args = ["experiment", "robustness", "--views", "1", "--effects", "blur", "--images", "false", "-o"];
     synthcam(&args.iter().map(std::ffi::OsStr::new).chain([out.as_os_str()]).collect::<Vec<_>>());
@@ -159,6 +159,19 @@ fn experiment_report_renders_in_chromium() {
     // Every markdown row is a row of the HTML table (one structure writes both).
     assert_eq!(table.lines().count() - 2, html.matches("<tr><td>").count(), "{table}");
     check_in_chromium(&out.join("report.html"), 1, 3);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn calib_sweep_report_renders_in_chromium() {
+    let out = out_dir("calib-sweep");
+    synthcam(&["experiment".as_ref(), "calib-sweep".as_ref(), "--seeds".as_ref(), "1".as_ref(), "-o".as_ref(), out.as_os_str()]);
+    // One row per (mode, M, N): 2 modes x 5 M x 4 N; the fx error plot.
+    let html = check_page(&out.join("report.html"), 1, 1, &["<th>%e fx</th>", "<td>rendered + detected</td>", "<td>ideal + 0.5 px</td>"]);
+    assert_eq!(html.matches("<tr><td>").count(), 40);
+    let table = std::fs::read_to_string(out.join("table.md")).expect("table.md");
+    assert_eq!(table.lines().count() - 2, 40, "{table}");
+    check_in_chromium(&out.join("report.html"), 1, 1);
     let _ = std::fs::remove_dir_all(&out);
 }
 
