@@ -12,7 +12,8 @@ use synthcam::camera::formats::{kalibr_yaml, mrcal_cameramodel, opencv_yaml, ros
 use synthcam::camera::{intrinsic_names, ImageSize, Lens};
 use synthcam::dataset::{load_grey, write_atomic};
 use synthcam::detect::target::{detect, TargetSpec};
-use synthcam::report::calib::plot_png;
+use synthcam::report::calib::{document, plot_png, CalibInputs};
+use synthcam::report::doc::{Block, Document};
 
 use super::skipped::Skipped;
 
@@ -52,6 +53,10 @@ pub struct CalibrateArgs {
     /// Plot per-view errors and residual vectors to this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Write report.md, report.html (intrinsics, per-view errors, skipped inputs, the plot) and
+    /// calibration.png into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
     /// Cross-validate over K folds of the views (K >= 2; view i in fold i mod K): each fold
     /// calibrated on the rest, its held-out views' RMS and its projection's difference from the
     /// full calibration in the JSON's `cross_validation`.
@@ -363,9 +368,26 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     for (p, text) in files {
         write_atomic(p, text.as_bytes())?;
     }
+    let pts: Vec<Vec<Point2<f64>>> = found.iter().map(|f| f.points.clone()).collect();
     if let Some(p) = &args.plot {
-        let pts: Vec<Vec<Point2<f64>>> = found.iter().map(|f| f.points.clone()).collect();
         write_atomic(p, &plot_png(&r, &pts)?)?;
     }
+    if let Some(dir) = &args.report {
+        let files: Vec<String> = found.iter().map(|f| f.file.clone()).collect();
+        let skipped: Vec<(String, String)> = out.skipped.iter().map(|s| (s.file.clone(), s.reason.clone())).collect();
+        let inputs = CalibInputs { model: args.model.name(), lens_params: n_lens, files: &files, points_px: &pts, skipped: &skipped };
+        write_report(dir, &document(&r, &inputs)?)?;
+    }
     Ok(())
+}
+
+/// `--report DIR`: the plot, report.md and report.html.
+fn write_report(dir: &std::path::Path, doc: &Document) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for b in &doc.blocks {
+        if let Block::Image { link: Some(link), png, .. } = b {
+            write_atomic(&dir.join(link), png)?;
+        }
+    }
+    super::write_document(dir, Some("report.md"), doc)
 }

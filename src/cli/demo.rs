@@ -8,10 +8,11 @@ use std::path::Path;
 
 use anyhow::Context;
 use nalgebra::Point2;
-use synthcam::dataset::{write_atomic, write_image_and_truth};
+use synthcam::dataset::{encode_png, write_image_and_truth};
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
 use synthcam::render::Renderer;
+use synthcam::report::doc::{Document, Table};
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::truth::truth_labels;
 use synthcam::sim::handeye_run::Observation;
@@ -22,20 +23,21 @@ use synthcam::target::Target;
 pub fn run(out: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let renderer = super::open_renderer("auto")?;
-    let mut report = String::from("# synthcam demo\n\n## Render and detect\n\n| scene | target | render ms | found | points | error vs truth RMS px | max px |\n|---|---|---|---|---|---|---|\n");
-    report += &scenes(&renderer, out)?;
-    report += &calibration(&renderer)?;
-    report += &hand_eye(&renderer)?;
-    report += &servo(&renderer, out)?;
-    let report_path = out.join("report.md");
-    write_atomic(&report_path, report.as_bytes())?;
-    println!("demo images, truth JSON and {} written to {}", report_path.display(), out.display());
+    let mut report = Document::new("synthcam demo");
+    scenes(&renderer, out, &mut report)?;
+    calibration(&renderer, &mut report)?;
+    hand_eye(&renderer, &mut report)?;
+    servo(&renderer, out, &mut report)?;
+    super::write_document(out, Some("report.md"), &report)?;
+    println!("demo images, truth JSON, report.md and report.html written to {}", out.display());
     Ok(())
 }
 
-/// The default scenes rendered, written with their truth and detected: the report's rows.
-fn scenes(renderer: &Renderer, out: &Path) -> anyhow::Result<String> {
-    let mut report = String::new();
+/// The default scenes rendered, written with their truth and detected: the report's first
+/// section (a table, then the frames).
+fn scenes(renderer: &Renderer, out: &Path, report: &mut Document) -> anyhow::Result<()> {
+    let mut table = Table::new(["scene", "target", "render ms", "found", "points", "error vs truth RMS px", "max px"]);
+    let mut frames = Vec::new();
     for (name, text) in super::DEFAULT_SCENES {
         let mut scene = parse_scene(text).with_context(|| format!("embedded scene {name}"))?;
         scene.render.noise_sigma = 1.0;
@@ -66,20 +68,26 @@ fn scenes(renderer: &Renderer, out: &Path) -> anyhow::Result<String> {
             det.points_px.len(),
             truth_px.len()
         );
-        report += &format!(
-            "| {name} | {} | {ms:.0} | {} | {}/{} | {rms:.4} | {max:.4} |\n",
-            scene.target.kind_name(),
-            det.found,
-            det.points_px.len(),
-            truth_px.len()
-        );
+        table.push([
+            name.to_string(),
+            scene.target.kind_name().to_string(),
+            format!("{ms:.0}"),
+            det.found.to_string(),
+            format!("{}/{}", det.points_px.len(), truth_px.len()),
+            format!("{rms:.4}"),
+            format!("{max:.4}"),
+        ]);
+        frames.push((format!("{name}: rendered frame"), format!("{name}.png"), encode_png(&img)?));
     }
-    Ok(report)
+    report.heading(2, "Render and detect").table(table);
+    for (alt, link, png) in frames {
+        report.image(alt, Some(link), png);
+    }
+    Ok(())
 }
 
 /// Calibration from rendered and detected views: the report's section.
-fn calibration(renderer: &Renderer) -> anyhow::Result<String> {
-    let mut report = String::new();
+fn calibration(renderer: &Renderer, report: &mut Document) -> anyhow::Result<()> {
     // Calibration: 10 rendered views of a 8 x 6 board under the chessboard scene's strong
     // distortion, detected, calibrated.
     let t0 = std::time::Instant::now();
@@ -102,16 +110,19 @@ fn calibration(renderer: &Renderer) -> anyhow::Result<String> {
         cal.rms_px,
         t0.elapsed().as_secs_f64()
     );
-    report += &format!(
-        "\n## Calibration from {views} rendered and detected views\n\n| | fx | fy | cx | cy | k1 | k2 |\n|---|---|---|---|---|---|---|\n| truth | {} | {} | {} | {} | {} | {} |\n| estimate | {:.3} | {:.3} | {:.3} | {:.3} | {:.5} | {:.5} |\n\nRMS reprojection error {:.4} px.\n",
-        kt.fx, kt.fy, kt.cx, kt.cy, base.camera.distortion().k1, base.camera.distortion().k2, k.fx, k.fy, k.cx, k.cy, cal.camera.distortion().k1, cal.camera.distortion().k2, cal.rms_px
-    );
-    Ok(report)
+    let (dt, de) = (base.camera.distortion(), cal.camera.distortion());
+    let mut table = Table::new(["", "fx", "fy", "cx", "cy", "k1", "k2"]);
+    table.push(["truth".to_string(), kt.fx.to_string(), kt.fy.to_string(), kt.cx.to_string(), kt.cy.to_string(), dt.k1.to_string(), dt.k2.to_string()]);
+    let est =
+        [format!("{:.3}", k.fx), format!("{:.3}", k.fy), format!("{:.3}", k.cx), format!("{:.3}", k.cy), format!("{:.5}", de.k1), format!("{:.5}", de.k2)];
+    table.push(std::iter::once("estimate".to_string()).chain(est));
+    report.heading(2, format!("Calibration from {views} rendered and detected views")).table(table);
+    report.paragraph(format!("RMS reprojection error {:.4} px.", cal.rms_px));
+    Ok(())
 }
 
 /// The course's hand-eye experiment on rendered views: the report's section.
-fn hand_eye(renderer: &Renderer) -> anyhow::Result<String> {
-    let mut report = String::new();
+fn hand_eye(renderer: &Renderer, report: &mut Document) -> anyhow::Result<()> {
     // Hand-eye: the course's variant A, 5 views, rendered and detected S-path dots.
     let t0 = std::time::Instant::now();
     let he = synthcam::sim::handeye_run::run_handeye(Some(renderer), synthcam::sim::handeye_run::Observation::Rendered, &Default::default(), 5, 0)
@@ -124,10 +135,11 @@ fn hand_eye(renderer: &Renderer) -> anyhow::Result<String> {
         "tool_from_cam (refined)",
         "world_from_base (refined)",
     ];
-    report += "\n## Hand-eye (course variant A, 5 rendered views)\n\n| estimate | error mm | error deg |\n|---|---|---|\n";
+    let mut table = Table::new(["estimate", "error mm", "error deg"]);
     for (n, e) in names.iter().zip(he.errors) {
-        report += &format!("| {n} | {:.3} | {:.4} |\n", e.mm, e.deg);
+        table.push([n.to_string(), format!("{:.3}", e.mm), format!("{:.4}", e.deg)]);
     }
+    report.heading(2, "Hand-eye (course variant A, 5 rendered views)").table(table);
     println!(
         "hand-eye from 5 rendered views: refined tool_from_cam error {:.3} mm / {:.4} deg, world_from_base {:.3} mm, {:.1} s",
         he.errors[4].mm,
@@ -135,12 +147,11 @@ fn hand_eye(renderer: &Renderer) -> anyhow::Result<String> {
         he.errors[5].mm,
         t0.elapsed().as_secs_f64()
     );
-    Ok(report)
+    Ok(())
 }
 
 /// PBVS and IBVS from the course's start, rendered and ideal: traces, plots, the report's sections.
-fn servo(renderer: &Renderer, out: &Path) -> anyhow::Result<String> {
-    let mut report = String::new();
+fn servo(renderer: &Renderer, out: &Path, report: &mut Document) -> anyhow::Result<()> {
     // Visual servoing: PBVS and IBVS from the course's start, rendered + detected at every step,
     // next to ideal projections + 0.1 px.
     for (law, name) in [(Law::Pbvs, "pbvs"), (Law::Ibvs, "ibvs")] {
@@ -156,7 +167,7 @@ fn servo(renderer: &Renderer, out: &Path) -> anyhow::Result<String> {
             super::servo::write_trace(&dir, if obs == Observation::Rendered { "trace" } else { "trace_ideal" }, &t)?;
             traces.push((label, t));
         }
-        let budget = super::servo::write_report(&dir, name, &traces, (1280, 1024))?;
+        let section = super::servo::write_report(&dir, name, &traces, (1280, 1024), Vec::new())?;
         if let Some(s) = traces[0].1.last() {
             println!(
                 "{}: {} after {} updates, camera {:.3} mm / {:.4} deg from the desired pose, pixel error RMS {:.3} px, {:.1} s",
@@ -169,9 +180,13 @@ fn servo(renderer: &Renderer, out: &Path) -> anyhow::Result<String> {
                 t0.elapsed().as_secs_f64()
             );
         }
-        report += &format!("\n## {} from the course's start (course-scenario 3.{})\n\nDesired camera pose T_0C* = [(-e_y, e_z, -e_x), (1.8, 0, 0.55)]; truth = where the camera really is (forward kinematics with the true hand-eye).\n\n{budget}\n![error]({name}/error.png) ![tracks]({name}/feature_tracks.png)\n![path]({name}/camera_path.png) ![singular values]({name}/singular_values.png)\n", name.to_uppercase(), if law == Law::Pbvs { 7 } else { 8 });
+        report.heading(2, format!("{} from the course's start (course-scenario 3.{})", name.to_uppercase(), if law == Law::Pbvs { 7 } else { 8 }));
+        report.paragraph(
+            "Desired camera pose T_0C* = [(-e_y, e_z, -e_x), (1.8, 0, 0.55)]; truth = where the camera really is (forward kinematics with the true hand-eye).",
+        );
+        report.append(section, &format!("{name}/"));
     }
-    Ok(report)
+    Ok(())
 }
 
 /// Render 10 views of an 8 x 6 inner-corner board with `base`'s camera, detect and calibrate.

@@ -5,8 +5,10 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use synthcam::calib::CalibModel;
-use synthcam::dataset::write_atomic;
-use synthcam::report::sweep::{csv, markdown, plot_png};
+use synthcam::dataset::{encode_png, write_atomic};
+use synthcam::render::GreyImage;
+use synthcam::report::doc::Document;
+use synthcam::report::sweep::{csv, plot_png, table};
 use synthcam::sim::robustness::{Effect, RobustnessSetup, ViewImage};
 use synthcam::sim::sweep::{run_sweep_with, SweepMode, SweepSetup};
 
@@ -15,7 +17,7 @@ use synthcam::sim::sweep::{run_sweep_with, SweepMode, SweepSetup};
 pub enum Experiment {
     /// Intrinsic calibration error against views M and points N x N (course-scenario 1.3, 3.3).
     CalibSweep {
-        /// Output folder (table.md, runs.csv, error_fx.png).
+        /// Output folder (table.md, runs.csv, error_fx.png, report.html).
         #[arg(short, long, default_value = "out/calib-sweep")]
         out: PathBuf,
         /// Seeds per (M, N).
@@ -32,7 +34,7 @@ pub enum Experiment {
     /// The chessboard detector against blur, defocus, sensor noise, motion blur, JPEG and a
     /// rolling shutter, one effect at a time at rising strength, errors against the exact truth.
     Robustness {
-        /// Output folder (table.md, runs.csv, <effect>.png, images/).
+        /// Output folder (table.md, runs.csv, <effect>.png, report.html, images/).
         #[arg(short, long, default_value = "out/robustness")]
         out: PathBuf,
         /// Poses per level (view 0: assets/scenes/chessboard_k1.toml; the others perturbed).
@@ -82,12 +84,17 @@ pub fn run(e: &Experiment) -> anyhow::Result<()> {
             let t1 = std::time::Instant::now();
             runs.extend(run_sweep_with(&setup, SweepMode::Rendered, &ms, &ns, *seeds, Some(&renderer))?);
             eprintln!("rendered mode: {:.1} s", t1.elapsed().as_secs_f64());
-            let table = markdown(&runs, &ms, &ns);
-            write_atomic(&out.join("table.md"), table.as_bytes())?;
+            let table = table(&runs, &ms, &ns);
+            write_atomic(&out.join("table.md"), table.markdown().as_bytes())?;
             write_atomic(&out.join("runs.csv"), csv(&runs).as_bytes())?;
-            write_atomic(&out.join("error_fx.png"), &plot_png(&runs, &ms, &ns)?)?;
-            println!("{table}");
-            println!("wrote table.md, runs.csv and error_fx.png to {}", out.display());
+            let plot = plot_png(&runs, &ms, &ns)?;
+            write_atomic(&out.join("error_fx.png"), &plot)?;
+            println!("{}", table.markdown());
+            let mut doc = Document::new("Calibration sweep: intrinsic error against views M and points N x N");
+            doc.paragraph(format!("Mean +- std over {seeds} seeds per (mode, M, N); %e = percent error of the estimate against the truth."));
+            doc.table(table).image("mean % error of fx against M", Some("error_fx.png".into()), plot);
+            super::write_document(out, None, &doc)?;
+            println!("wrote table.md, runs.csv, error_fx.png and report.html to {}", out.display());
             Ok(())
         }
         Experiment::Robustness { out, views, effects, images, seed } => robustness(out, *views, effects.as_deref(), *images, *seed),
@@ -129,7 +136,7 @@ fn write_view(dir: &std::path::Path, v: &ViewImage<'_>) -> anyhow::Result<()> {
 
 /// `experiment robustness`.
 fn robustness(out: &std::path::Path, views: usize, effects: Option<&str>, images: bool, seed: u64) -> anyhow::Result<()> {
-    use synthcam::report::robustness::{csv, level_label, markdown, plot_png};
+    use synthcam::report::robustness::{csv, level_label, plot_png, table};
     let effects = parse_effects(effects)?;
     anyhow::ensure!(views >= 1 && !effects.is_empty(), "needs at least one view and one effect");
     let setup = RobustnessSetup::chessboard_k1(views, seed)?;
@@ -137,8 +144,18 @@ fn robustness(out: &std::path::Path, views: usize, effects: Option<&str>, images
     let renderer = super::open_renderer("auto")?;
     let (t0, image_dir) = (std::time::Instant::now(), out.join("images"));
     let mut found = 0;
+    // View 0 at each effect's weakest and strongest level, for the report.
+    let mut frames: Vec<(Effect, usize, String, GreyImage)> = Vec::new();
     let runs = synthcam::sim::robustness::run_robustness(&renderer, &setup, &effects, &mut |v| {
         found += usize::from(v.run.detected);
+        if v.run.view == 0 {
+            let (e, level) = (v.run.effect, level_label(v.run.level));
+            let frame = (e, v.level_index, format!("{} {level} {}, view 0 (found: {})", e.name(), e.level_name(), v.run.detected), v.image.clone());
+            match frames.last_mut() {
+                Some(last) if last.0 == e && last.1 > 0 => *last = frame,
+                _ => frames.push(frame),
+            }
+        }
         if v.run.view + 1 == views {
             eprintln!("{} {}: {found}/{views} found ({:.1} s)", v.run.effect.name(), level_label(v.run.level), t0.elapsed().as_secs_f64());
             found = 0;
@@ -149,13 +166,23 @@ fn robustness(out: &std::path::Path, views: usize, effects: Option<&str>, images
         Ok(())
     })?;
     eprintln!("{} images in {:.1} s", runs.len(), t0.elapsed().as_secs_f64());
-    let table = markdown(&runs);
-    write_atomic(&out.join("table.md"), table.as_bytes())?;
+    let table = table(&runs);
+    write_atomic(&out.join("table.md"), table.markdown().as_bytes())?;
     write_atomic(&out.join("runs.csv"), csv(&runs).as_bytes())?;
+    println!("{}", table.markdown());
+    let mut doc = Document::new("Robustness of the chessboard detector");
+    doc.paragraph(format!("{views} views per level, seed {seed}; errors against the exact truth of the rendered corners."));
+    doc.table(table);
     for e in &effects {
-        write_atomic(&out.join(format!("{}.png", e.name())), &plot_png(&runs, *e)?)?;
+        let (file, png) = (format!("{}.png", e.name()), plot_png(&runs, *e)?);
+        write_atomic(&out.join(&file), &png)?;
+        doc.image(format!("{}: mean RMS corner error and detection rate against the strength", e.name()), Some(file), png);
     }
-    println!("{table}");
-    println!("wrote table.md, runs.csv and one plot per effect to {}", out.display());
+    doc.heading(2, "Frames: view 0 at the weakest and the strongest level");
+    for (.., caption, img) in frames {
+        doc.image(caption, None, encode_png(&img)?);
+    }
+    super::write_document(out, None, &doc)?;
+    println!("wrote table.md, runs.csv, one plot per effect and report.html to {}", out.display());
     Ok(())
 }

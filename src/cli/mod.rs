@@ -67,7 +67,7 @@ pub enum Command {
     /// Visual servoing (PBVS or IBVS) in the loop: render, detect and control at every step.
     ///
     /// SYNOPSIS: synthcam servo --law ibvs -o out/ibvs --frames
-    /// writes trace.csv/json, trace_ideal.csv/json, plots and summary.md (error budget).
+    /// writes trace.csv/json, trace_ideal.csv/json, plots, summary.md (error budget) and report.html.
     Servo(servo::ServoArgs),
     /// An open scenario (any camera, target and robot): hand-eye from rendered views, then PBVS or IBVS.
     ///
@@ -97,6 +97,19 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// Embedded default scenes: (name, TOML text).
 pub const DEFAULT_SCENES: [(&str, &str); 2] =
     [("course_s_path", include_str!("../../assets/scenes/course_s_path.toml")), ("chessboard_k1", include_str!("../../assets/scenes/chessboard_k1.toml"))];
+
+/// Write `doc` as `dir/report.html` and, when `markdown` names a file, as markdown there too
+/// (both atomically; `dir` is created).
+pub fn write_document(dir: &std::path::Path, markdown: Option<&str>, doc: &synthcam::report::doc::Document) -> anyhow::Result<()> {
+    use anyhow::Context;
+    use synthcam::dataset::write_atomic;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    if let Some(name) = markdown {
+        write_atomic(&dir.join(name), doc.markdown().as_bytes())?;
+    }
+    write_atomic(&dir.join("report.html"), synthcam::report::html::page(doc).as_bytes())?;
+    Ok(())
+}
 
 /// Open the GPU on the chosen backend and build a renderer, logging the adapter.
 pub fn open_renderer(backend: &str) -> anyhow::Result<synthcam::render::Renderer> {

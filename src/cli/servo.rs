@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use synthcam::dataset::{encode_png, write_atomic};
-use synthcam::report::servo::{budget_markdown, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
+use synthcam::render::GreyImage;
+use synthcam::report::doc::Document;
+use synthcam::report::servo::{budget_table, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
 use synthcam::servo::{IbvsParams, InteractionFrom};
 use synthcam::sim::handeye_run::Observation;
 use synthcam::sim::servo_run::{run_servo_on, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
@@ -139,22 +141,91 @@ fn print_run(name: &str, t: &ServoTrace) {
     }
 }
 
-/// Write the plots and `summary.md` (the error budget of `traces` side by side) into `out`;
-/// returns the budget table (markdown).
+/// A picture for the report: (caption, link for the markdown, PNG bytes).
+pub type Picture = (String, Option<String>, Vec<u8>);
+
+/// Write the plots, `summary.md` and `report.html` (the error budget of `traces` side by side,
+/// the plots, then `frames`) into `out`; returns the report.
 ///
 /// # Errors
 /// Encoding or writing failed.
-pub fn write_report(out: &Path, law_name: &str, traces: &[(&str, ServoTrace)], image_size: (u32, u32)) -> anyhow::Result<String> {
+pub fn write_report(out: &Path, law_name: &str, traces: &[(&str, ServoTrace)], image_size: (u32, u32), frames: Vec<Picture>) -> anyhow::Result<Document> {
     let refs: Vec<(&str, &ServoTrace)> = traces.iter().map(|(n, t)| (*n, t)).collect();
     anyhow::ensure!(!refs.is_empty(), "no servo run to report");
-    write_atomic(&out.join("error.png"), &error_png(&refs)?)?;
-    write_atomic(&out.join("singular_values.png"), &singular_png(&refs)?)?;
-    write_atomic(&out.join("camera_path.png"), &path_png(&refs)?)?;
-    write_atomic(&out.join("feature_tracks.png"), &tracks_png(refs[0].1, image_size.0, image_size.1)?)?;
-    let budget = budget_markdown(&refs);
-    let summary = format!("# {} from the scenario's start\n\n{budget}\nTraces: trace.csv / trace.json per step; plots: error.png, singular_values.png, feature_tracks.png, camera_path.png.\n", law_name.to_uppercase());
-    write_atomic(&out.join("summary.md"), summary.as_bytes())?;
-    Ok(budget)
+    let mut doc = Document::new(format!("{} from the scenario's start", law_name.to_uppercase()));
+    doc.table(budget_table(&refs));
+    doc.paragraph("Traces: trace.csv / trace.json per step (trace_ideal.* for the ideal run).");
+    let plots = [
+        ("error.png", "error per step", error_png(&refs)?),
+        ("feature_tracks.png", "feature tracks", tracks_png(refs[0].1, image_size.0, image_size.1)?),
+        ("camera_path.png", "camera path", path_png(&refs)?),
+        ("singular_values.png", "singular values", singular_png(&refs)?),
+    ];
+    for (file, alt, png) in plots {
+        write_atomic(&out.join(file), &png)?;
+        doc.image(alt, Some(file.to_string()), png);
+    }
+    for (alt, link, png) in frames {
+        doc.image(alt, link, png);
+    }
+    super::write_document(out, Some("summary.md"), &doc)?;
+    Ok(doc)
+}
+
+/// The rendered run's frames: written under `frames/` with `--frames` (every tenth a thumbnail
+/// of the contact sheet), the first and the last kept for the report.
+#[derive(Default)]
+struct FrameSink {
+    /// `frames/` when `--frames`.
+    dir: Option<PathBuf>,
+    thumbs: Vec<(usize, image::GrayImage)>,
+    first: Option<(usize, GreyImage)>,
+    last: Option<(usize, GreyImage)>,
+    err: Option<anyhow::Error>,
+}
+
+impl FrameSink {
+    fn take(&mut self, step: usize, img: &GreyImage) {
+        if self.first.is_none() {
+            self.first = Some((step, img.clone()));
+        } else {
+            self.last = Some((step, img.clone()));
+        }
+        let Some(dir) = &self.dir else { return };
+        if self.err.is_some() {
+            return;
+        }
+        let res = encode_png(img).map_err(anyhow::Error::from).and_then(|png| Ok(write_atomic(&dir.join(format!("step_{step:04}.png")), &png)?));
+        if let Err(e) = res {
+            self.err = Some(e);
+        }
+        if step.is_multiple_of(10) {
+            if let GreyImage::U8(g) = img {
+                self.thumbs.push((step, image::imageops::resize(g, 256, 205, image::imageops::FilterType::Triangle)));
+            }
+        }
+    }
+
+    /// Write the contact sheet into `out` (with `--frames`); the report's pictures.
+    fn finish(self, out: &Path) -> anyhow::Result<Vec<Picture>> {
+        if let Some(e) = self.err {
+            return Err(e.context("writing frames"));
+        }
+        let mut pictures = Vec::new();
+        if !self.thumbs.is_empty() {
+            let png = synthcam::report::plot::png(&contact_sheet(&self.thumbs, 5)?)?;
+            write_atomic(&out.join("contact_sheet.png"), &png)?;
+            pictures.push(("contact sheet (every tenth rendered frame)".to_string(), Some("contact_sheet.png".to_string()), png));
+        }
+        let saved = self.dir.is_some();
+        for (which, frame) in [("first", self.first), ("last", self.last)] {
+            if let Some((step, img)) = frame {
+                let link = saved.then(|| format!("frames/step_{step:04}.png"));
+                pictures.push((format!("{which} rendered frame (step {step})"), link, encode_png(&img)?));
+            }
+        }
+        Ok(pictures)
+    }
 }
 
 /// A scenario, its robot, and where the hand-eye views are drawn (default: the start).
@@ -185,37 +256,16 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from(format!("out/servo-{law_name}")));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let mut traces: Vec<(&str, ServoTrace)> = Vec::new();
+    let mut frames = Vec::new();
     if !args.ideal {
         let renderer = super::open_renderer("auto")?;
-        let frames_dir = out.join("frames");
-        if args.frames {
-            std::fs::create_dir_all(&frames_dir).with_context(|| format!("creating {}", frames_dir.display()))?;
+        let mut sink = FrameSink { dir: args.frames.then(|| out.join("frames")), ..FrameSink::default() };
+        if let Some(dir) = &sink.dir {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
-        let mut thumbs = Vec::new();
-        let mut write_err: Option<anyhow::Error> = None;
-        let mut sink = |step: usize, img: &synthcam::render::GreyImage| {
-            if !args.frames || write_err.is_some() {
-                return;
-            }
-            let res = encode_png(img).map_err(anyhow::Error::from).and_then(|png| Ok(write_atomic(&frames_dir.join(format!("step_{step:04}.png")), &png)?));
-            if let Err(e) = res {
-                write_err = Some(e);
-            }
-            if step.is_multiple_of(10) {
-                if let synthcam::render::GreyImage::U8(g) = img {
-                    thumbs.push((step, image::imageops::resize(g, 256, 205, image::imageops::FilterType::Triangle)));
-                }
-            }
-        };
         eprintln!("{law_name}: rendered + detected (hand-eye from {}) ...", if args.true_handeye { "the truth" } else { "5 rendered views" });
-        let t = run(Some(&renderer), Observation::Rendered, &mut sink).context("servo run")?;
-        if let Some(e) = write_err {
-            return Err(e.context("writing frames"));
-        }
-        if args.frames && !thumbs.is_empty() {
-            let sheet = contact_sheet(&thumbs, 5)?;
-            write_atomic(&out.join("contact_sheet.png"), &synthcam::report::plot::png(&sheet)?)?;
-        }
+        let t = run(Some(&renderer), Observation::Rendered, &mut |step, img| sink.take(step, img)).context("servo run")?;
+        frames = sink.finish(&out)?;
         print_run("rendered + detected", &t);
         write_trace(&out, "trace", &t)?;
         traces.push(("rendered + detected", t));
@@ -226,8 +276,8 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         write_trace(&out, if args.ideal { "trace" } else { "trace_ideal" }, &t)?;
         traces.push(("ideal + 0.1 px", t));
     }
-    write_report(&out, law_name, &traces, (size.width, size.height))?;
-    println!("traces, plots and summary.md written to {}", out.display());
+    write_report(&out, law_name, &traces, (size.width, size.height), frames)?;
+    println!("traces, plots, summary.md and report.html written to {}", out.display());
     let primary = &traces[0].1;
     let stop_requested = !(args.course || args.no_stop);
     anyhow::ensure!(primary.status.is_success(stop_requested), "{} run ended: {}", law_name.to_uppercase(), primary.status.describe());

@@ -1,6 +1,8 @@
-//! Calibration results as a plot (the camera files are `camera::formats`).
+//! Calibration results as a plot and a report (the camera files are `camera::formats`).
 
+use super::doc::{Document, Table};
 use crate::calib::CalibResult;
+use crate::camera::{intrinsic_names, BASE_INTRINSIC_NAMES};
 
 /// The calibration as a PNG: per-view RMS and max reprojection error (bars) and every residual
 /// vector drawn at its corner in the image frame, magnified so the largest is 5 % of the image width.
@@ -47,4 +49,67 @@ pub fn plot_png(r: &CalibResult, points_px: &[Vec<nalgebra::Point2<f64>>]) -> Re
         }
         Ok(())
     })
+}
+
+/// What the calibration report shows besides the result.
+#[derive(Debug, Clone, Copy)]
+pub struct CalibInputs<'a> {
+    /// The lens model estimated (its name).
+    pub model: &'a str,
+    /// How many lens parameters the model estimates (the first of the lens's parameters).
+    pub lens_params: usize,
+    /// The file of each view.
+    pub files: &'a [String],
+    /// Each view's detected points, pixels.
+    pub points_px: &'a [Vec<nalgebra::Point2<f64>>],
+    /// The inputs left out: (file, reason).
+    pub skipped: &'a [(String, String)],
+}
+
+/// The calibration report: a summary, the estimated intrinsics with their standard deviations,
+/// each view's reprojection error, the inputs left out and the plot of [`plot_png`].
+///
+/// # Errors
+/// Drawing or PNG encoding of the plot.
+pub fn document(r: &CalibResult, inputs: &CalibInputs<'_>) -> Result<Document, super::ReportError> {
+    let cam = &r.camera;
+    let mut doc = Document::new("synthcam calibration");
+    doc.paragraph(format!(
+        "{} views used, {} skipped; model {}; image {}x{} px; RMS reprojection error {:.4} px; {} iterations, {}.",
+        r.views.len(),
+        inputs.skipped.len(),
+        inputs.model,
+        cam.size.width,
+        cam.size.height,
+        r.rms_px,
+        r.iterations,
+        if r.converged { "converged" } else { "not converged" }
+    ));
+    doc.heading(2, "Intrinsics");
+    let k = cam.intrinsics;
+    let values = [k.fx, k.fy, k.cx, k.cy, k.skew].into_iter().chain(cam.lens.params());
+    let n = BASE_INTRINSIC_NAMES.len() + inputs.lens_params;
+    let mut t = Table::new(["parameter", "estimate", "std"]);
+    for ((name, v), s) in intrinsic_names(cam.lens.kind()).into_iter().zip(values).zip(r.std).take(n) {
+        t.push([name.to_string(), format!("{v:.6}"), if s.is_finite() { format!("{s:.6}") } else { "fixed".into() }]);
+    }
+    doc.table(t);
+    doc.heading(2, "Views");
+    let mut t = Table::new(["view", "file", "points", "RMS px", "max px"]);
+    for (i, (v, file)) in r.views.iter().zip(inputs.files).enumerate() {
+        let points = inputs.points_px.get(i).map_or(0, Vec::len);
+        t.push([i.to_string(), file.clone(), points.to_string(), format!("{:.4}", v.rms_px), format!("{:.4}", v.max_px)]);
+    }
+    doc.table(t);
+    if !inputs.skipped.is_empty() {
+        doc.heading(2, "Skipped inputs");
+        let mut t = Table::new(["file", "reason"]);
+        for (file, reason) in inputs.skipped {
+            t.push([file.as_str(), reason.as_str()]);
+        }
+        doc.table(t);
+    }
+    doc.heading(2, "Reprojection errors");
+    doc.image("reprojection error per view and residual vectors", Some("calibration.png".into()), plot_png(r, inputs.points_px)?);
+    Ok(doc)
 }

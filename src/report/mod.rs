@@ -1,7 +1,10 @@
 //! Reports: plots, detection overlays, calibration plots and the tables of the
-//! servo, hand-eye and sweep runs. Everything here returns bytes or text; the CLI writes them.
+//! servo, hand-eye and sweep runs, put together as [`doc::Document`]s written as markdown and as
+//! self-contained HTML ([`html::page`]). Everything here returns bytes or text; the CLI writes them.
 
 pub mod calib;
+pub mod doc;
+pub mod html;
 pub mod overlay;
 pub mod plot;
 pub mod robustness;

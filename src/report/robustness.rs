@@ -1,5 +1,6 @@
 //! The robustness experiment's table, CSV and plots ([`crate::sim::robustness`]).
 
+use super::doc::Table;
 use super::ReportError;
 use crate::sim::robustness::{Effect, RobustnessRun};
 
@@ -78,23 +79,26 @@ pub fn level_label(level: f64) -> String {
     s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
-/// Markdown table: per effect and level, the strength, detection rate, mean RMS and max error.
-pub fn markdown(runs: &[RobustnessRun]) -> String {
-    let mut s = String::from("| effect | level | strength | detected % | mean RMS px | max px | views |\n|---|---|---|---|---|---|---|\n");
+/// The table: per effect and level, the strength, detection rate, mean RMS and max error.
+pub fn table(runs: &[RobustnessRun]) -> Table {
+    let mut t = Table::new(["effect", "level", "strength", "detected %", "mean RMS px", "max px", "views"]);
     for l in summarise(runs) {
-        s += &format!(
-            "| {} | {} {} | {} | {:.0} | {} | {} | {} |\n",
-            l.effect.name(),
-            level_label(l.level),
-            l.effect.level_name(),
+        t.push([
+            l.effect.name().to_string(),
+            format!("{} {}", level_label(l.level), l.effect.level_name()),
             cell(l.strength, 3),
-            l.detection_pct(),
+            format!("{:.0}", l.detection_pct()),
             cell(l.mean_rms_px, 4),
             cell(l.max_px, 4),
-            l.views
-        );
+            l.views.to_string(),
+        ]);
     }
-    s
+    t
+}
+
+/// [`table`] in markdown.
+pub fn markdown(runs: &[RobustnessRun]) -> String {
+    table(runs).markdown()
 }
 
 /// The header of [`csv`].

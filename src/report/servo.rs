@@ -5,6 +5,7 @@
 use image::{GrayImage, Rgb, RgbImage};
 use plotters::prelude::*;
 
+use super::doc::Table;
 use super::plot::{clamp, colour, draw_on, figure, int_label, legend, lin_range, log_label, log_range, swatch, FONT};
 use super::ReportError;
 use crate::sim::servo_run::{ServoTrace, Source, StepRecord};
@@ -175,9 +176,9 @@ pub fn path_png(traces: &[(&str, &ServoTrace)]) -> Result<Vec<u8>, ReportError> 
     })
 }
 
-/// Markdown: the error budget of each trace side by side (final true pose error, final pixel
-/// error, hand-eye estimate error, steps, status, time split).
-pub fn budget_markdown(traces: &[(&str, &ServoTrace)]) -> String {
+/// The error budget of each trace side by side (final true pose error, final pixel error,
+/// hand-eye estimate error, steps, status, time split): one column per trace.
+pub fn budget_table(traces: &[(&str, &ServoTrace)]) -> Table {
     let mut rows: Vec<(String, Vec<String>)> = vec![
         ("status".into(), vec![]),
         ("control updates".into(), vec![]),
@@ -212,11 +213,16 @@ pub fn budget_markdown(traces: &[(&str, &ServoTrace)]) -> String {
             row.1.push(c);
         }
     }
-    let mut out = format!("| |{}\n|---|{}\n", traces.iter().map(|(n, _)| format!(" {n} |")).collect::<String>(), "---|".repeat(traces.len()));
+    let mut table = Table::new(std::iter::once("").chain(traces.iter().map(|(n, _)| *n)));
     for (name, cells) in rows {
-        out += &format!("| {name} | {} |\n", cells.join(" | "));
+        table.push(std::iter::once(name).chain(cells));
     }
-    out
+    table
+}
+
+/// [`budget_table`] in markdown.
+pub fn budget_markdown(traces: &[(&str, &ServoTrace)]) -> String {
+    budget_table(traces).markdown()
 }
 
 /// A contact sheet: `frames` (step, thumbnail) in a grid with step labels.

@@ -1,5 +1,6 @@
 //! The calibration sweep's tables and plot.
 
+use super::doc::Table;
 use super::ReportError;
 use crate::sim::sweep::{SweepMode, SweepRun};
 
@@ -10,9 +11,9 @@ fn mean_std(v: &[f64]) -> (f64, f64) {
     (m, (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n).sqrt())
 }
 
-/// Markdown table: one row per (mode, M, N), mean +- std over seeds.
-pub fn markdown(runs: &[SweepRun], ms: &[usize], ns: &[usize]) -> String {
-    let mut s = String::from("| mode | M | N | %e fx | %e fy | %e cx | %e cy | RMS px | runs |\n|---|---|---|---|---|---|---|---|---|\n");
+/// The table: one row per (mode, M, N), mean +- std over seeds.
+pub fn table(runs: &[SweepRun], ms: &[usize], ns: &[usize]) -> Table {
+    let mut t = Table::new(["mode", "M", "N", "%e fx", "%e fy", "%e cx", "%e cy", "RMS px", "runs"]);
     for mode in [SweepMode::Ideal, SweepMode::Rendered] {
         for &m in ms {
             for &n in ns {
@@ -24,20 +25,26 @@ pub fn markdown(runs: &[SweepRun], ms: &[usize], ns: &[usize]) -> String {
                     let (a, b) = mean_std(&sel.iter().map(|r| f(r)).collect::<Vec<_>>());
                     format!("{a:.3} +- {b:.3}")
                 };
-                s += &format!(
-                    "| {} | {m} | {n} | {} | {} | {} | {} | {} | {} |\n",
-                    if mode == SweepMode::Ideal { "ideal + 0.5 px" } else { "rendered + detected" },
+                t.push([
+                    if mode == SweepMode::Ideal { "ideal + 0.5 px" } else { "rendered + detected" }.to_string(),
+                    m.to_string(),
+                    n.to_string(),
                     cell(&|r| r.err_pct[0]),
                     cell(&|r| r.err_pct[1]),
                     cell(&|r| r.err_pct[2]),
                     cell(&|r| r.err_pct[3]),
                     cell(&|r| r.rms_px),
-                    sel.len()
-                );
+                    sel.len().to_string(),
+                ]);
             }
         }
     }
-    s
+    t
+}
+
+/// [`table`] in markdown.
+pub fn markdown(runs: &[SweepRun], ms: &[usize], ns: &[usize]) -> String {
+    table(runs, ms, ns).markdown()
 }
 
 /// CSV: one line per calibration.

@@ -97,31 +97,7 @@ fn images_of_another_size_are_skipped_not_fatal() {
     let dir = std::env::temp_dir().join(format!("synthcam-cal-{}-mixed", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("tmp");
-    for (k, (tilt, offset)) in [
-        (25.0, [0.0, 0.0]),
-        (35.0, [0.03, 0.0]),
-        (-30.0, [0.0, 0.02]),
-        (40.0, [-0.03, 0.01]),
-        (-20.0, [0.02, -0.02]),
-        (30.0, [-0.02, -0.01]),
-        (30.0, [0.0, 0.0]),
-    ]
-    .iter()
-    .enumerate()
-    {
-        let (w, h) = if k == 6 { (641, 481) } else { (640, 480) };
-        let mut cam = crate::common::camera(w, h, 600.0, [-0.1, 0.0, 0.0, 0.0, 0.0]);
-        cam.intrinsics.cx = 319.5;
-        cam.intrinsics.cy = 239.5;
-        let mut scene = crate::common::chessboard_scene(cam, [9, 7], 0.03, *tilt, 0.55, *offset);
-        if k % 2 == 1 {
-            // Tilt some views about y as well, so the views are not all alike.
-            let rot = nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::y_axis(), 0.3);
-            scene.cam_from_target = nalgebra::Isometry3::from_parts(scene.cam_from_target.translation, rot * scene.cam_from_target.rotation);
-        }
-        let img = renderer().render(&scene).expect("render");
-        std::fs::write(dir.join(format!("v{k}.png")), synthcam::dataset::encode_png(&img).expect("png")).expect("write");
-    }
+    crate::common::write_chessboard_views(&dir);
     let json = dir.join("calib.json");
     let o = Command::new(bin()).arg("calibrate").arg(&dir).args(["--target", "chessboard:8x6", "--square", "0.03", "--json"]).arg(&json).output().expect("run");
     let stderr = String::from_utf8_lossy(&o.stderr);

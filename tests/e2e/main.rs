@@ -21,6 +21,7 @@ mod dot_grid;
 mod fidelity;
 mod golden;
 mod handeye;
+mod html_report;
 mod lens_models;
 mod objects;
 mod open_scenario;

@@ -68,3 +68,35 @@ pub fn images(dir: &std::path::Path) -> std::collections::BTreeMap<String, Vec<u
         .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).expect("read")))
         .collect()
 }
+
+/// Six rendered views of a 9 x 7 square chessboard (8 x 6 inner corners, 0.03 m) at 640 x 480
+/// through a 600 px camera with k1 = -0.1, and a seventh at 641 x 481 (an odd frame that
+/// `calibrate` skips), written as `dir/v0.png` .. `dir/v6.png`.
+pub fn write_chessboard_views(dir: &std::path::Path) {
+    std::fs::create_dir_all(dir).expect("tmp");
+    for (k, (tilt, offset)) in [
+        (25.0, [0.0, 0.0]),
+        (35.0, [0.03, 0.0]),
+        (-30.0, [0.0, 0.02]),
+        (40.0, [-0.03, 0.01]),
+        (-20.0, [0.02, -0.02]),
+        (30.0, [-0.02, -0.01]),
+        (30.0, [0.0, 0.0]),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let (w, h) = if k == 6 { (641, 481) } else { (640, 480) };
+        let mut cam = camera(w, h, 600.0, [-0.1, 0.0, 0.0, 0.0, 0.0]);
+        cam.intrinsics.cx = 319.5;
+        cam.intrinsics.cy = 239.5;
+        let mut scene = chessboard_scene(cam, [9, 7], 0.03, *tilt, 0.55, *offset);
+        if k % 2 == 1 {
+            // Tilt some views about y as well, so the views are not all alike.
+            let rot = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.3);
+            scene.cam_from_target = Isometry3::from_parts(scene.cam_from_target.translation, rot * scene.cam_from_target.rotation);
+        }
+        let img = renderer().render(&scene).expect("render");
+        std::fs::write(dir.join(format!("v{k}.png")), synthcam::dataset::encode_png(&img).expect("png")).expect("write");
+    }
+}
