@@ -256,7 +256,9 @@ fn load_detections(args: &CalibrateArgs, n: usize) -> anyhow::Result<Detections>
         return from_json(&args.inputs[0], n);
     }
     let (mut found, mut skipped) = (Vec::new(), Vec::new());
-    for f in super::detect::expand_images(&args.inputs)? {
+    let files = super::detect::expand_images(&args.inputs)?;
+    let bar = super::progress::bar(files.len() as u64, "detect", "images");
+    for f in bar.wrap_iter(files.into_iter()) {
         let name = f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned());
         match load_grey(&f) {
             Ok(img) => {
@@ -271,11 +273,12 @@ fn load_detections(args: &CalibrateArgs, n: usize) -> anyhow::Result<Detections>
                 }
             }
             Err(e) => {
-                eprintln!("error: {e}");
+                bar.suspend(|| eprintln!("error: {e}"));
                 skipped.push(Skipped::new(name, e.to_string()));
             }
         }
     }
+    bar.finish_and_clear();
     Ok((found, skipped))
 }
 

@@ -24,10 +24,19 @@ pub fn run(out: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let renderer = super::open_renderer("auto")?;
     let mut report = Document::new("synthcam demo");
+    let bar = super::progress::bar(4, "demo", "stages");
+    bar.set_message("render + detect");
     scenes(&renderer, out, &mut report)?;
+    bar.inc(1);
+    bar.set_message("calibration");
     calibration(&renderer, &mut report)?;
+    bar.inc(1);
+    bar.set_message("hand-eye");
     hand_eye(&renderer, &mut report)?;
+    bar.inc(1);
+    bar.set_message("PBVS + IBVS in the loop");
     servo(&renderer, out, &mut report)?;
+    bar.finish_and_clear();
     super::write_document(out, Some("report.md"), &report)?;
     println!("demo images, truth JSON, report.md and report.html written to {}", out.display());
     Ok(())

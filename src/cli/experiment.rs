@@ -10,7 +10,7 @@ use synthcam::render::GreyImage;
 use synthcam::report::doc::Document;
 use synthcam::report::sweep::{csv, plot_png, table};
 use synthcam::sim::robustness::{Effect, RobustnessSetup, ViewImage};
-use synthcam::sim::sweep::{run_sweep_with, SweepMode, SweepSetup};
+use synthcam::sim::sweep::{run_sweep_reporting, SweepMode, SweepSetup};
 
 /// Experiments.
 #[derive(Debug, clap::Subcommand)]
@@ -78,12 +78,16 @@ pub fn run(e: &Experiment) -> anyhow::Result<()> {
             let ms = [3, 5, 10, 20, 40];
             let ns = [3, 5, 7, 9];
             let renderer = super::open_renderer("auto")?;
-            let t0 = std::time::Instant::now();
-            let mut runs = run_sweep_with(&setup, SweepMode::Ideal, &ms, &ns, *seeds, None)?;
-            eprintln!("ideal mode: {} calibrations in {:.1} s", runs.len(), t0.elapsed().as_secs_f64());
-            let t1 = std::time::Instant::now();
-            runs.extend(run_sweep_with(&setup, SweepMode::Rendered, &ms, &ns, *seeds, Some(&renderer))?);
-            eprintln!("rendered mode: {:.1} s", t1.elapsed().as_secs_f64());
+            let sweep = |mode: SweepMode, renderer: Option<&synthcam::render::Renderer>| {
+                let (t0, name) = (std::time::Instant::now(), if renderer.is_some() { "rendered" } else { "ideal" });
+                let bar = super::progress::bar(ns.len() as u64 * *seeds, name, "view pools");
+                let runs = run_sweep_reporting(&setup, mode, &ms, &ns, *seeds, renderer, &mut |done, _| bar.set_position(done as u64));
+                bar.finish_and_clear();
+                eprintln!("{name} mode: {} calibrations in {:.1} s", runs.as_ref().map_or(0, Vec::len), t0.elapsed().as_secs_f64());
+                runs
+            };
+            let mut runs = sweep(SweepMode::Ideal, None)?;
+            runs.extend(sweep(SweepMode::Rendered, Some(&renderer))?);
             let table = table(&runs, &ms, &ns);
             write_atomic(&out.join("table.md"), table.markdown().as_bytes())?;
             write_atomic(&out.join("runs.csv"), csv(&runs).as_bytes())?;
@@ -144,10 +148,12 @@ fn robustness(out: &std::path::Path, views: usize, effects: Option<&str>, images
     let renderer = super::open_renderer("auto")?;
     let (t0, image_dir) = (std::time::Instant::now(), out.join("images"));
     let mut found = 0;
+    let bar = super::progress::bar((effects.iter().map(|e| e.levels().len()).sum::<usize>() * views) as u64, "robustness", "images");
     // View 0 at each effect's weakest and strongest level, for the report.
     let mut frames: Vec<(Effect, usize, String, GreyImage)> = Vec::new();
     let runs = synthcam::sim::robustness::run_robustness(&renderer, &setup, &effects, &mut |v| {
         found += usize::from(v.run.detected);
+        bar.inc(1);
         if v.run.view == 0 {
             let (e, level) = (v.run.effect, level_label(v.run.level));
             let frame = (e, v.level_index, format!("{} {level} {}, view 0 (found: {})", e.name(), e.level_name(), v.run.detected), v.image.clone());
@@ -157,7 +163,7 @@ fn robustness(out: &std::path::Path, views: usize, effects: Option<&str>, images
             }
         }
         if v.run.view + 1 == views {
-            eprintln!("{} {}: {found}/{views} found ({:.1} s)", v.run.effect.name(), level_label(v.run.level), t0.elapsed().as_secs_f64());
+            bar.suspend(|| eprintln!("{} {}: {found}/{views} found ({:.1} s)", v.run.effect.name(), level_label(v.run.level), t0.elapsed().as_secs_f64()));
             found = 0;
         }
         if images {
@@ -165,6 +171,7 @@ fn robustness(out: &std::path::Path, views: usize, effects: Option<&str>, images
         }
         Ok(())
     })?;
+    bar.finish_and_clear();
     eprintln!("{} images in {:.1} s", runs.len(), t0.elapsed().as_secs_f64());
     let table = table(&runs);
     write_atomic(&out.join("table.md"), table.markdown().as_bytes())?;

@@ -264,7 +264,13 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
         eprintln!("{law_name}: rendered + detected (hand-eye from {}) ...", if args.true_handeye { "the truth" } else { "5 rendered views" });
-        let t = run(Some(&renderer), Observation::Rendered, &mut |step, img| sink.take(step, img)).context("servo run")?;
+        let bar = super::progress::bar(options(args, Observation::Rendered).max_steps as u64, law_name, "steps");
+        let t = run(Some(&renderer), Observation::Rendered, &mut |step, img| {
+            bar.set_position(step as u64 + 1);
+            sink.take(step, img);
+        })
+        .context("servo run")?;
+        bar.finish_and_clear();
         frames = sink.finish(&out)?;
         print_run("rendered + detected", &t);
         write_trace(&out, "trace", &t)?;
