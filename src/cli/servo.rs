@@ -76,6 +76,10 @@ pub struct ServoArgs {
     /// Seed of the hand-eye views and all noise.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Also write the rendered run as a ROS 2 bag in MCAP: /cam0/image_raw, /cam0/camera_info,
+    /// /tf (world -> base -> tool0 -> cam0, world -> target), step s at s x 100 ms.
+    #[arg(long, value_name = "PATH")]
+    pub mcap: Option<PathBuf>,
 }
 
 fn options(args: &ServoArgs, observation: Observation) -> ServoOptions {
@@ -175,6 +179,7 @@ fn load_scenario(args: &ServoArgs) -> anyhow::Result<Loaded> {
 
 /// Run `servo`.
 pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(!(args.ideal && args.mcap.is_some()), "--mcap writes rendered frames: drop --ideal");
     let (scenario, spec, handeye_around) = load_scenario(args)?;
     let size = scenario.camera.size;
     let run = |renderer: Option<&synthcam::render::Renderer>, observation, sink: &mut dyn FnMut(usize, &synthcam::render::GreyImage)| {
@@ -193,7 +198,11 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         }
         let mut thumbs = Vec::new();
         let mut write_err: Option<anyhow::Error> = None;
+        let mut bag_frames: Vec<(usize, synthcam::render::GreyImage)> = Vec::new();
         let mut sink = |step: usize, img: &synthcam::render::GreyImage| {
+            if args.mcap.is_some() {
+                bag_frames.push((step, img.clone()));
+            }
             if !args.frames || write_err.is_some() {
                 return;
             }
@@ -215,6 +224,19 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         if args.frames && !thumbs.is_empty() {
             let sheet = contact_sheet(&thumbs, 5)?;
             write_atomic(&out.join("contact_sheet.png"), &synthcam::report::plot::png(&sheet)?)?;
+        }
+        if let Some(path) = &args.mcap {
+            let robot = spec.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;
+            let (counts, bytes) = synthcam::dataset::formats::series::write_servo_mcap(path, &scenario, robot.as_ref(), &t, &bag_frames)
+                .with_context(|| format!("writing {}", path.display()))?;
+            println!(
+                "mcap: {} images, {} camera infos, {} tf messages -> {} ({:.1} MB)",
+                counts.images,
+                counts.camera_infos,
+                counts.tf,
+                path.display(),
+                bytes as f64 / 1e6
+            );
         }
         print_run("rendered + detected", &t);
         write_trace(&out, "trace", &t)?;
