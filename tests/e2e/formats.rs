@@ -222,7 +222,9 @@ fn check_camera_info(data: &[u8], cam: &Value) {
     assert_eq!((c.u32(), c.u32()), (cam["height"].as_u64().unwrap() as u32, cam["width"].as_u64().unwrap() as u32));
     assert_eq!(c.string(), "plumb_bob");
     let d: Vec<f64> = (0..c.u32()).map(|_| c.f64()).collect();
-    assert_eq!(d, [0.0; 5]);
+    let dist: Vec<f64> = cam["dist"].as_array().unwrap().iter().map(f).collect();
+    assert_eq!(d, dist);
+    assert_eq!(d, [-0.05, 0.01, 0.0005, -0.0003, 0.002]);
     let k: Vec<f64> = (0..9).map(|_| c.f64()).collect();
     assert_eq!(k, [f(&cam["fx"]), 0.0, f(&cam["cx"]), 0.0, f(&cam["fy"]), f(&cam["cy"]), 0.0, 0.0, 1.0]);
 }
@@ -279,7 +281,7 @@ fn robot_dataset_bag_matches_the_truth_and_the_camera() {
         .replace("fx = 1500.0", "fx = 750.0")
         .replace("fy = 1500.0", "fy = 750.0")
         .replace("cx = 640.0", "cx = 320.0")
-        .replace("cy = 512.0", "cy = 256.0");
+        .replace("cy = 512.0", "cy = 256.0\ndist = [-0.05, 0.01, 0.0005, -0.0003, 0.002]");
     std::fs::write(&spec, text).unwrap();
     let dir = root.join("robot");
     let out = ok(&synthcam(&["dataset", "--format", "mcap,coco", "-o"], &[&dir, &spec]));

@@ -147,3 +147,35 @@ where
     writer.finish().map_err(mcap_err)?;
     Ok(counts)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam(model: &str, dist: &str) -> CameraSpec {
+        toml::from_str(&format!("width = 64\nheight = 48\nfx = 50.0\nfy = 51.0\ncx = 31.5\ncy = 23.5\nmodel = \"{model}\"\n{dist}")).unwrap()
+    }
+
+    #[test]
+    fn camera_info_names_each_lens_model() {
+        let i = camera_info(&cam("opencv", "dist = [0.1, -0.2, 0.001, 0.002]")).unwrap();
+        assert_eq!((i.distortion_model, i.d.as_slice()), ("plumb_bob", [0.1, -0.2, 0.001, 0.002, 0.0].as_slice()));
+        assert_eq!(i.k, [50.0, 0.0, 31.5, 0.0, 51.0, 23.5, 0.0, 0.0, 1.0]);
+        assert_eq!((i.p[2], i.p[6], i.p[10]), (31.5, 23.5, 1.0));
+        let i = camera_info(&cam("opencv", "dist = [0.1, -0.2, 0.0, 0.0, 0.01, 0.3, 0.0, 0.0]")).unwrap();
+        assert_eq!((i.distortion_model, i.d.len()), ("rational_polynomial", 8));
+        let i = camera_info(&cam("fisheye", "dist = [0.1, 0.01, 0.0, 0.0]")).unwrap();
+        assert_eq!((i.distortion_model, i.d.as_slice()), ("equidistant", [0.1, 0.01, 0.0, 0.0].as_slice()));
+        let e = camera_info(&cam("double-sphere", "xi = -0.2\nalpha = 0.6")).unwrap_err().to_string();
+        assert!(e.contains("double-sphere"), "{e}");
+        let e = camera_info(&cam("opencv", "dist = [0.1, 0, 0, 0, 0, 0, 0, 0, 0.01, 0, 0, 0]")).unwrap_err().to_string();
+        assert!(e.contains("thin-prism"), "{e}");
+    }
+
+    #[test]
+    fn sixteen_bit_images_are_mono16_little_endian() {
+        let img = GreyImage::U16(image::ImageBuffer::from_raw(2, 1, vec![0x0102u16, 0xfffe]).unwrap());
+        let raw = raw_image(&img);
+        assert_eq!((raw.encoding, raw.step, raw.data.as_slice()), ("mono16", 4, [0x02, 0x01, 0xfe, 0xff].as_slice()));
+    }
+}
