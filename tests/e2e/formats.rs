@@ -333,5 +333,8 @@ fn bad_input_fails_cleanly_without_output() {
     std::fs::write(dir.join("manifest.jsonl"), manifest).unwrap();
     failed(&synthcam(&["export", "--format", "coco,webdataset", "-o"], &[&root.join("x"), &dir]), "one --format");
     assert!(!root.join("x").exists());
-    ok(&synthcam(&["export", "--format", "coco"], &[&dir]));
+    // Repaired, the merge verifies the folder and exports it.
+    let out = ok(&synthcam(&["dataset", "merge", "--format", "coco"], &[&dir]));
+    assert!(out.contains("coco: 3 images"), "{out}");
+    assert!(dir.join("coco.json").is_file());
 }
