@@ -1,4 +1,5 @@
-//! `synthcam dataset SPEC.toml -o DIR [--shard I/N | auto] [--jobs J]` and `synthcam dataset merge DIR`.
+//! `synthcam dataset SPEC.toml -o DIR [--shard I/N | auto] [--jobs J] [--format F,...]` and
+//! `synthcam dataset merge DIR [--format F,...]`.
 
 use std::path::{Path, PathBuf};
 
@@ -31,14 +32,28 @@ pub struct DatasetArgs {
     /// GPU backend: auto (Vulkan, then GL), vulkan or gl.
     #[arg(long, default_value = "auto")]
     pub backend: String,
+    /// Also export the finished dataset (an unsharded run, or `merge`): coco, webdataset, mcap,
+    /// comma-separated (see `synthcam export`).
+    #[arg(long, value_delimiter = ',')]
+    pub format: Vec<String>,
+    /// WebDataset shard size, bytes (with `--format webdataset`).
+    #[arg(long, default_value_t = synthcam::dataset::formats::DEFAULT_SHARD_BYTES)]
+    pub shard_bytes: u64,
+}
+
+/// Export `dir` in the formats `--format` names.
+fn export_formats(dir: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
+    let formats = super::export::parse_formats(&args.format)?;
+    let opts = synthcam::dataset::formats::ExportOptions { shard_bytes: args.shard_bytes, ..Default::default() };
+    super::export::export_all(dir, &formats, None, &opts)
 }
 
 /// Run `dataset`.
 pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
     match (args.first.to_str(), &args.second) {
-        (Some("merge"), Some(dir)) => merge(dir),
+        (Some("merge"), Some(dir)) => merge(dir, args),
         (Some("merge"), None) => match &args.out {
-            Some(dir) => merge(dir),
+            Some(dir) => merge(dir, args),
             None => anyhow::bail!("usage: synthcam dataset merge DIR"),
         },
         (Some("generate"), Some(spec)) => run_generate(spec, args),
@@ -50,6 +65,7 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
 fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     let out = args.out.as_ref().context("missing -o DIR (usage: synthcam dataset SPEC.toml -o DIR)")?;
     anyhow::ensure!(args.jobs >= 1, "--jobs must be at least 1");
+    super::export::parse_formats(&args.format)?;
     let text = std::fs::read_to_string(spec_path).with_context(|| format!("reading {}", spec_path.display()))?;
     let plan = parse_dataset_spec_with(&text, &MeshLibrary::beside(spec_path)).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
     synthcam::dataset::poses::check_feasible(&plan).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
@@ -85,10 +101,18 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
         args.jobs,
         report.manifest.display()
     );
-    Ok(())
+    if args.format.is_empty() {
+        Ok(())
+    } else if shard.count == 1 {
+        export_formats(out, args)
+    } else {
+        eprintln!("--format: the formats are written once the dataset is whole: synthcam dataset merge {} --format {}", out.display(), args.format.join(","));
+        Ok(())
+    }
 }
 
-fn merge(dir: &Path) -> anyhow::Result<()> {
+fn merge(dir: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
+    super::export::parse_formats(&args.format)?;
     let spec_path = dir.join(SPEC_COPY);
     let text = std::fs::read_to_string(&spec_path).with_context(|| format!("reading {} (is {} a dataset folder?)", spec_path.display(), dir.display()))?;
     // Only the count matters here: the copy's mesh paths may be relative to the original spec.
@@ -100,5 +124,5 @@ fn merge(dir: &Path) -> anyhow::Result<()> {
         dir.join("manifest.jsonl").display(),
         report.images
     );
-    Ok(())
+    export_formats(dir, args)
 }

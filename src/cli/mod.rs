@@ -10,6 +10,7 @@ mod dataset;
 mod demo;
 mod detect;
 mod experiment;
+mod export;
 mod handeye;
 mod progress;
 mod render;
@@ -43,8 +44,9 @@ pub enum Command {
     /// Generate a dataset from a spec (sharded, resumable), or merge and verify a sharded one.
     ///
     /// SYNOPSIS: synthcam dataset assets/specs/chessboard_1280.toml -o DIR [--shard I/N] [--jobs J]
-    ///           synthcam dataset merge DIR
-    /// Shard I/N renders the images k with k % N == I.
+    ///           synthcam dataset merge DIR [--format coco,webdataset,mcap]
+    /// Shard I/N renders the images k with k % N == I. `--format` exports the finished dataset
+    /// (after an unsharded run, or at `merge`) as `synthcam export` does.
     Dataset(dataset::DatasetArgs),
     /// Run the main job on the embedded default scenario and write a report folder.
     Demo {
@@ -55,6 +57,13 @@ pub enum Command {
     /// Reproduce the course's experiments (calib-sweep).
     #[command(subcommand)]
     Experiment(experiment::Experiment),
+    /// Export a finished dataset folder in other tools' formats.
+    ///
+    /// SYNOPSIS: synthcam export DIR --format coco[,webdataset,mcap] [-o OUT] [--shard-bytes N]
+    /// coco: DIR/coco.json, COCO keypoints (pixel_px unchanged, OpenCV pixel centres; v 2/1/0).
+    /// webdataset: DIR/webdataset/shard-000000.tar, ... (NNNNNN.png + NNNNNN.json, ~1 GB each).
+    /// mcap: DIR/ros2.mcap, a ROS 2 bag (Image, CameraInfo, /tf) of a robot-mode dataset.
+    Export(export::ExportArgs),
     /// The course's hand-eye experiment (variant A) on rendered and detected pixels.
     ///
     /// SYNOPSIS: synthcam handeye --views 5 --seed 0   (prints estimated vs true transforms)
@@ -67,7 +76,8 @@ pub enum Command {
     /// Visual servoing (PBVS or IBVS) in the loop: render, detect and control at every step.
     ///
     /// SYNOPSIS: synthcam servo --law ibvs -o out/ibvs --frames
-    /// writes trace.csv/json, trace_ideal.csv/json, plots, summary.md (error budget) and report.html.
+    /// writes trace.csv/json, trace_ideal.csv/json, plots, summary.md (error budget) and report.html;
+    /// `--mcap run.mcap` writes the rendered frames as a ROS 2 bag (Image, CameraInfo, /tf).
     Servo(servo::ServoArgs),
     /// An open scenario (any camera, target and robot): hand-eye from rendered views, then PBVS or IBVS.
     ///
@@ -87,6 +97,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Demo { out } => demo::run(&out),
         Command::Detect(args) => detect::run(&args),
         Command::Experiment(e) => experiment::run(&e),
+        Command::Export(args) => export::run(&args),
         Command::Handeye(args) => handeye::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Servo(args) => servo::run(&args),

@@ -78,6 +78,10 @@ pub struct ServoArgs {
     /// Seed of the hand-eye views and all noise.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Also write the rendered run as a ROS 2 bag in MCAP: /cam0/image_raw, /cam0/camera_info,
+    /// /tf (world -> base -> tool0 -> cam0, world -> target), step s at s x 100 ms.
+    #[arg(long, value_name = "PATH")]
+    pub mcap: Option<PathBuf>,
 }
 
 fn options(args: &ServoArgs, observation: Observation) -> ServoOptions {
@@ -182,10 +186,15 @@ struct FrameSink {
     first: Option<(usize, GreyImage)>,
     last: Option<(usize, GreyImage)>,
     err: Option<anyhow::Error>,
+    /// Every frame, for `--mcap`.
+    bag: Option<Vec<(usize, GreyImage)>>,
 }
 
 impl FrameSink {
     fn take(&mut self, step: usize, img: &GreyImage) {
+        if let Some(bag) = &mut self.bag {
+            bag.push((step, img.clone()));
+        }
         if self.first.is_none() {
             self.first = Some((step, img.clone()));
         } else {
@@ -228,6 +237,22 @@ impl FrameSink {
     }
 }
 
+/// `--mcap`: the rendered run's frames as a ROS 2 bag.
+fn write_bag(path: &Path, spec: &RobotSpec, scenario: &SimScenario, t: &ServoTrace, bag: &[(usize, GreyImage)]) -> anyhow::Result<()> {
+    let robot = spec.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;
+    let (counts, bytes) =
+        synthcam::dataset::formats::series::write_servo_mcap(path, scenario, robot.as_ref(), t, bag).with_context(|| format!("writing {}", path.display()))?;
+    println!(
+        "mcap: {} images, {} camera infos, {} tf messages -> {} ({:.1} MB)",
+        counts.images,
+        counts.camera_infos,
+        counts.tf,
+        path.display(),
+        bytes as f64 / 1e6
+    );
+    Ok(())
+}
+
 /// A scenario, its robot, and where the hand-eye views are drawn (default: the start).
 type Loaded = (SimScenario, RobotSpec, Option<Vec<f64>>);
 
@@ -246,6 +271,7 @@ fn load_scenario(args: &ServoArgs) -> anyhow::Result<Loaded> {
 
 /// Run `servo`.
 pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(!(args.ideal && args.mcap.is_some()), "--mcap writes rendered frames: drop --ideal");
     let (scenario, spec, handeye_around) = load_scenario(args)?;
     let size = scenario.camera.size;
     let run = |renderer: Option<&synthcam::render::Renderer>, observation, sink: &mut dyn FnMut(usize, &synthcam::render::GreyImage)| {
@@ -259,7 +285,7 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
     let mut frames = Vec::new();
     if !args.ideal {
         let renderer = super::open_renderer("auto")?;
-        let mut sink = FrameSink { dir: args.frames.then(|| out.join("frames")), ..FrameSink::default() };
+        let mut sink = FrameSink { dir: args.frames.then(|| out.join("frames")), bag: args.mcap.as_ref().map(|_| Vec::new()), ..FrameSink::default() };
         if let Some(dir) = &sink.dir {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
@@ -271,6 +297,9 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         })
         .context("servo run")?;
         bar.finish_and_clear();
+        if let (Some(path), Some(bag)) = (&args.mcap, &sink.bag) {
+            write_bag(path, &spec, &scenario, &t, bag)?;
+        }
         frames = sink.finish(&out)?;
         print_run("rendered + detected", &t);
         write_trace(&out, "trace", &t)?;

@@ -2,6 +2,7 @@
 //! rename), so a failed run never leaves a truncated image behind.
 
 pub mod extras;
+pub mod formats;
 pub mod generate;
 pub mod io;
 pub mod manifest;

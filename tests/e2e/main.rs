@@ -19,6 +19,7 @@ mod dot_accuracy;
 mod dot_fidelity;
 mod dot_grid;
 mod fidelity;
+mod formats;
 mod golden;
 mod handeye;
 mod html_report;

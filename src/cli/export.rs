@@ -1,0 +1,56 @@
+//! `synthcam export DIR --format coco|webdataset|mcap[,...] [-o OUT] [--shard-bytes N]`: a
+//! finished dataset folder in other tools' formats (`synthcam::dataset::formats`).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use synthcam::dataset::formats::{export, ExportOptions, Format, DEFAULT_SHARD_BYTES};
+
+/// Arguments of `export`.
+#[derive(Debug, clap::Args)]
+pub struct ExportArgs {
+    /// The dataset folder (spec.toml, manifest.jsonl, images/).
+    pub dir: PathBuf,
+    /// Formats, comma-separated: coco (coco.json), webdataset (webdataset/shard-NNNNNN.tar),
+    /// mcap (ros2.mcap, robot-mode datasets).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub format: Vec<String>,
+    /// Output file (coco, mcap) or folder (webdataset) when one format is given; default inside DIR.
+    #[arg(short, long)]
+    pub out: Option<PathBuf>,
+    /// WebDataset shard size, bytes.
+    #[arg(long, default_value_t = DEFAULT_SHARD_BYTES)]
+    pub shard_bytes: u64,
+}
+
+/// Parse the format names (all of them before anything is written).
+pub fn parse_formats(names: &[String]) -> anyhow::Result<Vec<Format>> {
+    names.iter().map(|n| n.trim().parse::<Format>().map_err(anyhow::Error::from)).collect()
+}
+
+/// Export `dir` in every format of `formats`, printing one line each.
+pub fn export_all(dir: &Path, formats: &[Format], out: Option<&Path>, opts: &ExportOptions) -> anyhow::Result<()> {
+    anyhow::ensure!(out.is_none() || formats.len() == 1, "-o names one output: give one --format with it");
+    anyhow::ensure!(opts.shard_bytes > 0, "--shard-bytes must be positive");
+    for format in formats {
+        let t0 = std::time::Instant::now();
+        let r = export(dir, *format, out, opts).with_context(|| format!("exporting {} as {}", dir.display(), format.name()))?;
+        println!(
+            "{}: {} images -> {} ({} file(s), {:.1} MB) in {:.2} s",
+            format.name(),
+            r.images,
+            r.output.display(),
+            r.files,
+            r.bytes as f64 / 1e6,
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+/// Run `export`.
+pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
+    let formats = parse_formats(&args.format)?;
+    let opts = ExportOptions { shard_bytes: args.shard_bytes, ..ExportOptions::default() };
+    export_all(&args.dir, &formats, args.out.as_deref(), &opts)
+}
