@@ -34,7 +34,11 @@ pub fn export_all(dir: &Path, formats: &[Format], out: Option<&Path>, opts: &Exp
     anyhow::ensure!(opts.shard_bytes > 0, "--shard-bytes must be positive");
     for format in formats {
         let t0 = std::time::Instant::now();
-        let r = export(dir, *format, out, opts).with_context(|| format!("exporting {} as {}", dir.display(), format.name()))?;
+        // The bar's length from the manifest (an unreadable folder fails in `export` with its reason).
+        let count = synthcam::dataset::formats::folder::DatasetFolder::open(dir).map_or(0, |f| f.entries.len() as u64);
+        let bar = super::progress::bar(count, format.name(), "images");
+        let r = export(dir, *format, out, opts, &|| bar.inc(1)).with_context(|| format!("exporting {} as {}", dir.display(), format.name()))?;
+        bar.finish_and_clear();
         println!(
             "{}: {} images -> {} ({} file(s), {:.1} MB) in {:.2} s",
             format.name(),

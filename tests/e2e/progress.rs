@@ -24,6 +24,7 @@ fn commands(dir: &Path) -> Vec<(&'static str, Vec<String>)> {
         ("dataset", vec!["dataset".into(), s(&spec), "-o".into(), s(&dir.join("ds"))]),
         // Calibrates on the dataset's images (a bar over their detection).
         ("calibrate", [vec!["calibrate".into(), s(&dir.join("ds").join("images"))], strs(&["--target", "chessboard:6x4", "--square", "0.03"])].concat()),
+        ("export", vec!["export".into(), s(&dir.join("ds")), "--format".into(), "webdataset".into()]),
         ("servo", [strs(&["servo", "--law", "ibvs", "--steps", "4", "--no-compare", "--no-stop", "-o"]), vec![s(&dir.join("servo"))]].concat()),
         ("robustness", [strs(&["experiment", "robustness", "--views", "1", "--effects", "blur", "--out"]), vec![s(&dir.join("rob"))]].concat()),
     ]

@@ -83,12 +83,19 @@ impl DatasetFolder {
         Ok(std::fs::read(&path).map_err(|err| read_err(&path, err))?)
     }
 
-    /// Every truth, by k (read in parallel).
+    /// Every truth, by k (read in parallel), calling `tick` after each.
     ///
     /// # Errors
     /// The first failure of [`Self::read_truth`].
-    pub fn truths(&self) -> Result<Vec<TruthLabels>, FormatError> {
-        self.entries.par_iter().map(|e| self.read_truth(e)).collect()
+    pub fn truths(&self, tick: super::Tick<'_>) -> Result<Vec<TruthLabels>, FormatError> {
+        self.entries
+            .par_iter()
+            .map(|e| {
+                let t = self.read_truth(e);
+                tick();
+                t
+            })
+            .collect()
     }
 
     /// Entry `e`'s encoded image, checked against the manifest's SHA-256.

@@ -137,23 +137,27 @@ pub struct ExportReport {
     pub bytes: u64,
 }
 
-/// Export the dataset folder `dir` as `format` to `out` (default [`Format::default_output`]).
+/// Called once per image exported (from any thread), for progress bars.
+pub type Tick<'a> = &'a (dyn Fn() + Sync);
+
+/// Export the dataset folder `dir` as `format` to `out` (default [`Format::default_output`]);
+/// `tick` is called once per image.
 ///
 /// # Errors
 /// A missing or incomplete dataset folder, a corrupt file, a format that cannot hold the
 /// dataset, or a write failure; nothing is left at `out` then (an earlier export there is kept).
-pub fn export(dir: &Path, format: Format, out: Option<&Path>, opts: &ExportOptions) -> Result<ExportReport, FormatError> {
+pub fn export(dir: &Path, format: Format, out: Option<&Path>, opts: &ExportOptions, tick: Tick<'_>) -> Result<ExportReport, FormatError> {
     let folder = folder::DatasetFolder::open(dir)?;
     let output = out.map_or_else(|| format.default_output(dir), Path::to_path_buf);
     let (files, bytes) = match format {
         Format::Coco => {
-            let json = coco::coco_json(&folder.truths()?, &folder.image_names())?;
+            let json = coco::coco_json(&folder.truths(tick)?, &folder.image_names())?;
             write_atomic_with(&output, |w| w.write_all(&json).map_err(|e| write_err(&output, e)))?;
             (1, json.len() as u64)
         }
-        Format::WebDataset => webdataset::write_folder(&folder, &output, opts.shard_bytes)?,
+        Format::WebDataset => webdataset::write_folder(&folder, &output, opts.shard_bytes, tick)?,
         Format::Mcap => {
-            let bytes = series::write_dataset_mcap(&folder, &output, opts.frame_period_ns)?;
+            let bytes = series::write_dataset_mcap(&folder, &output, opts.frame_period_ns, tick)?;
             (1, bytes)
         }
     };

@@ -59,7 +59,7 @@ where
 /// # Errors
 /// [`FormatError::Unsupported`] for a dataset whose poses are not a robot's, a read, decode or
 /// write error.
-pub fn write_dataset_mcap(folder: &DatasetFolder, path: &Path, frame_period_ns: u64) -> Result<u64, FormatError> {
+pub fn write_dataset_mcap(folder: &DatasetFolder, path: &Path, frame_period_ns: u64, tick: super::Tick<'_>) -> Result<u64, FormatError> {
     let plan = folder.plan()?;
     let PoseMode::Robot(cell) = &plan.mode else {
         return Err(FormatError::Unsupported {
@@ -74,6 +74,7 @@ pub fn write_dataset_mcap(folder: &DatasetFolder, path: &Path, frame_period_ns: 
     };
     let camera = folder.read_truth(first)?.camera;
     let frames = folder.entries.iter().map(|e| {
+        tick();
         let truth = folder.read_truth(e)?;
         let q = e.joints_rad.ok_or_else(|| FormatError::Corrupt {
             path: folder.dir.join("manifest.jsonl").display().to_string(),

@@ -90,7 +90,7 @@ fn sample_files(folder: &DatasetFolder, e: &crate::dataset::manifest::ManifestEn
 /// # Errors
 /// A read, corrupt-file or write error (the temporary folder is removed), or an `out` that
 /// exists and holds other files.
-pub fn write_folder(folder: &DatasetFolder, out: &Path, shard_bytes: u64) -> Result<(u64, u64), FormatError> {
+pub fn write_folder(folder: &DatasetFolder, out: &Path, shard_bytes: u64, tick: super::Tick<'_>) -> Result<(u64, u64), FormatError> {
     let keep_out = |p: &Path| std::fs::read_dir(p).is_ok_and(|d| d.flatten().any(|e| !e.file_name().to_string_lossy().starts_with("shard-")));
     if out.exists() && (!out.is_dir() || keep_out(out)) {
         return Err(write_err(out, std::io::Error::new(std::io::ErrorKind::AlreadyExists, "exists and is not a folder of WebDataset shards")));
@@ -99,11 +99,18 @@ pub fn write_folder(folder: &DatasetFolder, out: &Path, shard_bytes: u64) -> Res
     let _ = std::fs::remove_dir_all(&tmp);
     let result = (|| {
         std::fs::create_dir_all(&tmp).map_err(|e| write_err(&tmp, e))?;
-        let mut bytes = 0;
+        let (mut bytes, ticked) = (0, std::cell::Cell::new(0));
         let shards = write_shards(
             folder.entries.len(),
             shard_bytes,
-            |i| folder.entries.get(i).map_or_else(|| Ok(Vec::new()), |e| sample_files(folder, e)),
+            |i| {
+                // A sample that does not fit is read again for the next shard: count it once.
+                if i >= ticked.get() {
+                    ticked.set(i + 1);
+                    tick();
+                }
+                folder.entries.get(i).map_or_else(|| Ok(Vec::new()), |e| sample_files(folder, e))
+            },
             |index, fill| {
                 bytes += write_atomic_with(&tmp.join(shard_name(index)), |w| fill(w))?;
                 Ok(())
