@@ -128,11 +128,16 @@ def test_webdataset_yields_every_sample(tiny):
 
 
 def read_bag(path):
-    from mcap_ros2.reader import read_ros2_messages
+    """Messages by topic, decoded by mcap-ros2-support from the bag's own ros2msg schemas."""
+    from types import SimpleNamespace
+
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
 
     by_topic = {}
-    for m in read_ros2_messages(str(path)):
-        by_topic.setdefault(m.channel.topic, []).append(m)
+    with open(path, "rb") as f:
+        for _, channel, message, ros_msg in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+            by_topic.setdefault(channel.topic, []).append(SimpleNamespace(channel=channel, message=message, ros_msg=ros_msg, log_time_ns=message.log_time))
     return by_topic
 
 
