@@ -10,7 +10,7 @@ use synthcam::render::GreyImage;
 use synthcam::report::doc::Document;
 use synthcam::report::sweep::{csv, plot_png, table};
 use synthcam::sim::robustness::{Effect, RobustnessSetup, ViewImage};
-use synthcam::sim::sweep::{run_sweep_reporting, SweepMode, SweepSetup};
+use synthcam::sim::sweep::{run_sweep_with, SweepMode, SweepSetup};
 
 /// Experiments.
 #[derive(Debug, clap::Subcommand)]
@@ -81,7 +81,7 @@ pub fn run(e: &Experiment) -> anyhow::Result<()> {
             let sweep = |mode: SweepMode, renderer: Option<&synthcam::render::Renderer>| {
                 let (t0, name) = (std::time::Instant::now(), if renderer.is_some() { "rendered" } else { "ideal" });
                 let bar = super::progress::bar(ns.len() as u64 * *seeds, name, "view pools");
-                let runs = run_sweep_reporting(&setup, mode, &ms, &ns, *seeds, renderer, &mut |done, _| bar.set_position(done as u64));
+                let runs = run_sweep_with(&setup, mode, &ms, &ns, *seeds, renderer, &mut |done, _| bar.set_position(done as u64));
                 bar.finish_and_clear();
                 eprintln!("{name} mode: {} calibrations in {:.1} s", runs.as_ref().map_or(0, Vec::len), t0.elapsed().as_secs_f64());
                 runs

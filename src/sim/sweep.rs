@@ -84,30 +84,15 @@ fn grid_points(n: usize) -> Vec<Point3<f64>> {
 /// No M or N values, an N below 2 (a grid needs two points per side) or an M below 3 (Zhang's
 /// method needs three views).
 pub fn run_sweep(mode: SweepMode, ms: &[usize], ns: &[usize], seeds: u64, renderer: Option<&Renderer>) -> Result<Vec<SweepRun>, super::SimError> {
-    run_sweep_with(&SweepSetup::default(), mode, ms, ns, seeds, renderer)
+    run_sweep_with(&SweepSetup::default(), mode, ms, ns, seeds, renderer, &mut |_, _| {})
 }
 
-/// [`run_sweep`] with another camera and lens model.
+/// [`run_sweep`] with another camera and lens model, calling `progress(done, total)` after each
+/// (N, seed) pool is calibrated (`total` = N values x seeds).
 ///
 /// # Errors
 /// As [`run_sweep`], and an invalid camera.
 pub fn run_sweep_with(
-    setup: &SweepSetup,
-    mode: SweepMode,
-    ms: &[usize],
-    ns: &[usize],
-    seeds: u64,
-    renderer: Option<&Renderer>,
-) -> Result<Vec<SweepRun>, super::SimError> {
-    run_sweep_reporting(setup, mode, ms, ns, seeds, renderer, &mut |_, _| {})
-}
-
-/// [`run_sweep_with`], calling `progress(done, total)` after each (N, seed) pool is calibrated
-/// (`total` = N values x seeds).
-///
-/// # Errors
-/// As [`run_sweep_with`].
-pub fn run_sweep_reporting(
     setup: &SweepSetup,
     mode: SweepMode,
     ms: &[usize],

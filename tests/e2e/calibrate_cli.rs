@@ -82,12 +82,12 @@ fn calib_sweep_runs_with_any_lens_model() {
     // coefficients estimated with the intrinsics.
     let camera = CameraModel::pinhole(1280, 1024, 1500.0).with_lens(Lens::Fisheye(Fisheye { k: [0.3, -0.1, 0.0, 0.0] }));
     let setup = SweepSetup { camera, model: Some(CalibModel::Fisheye) };
-    let rendered = run_sweep_with(&setup, SweepMode::Rendered, &[8], &[5], 1, Some(renderer())).expect("sweep");
+    let rendered = run_sweep_with(&setup, SweepMode::Rendered, &[8], &[5], 1, Some(renderer()), &mut |_, _| {}).expect("sweep");
     assert_eq!(rendered.len(), 1);
     eprintln!("rendered fisheye sweep, M = 8, N = 5: % errors {:?}, rms {:.4} px", rendered[0].err_pct, rendered[0].rms_px);
     assert!(rendered[0].err_pct.iter().all(|e| *e < 1.0) && rendered[0].rms_px < 0.05, "{:?}", rendered[0]);
     let bad = SweepSetup { camera: CameraModel { size: synthcam::camera::ImageSize { width: 0, height: 10 }, ..camera }, model: None };
-    assert!(run_sweep_with(&bad, SweepMode::Ideal, &[5], &[5], 1, None).is_err());
+    assert!(run_sweep_with(&bad, SweepMode::Ideal, &[5], &[5], 1, None, &mut |_, _| {}).is_err());
 }
 
 #[test]
