@@ -52,6 +52,18 @@ pub fn export_all(dir: &Path, formats: &[Format], out: Option<&Path>, opts: &Exp
     Ok(())
 }
 
+/// One line for a bag written by `servo --mcap` or `sim --mcap`.
+pub fn print_bag(path: &Path, counts: &synthcam::dataset::formats::mcap::McapCounts, bytes: u64) {
+    println!(
+        "mcap: {} images, {} camera infos, {} tf messages -> {} ({:.1} MB)",
+        counts.images,
+        counts.camera_infos,
+        counts.tf,
+        path.display(),
+        bytes as f64 / 1e6
+    );
+}
+
 /// Run `export`.
 pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
     let formats = parse_formats(&args.format)?;

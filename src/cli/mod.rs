@@ -81,7 +81,7 @@ pub enum Command {
     Servo(servo::ServoArgs),
     /// An open scenario (any camera, target and robot): hand-eye from rendered views, then PBVS or IBVS.
     ///
-    /// SYNOPSIS: synthcam sim assets/scenarios/ur5e_chessboard.toml --law ibvs --json run.json
+    /// SYNOPSIS: synthcam sim assets/scenarios/ur5e_chessboard.toml --law ibvs --json run.json [--mcap run.mcap]
     Sim(sim::SimArgs),
 }
 

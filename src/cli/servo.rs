@@ -242,14 +242,7 @@ fn write_bag(path: &Path, spec: &RobotSpec, scenario: &SimScenario, t: &ServoTra
     let robot = spec.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;
     let (counts, bytes) =
         synthcam::dataset::formats::series::write_servo_mcap(path, scenario, robot.as_ref(), t, bag).with_context(|| format!("writing {}", path.display()))?;
-    println!(
-        "mcap: {} images, {} camera infos, {} tf messages -> {} ({:.1} MB)",
-        counts.images,
-        counts.camera_infos,
-        counts.tf,
-        path.display(),
-        bytes as f64 / 1e6
-    );
+    super::export::print_bag(path, &counts, bytes);
     Ok(())
 }
 

@@ -1,12 +1,16 @@
-//! `synthcam sim SCENARIO.toml [--law pbvs|ibvs] [--views N] [--ideal] [--json OUT]`: an open
-//! scenario (any camera, target and robot): hand-eye from rendered views, then the law.
+//! `synthcam sim SCENARIO.toml [--law pbvs|ibvs] [--views N] [--ideal] [--json OUT] [--mcap BAG]`:
+//! an open scenario (any camera, target and robot): hand-eye from rendered views, then the law.
 
+use std::cell::RefCell;
 use std::path::PathBuf;
+use std::rc::Rc;
 
 use anyhow::Context;
 use synthcam::dataset::write_atomic;
+use synthcam::render::GreyImage;
+use synthcam::scene::Scene;
 use synthcam::sim::open_run::{run_open, OpenRunOptions};
-use synthcam::sim::sensor::{IdealSensor, RenderedSensor, Sensor};
+use synthcam::sim::sensor::{Capture, IdealSensor, RenderedSensor, Sensor};
 use synthcam::sim::servo_run::Law;
 use synthcam::sim::{ScenarioSpec, Sim};
 
@@ -33,6 +37,30 @@ pub struct SimArgs {
     /// Write the run (hand-eye error, every step) as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write the loop's rendered frames as a ROS 2 bag (MCAP: Image, CameraInfo, /tf).
+    #[arg(long)]
+    pub mcap: Option<PathBuf>,
+}
+
+/// Frames kept by [`Recording`]: (simulator frame, image).
+type Frames = Rc<RefCell<Vec<(usize, GreyImage)>>>;
+
+/// A sensor that keeps every image it captures (the k-th capture is the simulator's frame k).
+struct Recording<'a> {
+    inner: Box<dyn Sensor + 'a>,
+    frames: Frames,
+}
+
+impl Sensor for Recording<'_> {
+    fn capture(&mut self, scene: &Scene) -> Result<Capture, synthcam::sim::SimError> {
+        let c = self.inner.capture(scene)?;
+        let mut frames = self.frames.borrow_mut();
+        if let Some(img) = &c.image {
+            let k = frames.len();
+            frames.push((k, img.clone()));
+        }
+        Ok(c)
+    }
 }
 
 /// Run `sim`.
@@ -48,12 +76,15 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let robot = spec.robot.build(&|p| std::fs::read_to_string(base.join(p)).map_err(|e| e.to_string()))?;
     let meshes = synthcam::dataset::MeshLibrary::beside(&args.scenario);
     let scenario = spec.to_scenario_with(&|p: &str| meshes.load(p))?;
+    anyhow::ensure!(!(args.ideal && args.mcap.is_some()), "--mcap records rendered frames: it cannot go with --ideal");
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
     let sensor: Box<dyn Sensor> = match &renderer {
         Some(r) => Box::new(RenderedSensor { renderer: r }),
         None => Box::new(IdealSensor::new(IDEAL_NOISE_PX, 0)?),
     };
-    let mut sim = Sim::new(scenario, robot, sensor)?;
+    let frames = Frames::default();
+    let sensor: Box<dyn Sensor> = if args.mcap.is_some() { Box::new(Recording { inner: sensor, frames: frames.clone() }) } else { sensor };
+    let mut sim = Sim::new(scenario.clone(), robot, sensor)?;
     // Ideal features carry N(0, sigma^2) per coordinate: their RMS distance to the desired ones
     // cannot fall below sigma sqrt(2), so the IBVS stop is raised to 2 sigma there.
     let stop_px = if args.ideal { 2.0 * IDEAL_NOISE_PX } else { 0.05 };
@@ -72,6 +103,11 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     );
     if let Some(p) = &args.json {
         write_atomic(p, &serde_json::to_vec_pretty(&run)?)?;
+    }
+    if let Some(p) = &args.mcap {
+        let (counts, bytes) = synthcam::dataset::formats::series::write_loop_mcap(p, &scenario, sim.robot(), &run.trace, &frames.borrow())
+            .with_context(|| format!("writing {}", p.display()))?;
+        super::export::print_bag(p, &counts, bytes);
     }
     anyhow::ensure!(run.trace.stopped, "the loop did not converge in {} steps", args.steps);
     Ok(())

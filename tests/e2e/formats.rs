@@ -168,10 +168,10 @@ fn webdataset_shards_hold_every_image_and_truth() {
 }
 
 /// Little-endian CDR reader (alignment counted after the 4-byte encapsulation header).
-struct Cdr<'a>(&'a [u8], usize);
+pub(crate) struct Cdr<'a>(&'a [u8], usize);
 
 impl<'a> Cdr<'a> {
-    fn new(b: &'a [u8]) -> Self {
+    pub(crate) fn new(b: &'a [u8]) -> Self {
         assert_eq!(&b[..4], &[0, 1, 0, 0], "CDR_LE encapsulation");
         Cdr(b, 4)
     }
@@ -181,19 +181,19 @@ impl<'a> Cdr<'a> {
         self.1 += n;
         s
     }
-    fn u32(&mut self) -> u32 {
+    pub(crate) fn u32(&mut self) -> u32 {
         u32::from_le_bytes(self.take(4, 4).try_into().unwrap())
     }
-    fn f64(&mut self) -> f64 {
+    pub(crate) fn f64(&mut self) -> f64 {
         f64::from_le_bytes(self.take(8, 8).try_into().unwrap())
     }
-    fn string(&mut self) -> String {
+    pub(crate) fn string(&mut self) -> String {
         let n = self.u32() as usize;
         let b = self.take(n, 1);
         assert_eq!(b[n - 1], 0);
         String::from_utf8(b[..n - 1].to_vec()).unwrap()
     }
-    fn header(&mut self) -> (u32, u32, String) {
+    pub(crate) fn header(&mut self) -> (u32, u32, String) {
         (self.u32(), self.u32(), self.string())
     }
 }
@@ -203,7 +203,7 @@ fn iso(t: [f64; 3], q: [f64; 4]) -> Isometry3<f64> {
 }
 
 /// /tf of one message: (parent, child) -> parent_from_child.
-fn tf(data: &[u8]) -> BTreeMap<(String, String), Isometry3<f64>> {
+pub(crate) fn tf(data: &[u8]) -> BTreeMap<(String, String), Isometry3<f64>> {
     let mut c = Cdr::new(data);
     (0..c.u32())
         .map(|_| {

@@ -33,4 +33,5 @@ mod robustness;
 mod robustness_experiment;
 mod sensor_effects;
 mod servo;
+mod sim_bag;
 mod truth;

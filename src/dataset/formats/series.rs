@@ -19,6 +19,7 @@ use crate::render::GreyImage;
 use crate::robot::{base_from_tool, Joints, Robot};
 use crate::scene::file::CameraSpec;
 use crate::scene::truth::PoseLabel;
+use crate::sim::controller::LoopTrace;
 use crate::sim::servo_run::ServoTrace;
 use crate::sim::SimScenario;
 
@@ -92,6 +93,35 @@ pub fn write_dataset_mcap(folder: &DatasetFolder, path: &Path, frame_period_ns: 
     Ok(write_mcap_file(path, &camera, frames)?.1)
 }
 
+/// The frames of a run on a robot: `images` are (index, rendered frame), each stamped at index x
+/// `frame_period_ns` with the robot's transforms at `q_at(index)` (images without joints are
+/// skipped).
+///
+/// # Errors
+/// [`FormatError::Unsupported`] when the robot's forward kinematics fails.
+fn robot_frames<'t>(
+    scenario: &SimScenario,
+    robot: &dyn Robot,
+    images: &[(usize, GreyImage)],
+    q_at: impl Fn(usize) -> Option<&'t [f64]>,
+    frame_period_ns: u64,
+) -> Result<Vec<SeriesFrame>, FormatError> {
+    let mut frames = Vec::with_capacity(images.len());
+    for (index, img) in images {
+        let Some(q) = q_at(*index) else { continue };
+        let base_from_tool =
+            robot.base_from_tool(q).map_err(|e| FormatError::Unsupported { format: "mcap", reason: format!("frame {index}: forward kinematics: {e}") })?;
+        let transforms = vec![
+            tf("world", "base", scenario.world_from_base),
+            tf("base", "tool0", base_from_tool),
+            tf("tool0", "cam0", scenario.tool_from_cam),
+            tf("world", "target", scenario.world_from_target),
+        ];
+        frames.push(SeriesFrame { stamp_ns: (*index as u64).saturating_mul(frame_period_ns), image: raw_image(img), transforms });
+    }
+    Ok(frames)
+}
+
 /// The frames of a servo run: `images` are (step, rendered frame); each is stamped at step x
 /// `frame_period_ns` with the robot's transforms at that step's joints (frames of steps the
 /// trace does not hold are skipped).
@@ -105,21 +135,25 @@ pub fn servo_frames(
     images: &[(usize, GreyImage)],
     frame_period_ns: u64,
 ) -> Result<Vec<SeriesFrame>, FormatError> {
-    let mut frames = Vec::with_capacity(images.len());
-    for (step, img) in images {
-        let Some(record) = trace.steps.iter().find(|r| r.step == *step) else { continue };
-        let base_from_tool = robot
-            .base_from_tool(&record.q_rad)
-            .map_err(|e| FormatError::Unsupported { format: "mcap", reason: format!("step {step}: forward kinematics: {e}") })?;
-        let transforms = vec![
-            tf("world", "base", scenario.world_from_base),
-            tf("base", "tool0", base_from_tool),
-            tf("tool0", "cam0", scenario.tool_from_cam),
-            tf("world", "target", scenario.world_from_target),
-        ];
-        frames.push(SeriesFrame { stamp_ns: (*step as u64).saturating_mul(frame_period_ns), image: raw_image(img), transforms });
-    }
-    Ok(frames)
+    robot_frames(scenario, robot, images, |step| trace.steps.iter().find(|r| r.step == step).map(|r| r.q_rad.as_slice()), frame_period_ns)
+}
+
+/// Write an open-scenario run (`synthcam sim`) as a bag to `path`: `images` are (simulator frame,
+/// rendered frame) of every observation; those of the loop's steps are written, stamped at frame x
+/// 100 ms (the hand-eye views before the loop leave a gap). Returns the counts and bytes.
+///
+/// # Errors
+/// As [`write_servo_mcap`].
+pub fn write_loop_mcap(
+    path: &Path,
+    scenario: &SimScenario,
+    robot: &dyn Robot,
+    trace: &LoopTrace,
+    images: &[(usize, GreyImage)],
+) -> Result<(McapCounts, u64), FormatError> {
+    let q_at = |frame: usize| trace.steps.iter().find(|s| s.frame == frame as u64).map(|s| s.q_rad.as_slice());
+    let frames = robot_frames(scenario, robot, images, q_at, DEFAULT_FRAME_PERIOD_NS)?;
+    write_mcap_file(path, &CameraSpec::from_model(&scenario.camera), frames.into_iter().map(Ok))
 }
 
 /// Write a servo run as a bag to `path` ([`servo_frames`]). Returns the counts and bytes.
