@@ -1,0 +1,25 @@
+"""The README's Python examples run as written and meet the issue's bounds."""
+
+import re
+import subprocess
+import sys
+
+
+def run_example(root, name):
+    r = subprocess.run([sys.executable, str(root / "python" / "examples" / name)], cwd=root, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return r.stdout
+
+
+def test_quickstart_corner_error_within_0_015_px(root):
+    out = run_example(root, "quickstart.py")
+    rms = float(re.search(r"RMS error vs truth ([0-9.]+) px", out).group(1))
+    print(out.strip())
+    assert rms <= 0.015
+
+
+def test_ibvs_example_converges_below_0_5_px(root):
+    out = run_example(root, "ibvs.py")
+    final = float(re.search(r"-> ([0-9.]+) px RMS", out).group(1))
+    print(out.strip())
+    assert final <= 0.5
