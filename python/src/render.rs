@@ -84,13 +84,7 @@ pub fn load_image(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyAny>> {
     let img = py
         .detach(|| -> Result<GreyImage, String> {
             let decoded = image::open(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-            Ok(match decoded {
-                image::DynamicImage::ImageLuma8(i) => GreyImage::U8(i),
-                image::DynamicImage::ImageLuma16(i) => GreyImage::U16(i),
-                image::DynamicImage::ImageRgb16(i) => GreyImage::Rgb16(i),
-                image::DynamicImage::ImageRgba16(_) => GreyImage::Rgb16(decoded.to_rgb16()),
-                other => GreyImage::Rgb8(other.to_rgb8()),
-            })
+            Ok(GreyImage::from(decoded))
         })
         .map_err(err)?;
     image_to_py(py, img)

@@ -69,6 +69,24 @@ pub enum GreyImage {
     Rgb16(image::ImageBuffer<image::Rgb<u16>, Vec<u16>>),
 }
 
+impl From<image::DynamicImage> for GreyImage {
+    /// A decoded file as stored: grey stays grey and colour stays colour, 8-bit or 16-bit as the
+    /// file has it (float images become 16-bit); an alpha channel is dropped.
+    fn from(img: image::DynamicImage) -> Self {
+        use image::DynamicImage as D;
+        match img {
+            D::ImageLuma8(i) => GreyImage::U8(i),
+            D::ImageLuma16(i) => GreyImage::U16(i),
+            D::ImageRgb8(i) => GreyImage::Rgb8(i),
+            D::ImageRgb16(i) => GreyImage::Rgb16(i),
+            D::ImageLumaA8(_) => GreyImage::U8(img.to_luma8()),
+            D::ImageLumaA16(_) => GreyImage::U16(img.to_luma16()),
+            D::ImageRgba8(_) => GreyImage::Rgb8(img.to_rgb8()),
+            _ => GreyImage::Rgb16(img.to_rgb16()),
+        }
+    }
+}
+
 impl GreyImage {
     /// Width and height, pixels.
     pub fn dimensions(&self) -> (u32, u32) {

@@ -76,30 +76,55 @@ pub fn opencv_yaml(cam: &CameraModel, rms_px: f64) -> Result<String, CameraFileE
     ))
 }
 
-/// ROS `camera_info` YAML (`plumb_bob`, `rational_polynomial` or `equidistant`).
+/// A camera as ROS's `sensor_msgs/CameraInfo` holds it (the rectification R is the identity).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RosCameraInfo {
+    /// `plumb_bob`, `rational_polynomial` or `equidistant`.
+    pub distortion_model: &'static str,
+    /// Distortion coefficients in that model's order.
+    pub d: Vec<f64>,
+    /// Intrinsic matrix, row-major, pixels.
+    pub k: [f64; 9],
+    /// Projection matrix `[K | 0]`, row-major.
+    pub p: [f64; 12],
+}
+
+/// ROS's view of `cam`: `plumb_bob` for OpenCV's model with at most 5 coefficients,
+/// `rational_polynomial` with 8, `equidistant` for the fisheye model. Used by [`ros_yaml`] and
+/// by the ROS 2 bags' `CameraInfo` messages.
 ///
 /// # Errors
-/// [`CameraFileError::Unsupported`] for thin prism or tilt terms, or a Double Sphere camera.
-pub fn ros_yaml(cam: &CameraModel, camera_name: &str) -> Result<String, CameraFileError> {
-    let (model, d) = match cam.lens {
+/// [`CameraFileError::Unsupported`] for thin-prism or tilt terms, or a Double Sphere camera.
+pub fn ros_camera_info(cam: &CameraModel) -> Result<RosCameraInfo, CameraFileError> {
+    let (distortion_model, d) = match cam.lens {
         Lens::OpenCv(d) => match d.opencv_len() {
             0..=5 => ("plumb_bob", d.coefficients()[..5].to_vec()),
             8 => ("rational_polynomial", d.coefficients()[..8].to_vec()),
-            n => return Err(unsupported("ROS camera_info", format!("no ROS distortion model has OpenCV's {n}-value form (thin prism, tilt)"))),
+            n => return Err(unsupported("ROS camera_info", format!("no ROS distortion model has OpenCV's {n}-value form (thin-prism, tilt)"))),
         },
         Lens::Fisheye(f) => ("equidistant", f.k.to_vec()),
-        Lens::DoubleSphere(_) => return Err(unsupported("ROS camera_info", "ROS has no Double Sphere model")),
+        Lens::DoubleSphere(_) => return Err(unsupported("ROS camera_info", "ROS has no Double Sphere (double-sphere) model")),
     };
     let k = &cam.intrinsics;
     let p = [k.fx, k.skew, k.cx, 0.0, 0.0, k.fy, k.cy, 0.0, 0.0, 0.0, 1.0, 0.0];
+    Ok(RosCameraInfo { distortion_model, d, k: k_row_major(cam), p })
+}
+
+/// ROS `camera_info` YAML ([`ros_camera_info`]).
+///
+/// # Errors
+/// As [`ros_camera_info`].
+pub fn ros_yaml(cam: &CameraModel, camera_name: &str) -> Result<String, CameraFileError> {
+    let info = ros_camera_info(cam)?;
     Ok(format!(
-        "image_width: {}\nimage_height: {}\ncamera_name: {camera_name}\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: [{}]\ndistortion_model: {model}\ndistortion_coefficients:\n  rows: 1\n  cols: {}\n  data: [{}]\nrectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nprojection_matrix:\n  rows: 3\n  cols: 4\n  data: [{}]\n",
+        "image_width: {}\nimage_height: {}\ncamera_name: {camera_name}\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: [{}]\ndistortion_model: {}\ndistortion_coefficients:\n  rows: 1\n  cols: {}\n  data: [{}]\nrectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nprojection_matrix:\n  rows: 3\n  cols: 4\n  data: [{}]\n",
         cam.size.width,
         cam.size.height,
-        list(&k_row_major(cam)),
-        d.len(),
-        list(&d),
-        list(&p)
+        list(&info.k),
+        info.distortion_model,
+        info.d.len(),
+        list(&info.d),
+        list(&info.p)
     ))
 }
 

@@ -14,8 +14,9 @@ use super::ros2_msgs::{
     CAMERA_INFO_SCHEMA, IMAGE_SCHEMA, TF_SCHEMA,
 };
 use super::FormatError;
+use crate::camera::formats::ros_camera_info;
 use crate::render::GreyImage;
-use crate::scene::file::{CameraSpec, ModelName};
+use crate::scene::file::CameraSpec;
 
 /// The camera's frame id (its optical frame: x right, y down, z forward, as OpenCV's).
 pub const CAMERA_FRAME: &str = "cam0";
@@ -48,27 +49,18 @@ pub struct McapCounts {
     pub tf: u64,
 }
 
-/// ROS's `CameraInfo` of a synthcam camera: `plumb_bob` for OpenCV's model with at most 5
-/// coefficients, `rational_polynomial` with 8, `equidistant` for the fisheye model.
+/// ROS's `CameraInfo` of a synthcam camera ([`crate::camera::formats::ros_camera_info`], which
+/// also writes ROS's camera YAML): `plumb_bob` for OpenCV's model with at most 5 coefficients,
+/// `rational_polynomial` with 8, `equidistant` for the fisheye model.
 ///
 /// # Errors
 /// [`FormatError::Unsupported`] for the double-sphere model and OpenCV's thin-prism or tilt
-/// terms, which `CameraInfo` cannot name.
+/// terms, which `CameraInfo` cannot name, or a camera that is not valid.
 pub fn camera_info(cam: &CameraSpec) -> Result<CameraInfo, FormatError> {
-    let unsupported = |reason: &str| FormatError::Unsupported { format: "mcap", reason: reason.to_string() };
-    let dist = cam.dist.clone().unwrap_or_default();
-    let nonzero_from = |i: usize| dist.iter().skip(i).any(|v| *v != 0.0);
-    let (model, d) = match cam.model {
-        ModelName::Opencv if !nonzero_from(5) => ("plumb_bob", (0..5).map(|i| dist.get(i).copied().unwrap_or(0.0)).collect()),
-        ModelName::Opencv if !nonzero_from(8) => ("rational_polynomial", (0..8).map(|i| dist.get(i).copied().unwrap_or(0.0)).collect()),
-        ModelName::Opencv => return Err(unsupported("OpenCV's thin-prism and tilt coefficients have no CameraInfo distortion model")),
-        ModelName::Fisheye => ("equidistant", (0..4).map(|i| dist.get(i).copied().unwrap_or(0.0)).collect()),
-        ModelName::DoubleSphere => return Err(unsupported("the double-sphere lens has no CameraInfo distortion model")),
-    };
-    let k = [cam.fx, cam.skew, cam.cx, 0.0, cam.fy, cam.cy, 0.0, 0.0, 1.0];
+    let unsupported = |e: &dyn std::fmt::Display| FormatError::Unsupported { format: "mcap", reason: e.to_string() };
+    let info = ros_camera_info(&cam.to_model().map_err(|e| unsupported(&e))?).map_err(|e| unsupported(&e))?;
     let r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-    let p = [cam.fx, cam.skew, cam.cx, 0.0, 0.0, cam.fy, cam.cy, 0.0, 0.0, 0.0, 1.0, 0.0];
-    Ok(CameraInfo { width: cam.width, height: cam.height, distortion_model: model, d, k, r, p })
+    Ok(CameraInfo { width: cam.width, height: cam.height, distortion_model: info.distortion_model, d: info.d, k: info.k, r, p: info.p })
 }
 
 /// A rendered image as `sensor_msgs/msg/Image` data (`mono8`, `mono16`, `rgb8`, `rgb16`).
@@ -89,14 +81,7 @@ pub fn raw_image(img: &GreyImage) -> RawImage {
 /// [`FormatError::Corrupt`] naming `what` when it does not decode.
 pub fn decode_raw_image(bytes: &[u8], what: &str) -> Result<RawImage, FormatError> {
     let img = image::load_from_memory(bytes).map_err(|e| FormatError::Corrupt { path: what.to_string(), reason: e.to_string() })?;
-    let grey = match img {
-        image::DynamicImage::ImageLuma8(i) => GreyImage::U8(i),
-        image::DynamicImage::ImageLuma16(i) => GreyImage::U16(i),
-        image::DynamicImage::ImageRgb8(i) => GreyImage::Rgb8(i),
-        image::DynamicImage::ImageRgb16(i) => GreyImage::Rgb16(i),
-        other => GreyImage::U8(other.to_luma8()),
-    };
-    Ok(raw_image(&grey))
+    Ok(raw_image(&GreyImage::from(img)))
 }
 
 struct Channels {
