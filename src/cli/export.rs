@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use synthcam::dataset::formats::{export, ExportOptions, Format, DEFAULT_SHARD_BYTES};
+use synthcam::dataset::formats::folder::DatasetFolder;
+use synthcam::dataset::formats::{export_folder, ExportOptions, Format, DEFAULT_SHARD_BYTES};
 
 /// Arguments of `export`.
 #[derive(Debug, clap::Args)]
@@ -32,12 +33,12 @@ pub fn parse_formats(names: &[String]) -> anyhow::Result<Vec<Format>> {
 pub fn export_all(dir: &Path, formats: &[Format], out: Option<&Path>, opts: &ExportOptions) -> anyhow::Result<()> {
     anyhow::ensure!(out.is_none() || formats.len() == 1, "-o names one output: give one --format with it");
     anyhow::ensure!(opts.shard_bytes > 0, "--shard-bytes must be positive");
+    let Some(first) = formats.first() else { return Ok(()) };
+    let folder = DatasetFolder::open(dir).with_context(|| format!("exporting {} as {}", dir.display(), first.name()))?;
     for format in formats {
         let t0 = std::time::Instant::now();
-        // The bar's length from the manifest (an unreadable folder fails in `export` with its reason).
-        let count = synthcam::dataset::formats::folder::DatasetFolder::open(dir).map_or(0, |f| f.entries.len() as u64);
-        let bar = super::progress::bar(count, format.name(), "images");
-        let r = export(dir, *format, out, opts, &|| bar.inc(1)).with_context(|| format!("exporting {} as {}", dir.display(), format.name()))?;
+        let bar = super::progress::bar(folder.entries.len() as u64, format.name(), "images");
+        let r = export_folder(&folder, *format, out, opts, &|| bar.inc(1)).with_context(|| format!("exporting {} as {}", dir.display(), format.name()))?;
         bar.finish_and_clear();
         println!(
             "{}: {} images -> {} ({} file(s), {:.1} MB) in {:.2} s",

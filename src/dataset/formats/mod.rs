@@ -147,17 +147,30 @@ pub type Tick<'a> = &'a (dyn Fn() + Sync);
 /// A missing or incomplete dataset folder, a corrupt file, a format that cannot hold the
 /// dataset, or a write failure; nothing is left at `out` then (an earlier export there is kept).
 pub fn export(dir: &Path, format: Format, out: Option<&Path>, opts: &ExportOptions, tick: Tick<'_>) -> Result<ExportReport, FormatError> {
-    let folder = folder::DatasetFolder::open(dir)?;
-    let output = out.map_or_else(|| format.default_output(dir), Path::to_path_buf);
+    export_folder(&folder::DatasetFolder::open(dir)?, format, out, opts, tick)
+}
+
+/// [`export`] of a folder already opened (several formats read its manifest once).
+///
+/// # Errors
+/// As [`export`].
+pub fn export_folder(
+    folder: &folder::DatasetFolder,
+    format: Format,
+    out: Option<&Path>,
+    opts: &ExportOptions,
+    tick: Tick<'_>,
+) -> Result<ExportReport, FormatError> {
+    let output = out.map_or_else(|| format.default_output(&folder.dir), Path::to_path_buf);
     let (files, bytes) = match format {
         Format::Coco => {
             let json = coco::coco_json(&folder.truths(tick)?, &folder.image_names())?;
             write_atomic_with(&output, |w| w.write_all(&json).map_err(|e| write_err(&output, e)))?;
             (1, json.len() as u64)
         }
-        Format::WebDataset => webdataset::write_folder(&folder, &output, opts.shard_bytes, tick)?,
+        Format::WebDataset => webdataset::write_folder(folder, &output, opts.shard_bytes, tick)?,
         Format::Mcap => {
-            let bytes = series::write_dataset_mcap(&folder, &output, opts.frame_period_ns, tick)?;
+            let bytes = series::write_dataset_mcap(folder, &output, opts.frame_period_ns, tick)?;
             (1, bytes)
         }
     };

@@ -70,10 +70,9 @@ pub fn write_dataset_mcap(folder: &DatasetFolder, path: &Path, frame_period_ns: 
         });
     };
     let (tool_from_cam, world_from_base) = cell.truth();
-    let Some(first) = folder.entries.first() else {
+    if folder.entries.is_empty() {
         return Err(FormatError::Unsupported { format: "mcap", reason: "the dataset has no images".into() });
-    };
-    let camera = folder.read_truth(first)?.camera;
+    }
     let frames = folder.entries.iter().map(|e| {
         tick();
         let truth = folder.read_truth(e)?;
@@ -90,7 +89,7 @@ pub fn write_dataset_mcap(folder: &DatasetFolder, path: &Path, frame_period_ns: 
         let image = decode_raw_image(&folder.read_image(e)?, &e.file)?;
         Ok(SeriesFrame { stamp_ns: e.k.saturating_mul(frame_period_ns), image, transforms })
     });
-    Ok(write_mcap_file(path, &camera, frames)?.1)
+    Ok(write_mcap_file(path, &CameraSpec::from_model(&plan.camera), frames)?.1)
 }
 
 /// The frames of a run on a robot: `images` are (index, rendered frame), each stamped at index x
