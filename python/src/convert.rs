@@ -98,6 +98,11 @@ pub fn points_to_py<'py>(py: Python<'py>, points: impl Iterator<Item = [f64; 2]>
     Ok(Array2::from_shape_vec((n, 2), flat).map_err(|e| err(format!("points: {e}")))?.into_pyarray(py).into_any())
 }
 
+/// An (N, 2) float64 array of points, NaN where a point is `None` (not visible).
+pub fn optional_points_to_py<'py>(py: Python<'py>, points: &[Option<nalgebra::Point2<f64>>]) -> PyResult<Bound<'py, PyAny>> {
+    points_to_py(py, points.iter().map(|p| p.map_or([f64::NAN; 2], |p| [p.x, p.y])))
+}
+
 /// A 4 x 4 homogeneous matrix of an isometry, row-major nested lists.
 pub fn isometry_rows(iso: &nalgebra::Isometry3<f64>) -> [[f64; 4]; 4] {
     let m = iso.to_homogeneous();

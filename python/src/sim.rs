@@ -14,7 +14,7 @@ use synthcam::scene::file::CameraSpec;
 use synthcam::sim::sensor::RenderedSensor;
 use synthcam::sim::{Observation, ScenarioSpec, Sim as LibSim};
 
-use crate::convert::{chain, err, image_to_py, isometry_rows, points_to_py, text_or_json, to_py};
+use crate::convert::{chain, err, image_to_py, isometry_rows, optional_points_to_py, points_to_py, text_or_json, to_py};
 
 /// What Python asks the simulator thread.
 enum Request {
@@ -29,7 +29,7 @@ enum Request {
 enum Reply {
     Observation(Box<Observation>),
     Done,
-    Pixels(Vec<[f64; 2]>),
+    Pixels(Vec<Option<nalgebra::Point2<f64>>>),
 }
 
 type Job = (Request, mpsc::Sender<Result<Reply, String>>);
@@ -102,19 +102,7 @@ fn handle(sim: &mut LibSim<'_>, request: Request) -> Result<Reply, String> {
         }
         Request::Command { qdot, dt_s } => sim.command_joint_velocities(&qdot, dt_s).map(|()| Reply::Done).map_err(e),
         Request::SetJoints(q) => sim.set_joints(&q).map(|()| Reply::Done).map_err(e),
-        Request::Project(q) => {
-            let cam_from_target = sim.cam_from_target_at(&q).map_err(e)?;
-            let sc = sim.scenario();
-            let points_m = sc.target.feature_points_m();
-            let px = points_m.iter().map(|p| sc.camera.project(&(cam_from_target * p))).map(|pr| {
-                if pr.visible() {
-                    [pr.pixel_px.x, pr.pixel_px.y]
-                } else {
-                    [f64::NAN; 2]
-                }
-            });
-            Ok(Reply::Pixels(px.collect()))
-        }
+        Request::Project(q) => sim.projected_px_at(&q).map(Reply::Pixels).map_err(e),
     }
 }
 
@@ -154,8 +142,7 @@ impl Sim {
         out.set_item("detect_ms", o.detect_ms)?;
         out.set_item("cam_from_target", isometry_rows(&o.truth.cam_from_target))?;
         out.set_item("world_from_cam", isometry_rows(&o.truth.world_from_cam))?;
-        let truth_px = o.truth.projected_px.iter().map(|p| p.map_or([f64::NAN; 2], |p| [p.x, p.y]));
-        out.set_item("truth_px", points_to_py(py, truth_px)?)?;
+        out.set_item("truth_px", optional_points_to_py(py, &o.truth.projected_px)?)?;
         let img: Option<GreyImage> = if image { o.image } else { None };
         out.set_item("image", img.map(|i| image_to_py(py, i)).transpose()?)?;
         Ok(out)
@@ -213,7 +200,7 @@ impl Sim {
     /// where not visible), from the scenario's nominal cell (no rendering).
     fn project<'py>(&self, py: Python<'py>, q: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
         let Reply::Pixels(px) = self.call(py, Request::Project(q))? else { return Err(err("unexpected reply")) };
-        points_to_py(py, px.into_iter())
+        optional_points_to_py(py, &px)
     }
 
     /// Stop the simulator thread (also done when the object is collected).

@@ -9,7 +9,7 @@
 //! layout error of centimetres or degrees does not change (a real cell resolves it the same way,
 //! or with a coded board).
 
-use nalgebra::{Isometry3, Point2};
+use nalgebra::{Isometry3, Point2, Point3};
 
 use super::scenario::JointLimits;
 use super::sensor::{Capture, Feature, Sensor};
@@ -211,18 +211,28 @@ impl<'s> Sim<'s> {
         Scene { camera: sc.camera, target: sc.target.clone(), cam_from_target, render, objects }
     }
 
-    fn truth(&self, cam_from_target: Isometry3<f64>) -> FrameTruth {
+    /// Every feature's exact pixel with the camera at `cam_from_target` (`None` where it is not
+    /// visible), from the scenario's camera model: no rendering.
+    pub fn projected_px(&self, cam_from_target: &Isometry3<f64>) -> Vec<Option<Point2<f64>>> {
         let cam = &self.scenario.camera;
-        let projected_px = self
-            .scenario
-            .target
-            .feature_points_m()
-            .iter()
-            .map(|p| {
-                let pr = cam.project(&(cam_from_target * p));
-                pr.visible().then_some(pr.pixel_px)
-            })
-            .collect();
+        let project = |p: &Point3<f64>| {
+            let pr = cam.project(&(cam_from_target * p));
+            pr.visible().then_some(pr.pixel_px)
+        };
+        self.scenario.target.feature_points_m().iter().map(project).collect()
+    }
+
+    /// [`Sim::projected_px`] with the robot at joints `q` (the model's prediction a controller
+    /// may use).
+    ///
+    /// # Errors
+    /// A joint vector of the wrong length.
+    pub fn projected_px_at(&self, q: &[f64]) -> Result<Vec<Option<Point2<f64>>>, SimError> {
+        Ok(self.projected_px(&self.cam_from_target_at(q)?))
+    }
+
+    fn truth(&self, cam_from_target: Isometry3<f64>) -> FrameTruth {
+        let projected_px = self.projected_px(&cam_from_target);
         FrameTruth { world_from_cam: self.scenario.world_from_target * cam_from_target.inverse(), cam_from_target, projected_px }
     }
 
