@@ -220,11 +220,6 @@ pub fn budget_table(traces: &[(&str, &ServoTrace)]) -> Table {
     table
 }
 
-/// [`budget_table`] in markdown.
-pub fn budget_markdown(traces: &[(&str, &ServoTrace)]) -> String {
-    budget_table(traces).markdown()
-}
-
 /// A contact sheet: `frames` (step, thumbnail) in a grid with step labels.
 ///
 /// # Errors

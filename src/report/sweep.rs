@@ -42,11 +42,6 @@ pub fn table(runs: &[SweepRun], ms: &[usize], ns: &[usize]) -> Table {
     t
 }
 
-/// [`table`] in markdown.
-pub fn markdown(runs: &[SweepRun], ms: &[usize], ns: &[usize]) -> String {
-    table(runs, ms, ns).markdown()
-}
-
 /// CSV: one line per calibration.
 pub fn csv(runs: &[SweepRun]) -> String {
     let mut s = String::from("mode,M,N,seed,err_fx_pct,err_fy_pct,err_cx_pct,err_cy_pct,rms_px\n");

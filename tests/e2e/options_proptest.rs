@@ -4,7 +4,7 @@
 use image::GrayImage;
 use proptest::prelude::*;
 use synthcam::dataset::generate::Shard;
-use synthcam::report::servo::{budget_markdown, contact_sheet, csv, error_png};
+use synthcam::report::servo::{budget_table, contact_sheet, csv, error_png};
 use synthcam::report::sweep::plot_png;
 use synthcam::sim::open_run::{run_open, OpenRunOptions};
 use synthcam::sim::sensor::IdealSensor;
@@ -33,7 +33,7 @@ proptest! {
         o.handeye = HandEyeSource::Truth;
         (o.stall_window, o.max_steps, o.ideal_noise_px, o.min_dots, o.singular_stop) = (stall, steps, noise, min_dots, singular);
         if let Ok(t) = run_servo(None, &ServoScenario::default(), &o, &mut |_, _| {}) {
-            let _ = (csv(&t), budget_markdown(&[("run", &t)]), error_png(&[("run", &t)]));
+            let _ = (csv(&t), budget_table(&[("run", &t)]).markdown(), error_png(&[("run", &t)]));
         }
     }
 

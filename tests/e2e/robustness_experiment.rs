@@ -1,7 +1,7 @@
 //! `experiment robustness` smoke test: the experiment's scene at a quarter of its size (320 x 256,
 //! f = 375 px), one view, blur and JPEG at their weakest and strongest levels.
 
-use synthcam::report::robustness::{csv, markdown, plot_png, CSV_HEADER};
+use synthcam::report::robustness::{csv, plot_png, table, CSV_HEADER};
 use synthcam::sim::robustness::{run_levels, Effect, RobustnessSetup};
 
 use crate::common::renderer;
@@ -36,7 +36,7 @@ fn weakest_levels_are_exact_and_strong_ones_run() {
     assert!(!runs[1].detected || runs[1].rms_px.is_finite());
     assert!(csv(&runs).starts_with(&format!("{CSV_HEADER}\n")));
     assert_eq!(CSV_HEADER, "effect,level,strength,view,detected,rms_px,max_px,n_corners");
-    assert_eq!(markdown(&runs).lines().count(), 2 + 4);
+    assert_eq!(table(&runs).markdown().lines().count(), 2 + 4);
     assert!(plot_png(&runs, Effect::Jpeg).is_ok());
     eprintln!("robustness smoke test: {:.1} s", t0.elapsed().as_secs_f64());
 }
