@@ -9,8 +9,6 @@ use synthcam::dataset::{load_grey_u8, write_atomic};
 use synthcam::detect::target::{detect_u8, Detection, TargetSpec};
 use synthcam::report::overlay::draw_points;
 
-use super::skipped::Skipped;
-
 /// Arguments of `detect`.
 #[derive(Debug, clap::Args)]
 pub struct DetectArgs {
@@ -28,9 +26,9 @@ pub struct DetectArgs {
     /// Write each image with its points and their order drawn into this folder.
     #[arg(long)]
     pub draw: Option<PathBuf>,
-    /// Detect in images of any size. By default, images whose size differs from the first
-    /// readable image's are skipped with a warning (one camera, one size), as `calibrate` does.
-    #[arg(long)]
+    /// Accepted for old scripts and ignored: `detect` takes every image on its own, whatever its
+    /// size (only `calibrate` needs one size, and skips the others).
+    #[arg(long, hide = true)]
     pub any_size: bool,
 }
 
@@ -75,8 +73,6 @@ struct Output {
     target: TargetSpec,
     pixel_convention: &'static str,
     images: Vec<ImageResult>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    skipped: Vec<Skipped>,
 }
 
 /// Expand folders into their image files, in name order.
@@ -164,8 +160,6 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let mut results = Vec::new();
-    let mut skipped = Vec::new();
-    let mut first_size = None;
     let mut errors = 0;
     for f in &files {
         let name = file_name(f);
@@ -178,12 +172,6 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
                 continue;
             }
         };
-        let size = (img.width, img.height);
-        let first = *first_size.get_or_insert(size);
-        if size != first && !args.any_size {
-            skipped.push(Skipped::other_size(name, size, first, " (--any-size detects it)"));
-            continue;
-        }
         // time_ms: detection on the decoded 8-bit image (as OpenCV's call on a uint8 array); any
         // conversion to f32 the detector needs is included
         let t0 = std::time::Instant::now();
@@ -204,7 +192,7 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
     }
     let found = results.iter().filter(|r| r.found).count();
     if let Some(path) = &args.json {
-        let out = Output { target: args.target, pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0)", images: results, skipped };
+        let out = Output { target: args.target, pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0)", images: results };
         let bytes = serde_json::to_vec_pretty(&out).context("serialising JSON")?;
         write_atomic(path, &bytes)?;
         println!("{found} of {} images found; wrote {}", files.len(), path.display());

@@ -23,6 +23,10 @@ use super::par::worth_parallel;
 use super::response::{find_candidates, local_peak, saddle_response, Candidate};
 use super::saddle_fit::{refine_saddle, SaddleFitParams};
 use super::{DetectError, GreyWindow, ImageF32, ImageU8};
+use complete::complete;
+pub use complete::CompleteParams;
+
+mod complete;
 
 /// Parameters of [`find_chessboard`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +56,8 @@ pub struct ChessboardParams {
     /// Refine the corners in parallel (rayon) when there are at least this many and rayon's pool
     /// has more than one thread.
     pub parallel_min_corners: usize,
+    /// Structure recovery when no complete board was grown (module `complete`).
+    pub complete: CompleteParams,
 }
 
 impl ChessboardParams {
@@ -75,6 +81,7 @@ impl Default for ChessboardParams {
             refine: SaddleFitParams::default(),
             window_frac: 0.4,
             parallel_min_corners: 16,
+            complete: CompleteParams::default(),
         }
     }
 }
@@ -177,25 +184,47 @@ fn find_in<'a, I: GreyWindow>(
         let next = top.half();
         pyramid.push(next);
     }
+    // the best partial grid of any level (most corners; the finer level on ties), for recovery
+    let mut partial: Option<(usize, Grid)> = None;
     for level in (0..=pyramid.len()).rev() {
         let found = match level {
             0 => search(&full(), params),
             _ => search(&pyramid[level - 1], params),
         };
-        if let Some((mut grid, n_cands, seeds)) = found {
-            for finer in (0..level).rev() {
-                // A pixel i of one level covers pixels 2i and 2i + 1 of the next finer: centre 2i + 0.5.
-                let up = |p: Point2<f64>| Point2::new(2.0 * p.x + 0.5, 2.0 * p.y + 0.5);
-                let snap = |p: Point2<f64>| match finer {
-                    0 => p,
-                    _ => local_peak(&pyramid[finer - 1], p, LOCAL_PEAK_RADIUS, params.smoothing_sigma_px).unwrap_or(p),
-                };
-                grid = grid.into_iter().map(|row| row.into_iter().map(|p| snap(up(p))).collect()).collect();
-            }
+        if let Some((grid, n_cands, seeds)) = found.board {
+            let grid = grid.into_iter().map(|row| row.into_iter().map(|p| carry_down(p, level, &pyramid, params)).collect()).collect();
             return Some(refine_all(img, orient(grid, params.cols, params.rows), params, n_cands, seeds));
         }
+        if let Some(g) = found.partial.filter(|g| partial.as_ref().is_none_or(|b| g.cells.len() >= b.1.cells.len())) {
+            partial = Some((level, g));
+        }
     }
-    None
+    let (level, mut g) = partial?;
+    log::debug!("no complete board; completing a grid of {} corners from level {level}", g.cells.len());
+    for q in g.cells.values_mut() {
+        *q = carry_down(*q, level, &pyramid, params);
+    }
+    if log::log_enabled!(log::Level::Trace) {
+        let mut cells: Vec<_> = g.cells.iter().map(|(k, q)| format!("{k:?}=({:.1},{:.1})", q.x, q.y)).collect();
+        cells.sort();
+        log::trace!("partial grid: {}", cells.join(" "));
+    }
+    let g = complete(img, &full(), &g, (params.cols, params.rows), &params.refine, &params.complete)?;
+    let grid = to_rows(&g, params.cols, params.rows)?;
+    Some(refine_all(img, orient(grid, params.cols, params.rows), params, 0, 0))
+}
+
+/// A corner found at pyramid `level` carried to full resolution: doubled at each level, snapped
+/// to the local response peak of each finer level but the finest (the sub-pixel fit does that).
+fn carry_down(mut p: Point2<f64>, level: usize, pyramid: &[ImageF32], params: &ChessboardParams) -> Point2<f64> {
+    for finer in (0..level).rev() {
+        // A pixel i of one level covers pixels 2i and 2i + 1 of the next finer: centre 2i + 0.5.
+        p = Point2::new(2.0 * p.x + 0.5, 2.0 * p.y + 0.5);
+        if finer > 0 {
+            p = local_peak(&pyramid[finer - 1], p, LOCAL_PEAK_RADIUS, params.smoothing_sigma_px).unwrap_or(p);
+        }
+    }
+    p
 }
 
 /// Search radius of the local response peak when carrying a corner one level down, pixels of the
@@ -206,11 +235,19 @@ const LOCAL_PEAK_RADIUS: usize = 2;
 /// 1280 x 1024 -> 640 x 512 -> 320 x 256).
 pub const PYRAMID_MIN_PIXELS: usize = 300_000;
 
-/// Find the grid (unrefined) in `img`: the rows of corners, the candidate count and the seeds
-/// tried.
-fn search(img: &ImageF32, params: &ChessboardParams) -> Option<(Rows, usize, usize)> {
+/// What one pyramid level's search found.
+#[derive(Default)]
+struct Search {
+    /// The complete board (unrefined rows), the candidate count and the seeds tried.
+    board: Option<(Rows, usize, usize)>,
+    /// Otherwise the largest grid grown that fits inside the board, for [`complete`].
+    partial: Option<Grid>,
+}
+
+/// Find the grid (unrefined) in `img`.
+fn search(img: &ImageF32, params: &ChessboardParams) -> Search {
     if img.width < 8 || img.height < 8 {
-        return None;
+        return Search::default();
     }
     let resp = saddle_response(img, params.smoothing_sigma_px);
     let cands = find_candidates(&resp.response, 3, params.candidate_rel_threshold, params.max_candidates);
@@ -218,6 +255,7 @@ fn search(img: &ImageF32, params: &ChessboardParams) -> Option<(Rows, usize, usi
     let mut seeds_tried = 0;
     // several complete boards (e.g. one shown on a monitor): keep the largest in the image
     let mut best: Option<(f64, Rows, usize)> = None;
+    let mut partial: Option<Grid> = None;
     for seed in &cands {
         if seeds_tried >= params.max_seeds || best.as_ref().is_some_and(|b| seeds_tried >= b.2 + params.extra_seeds_after_found) {
             break;
@@ -228,10 +266,26 @@ fn search(img: &ImageF32, params: &ChessboardParams) -> Option<(Rows, usize, usi
         seeds_tried += 1;
         let near = nearest(&cands, seed, 6, params.grow.min_neighbour_frac);
         let Some(mut g) = grow_grid(&resp, seed, &near, &params.grow) else { continue };
+        if log::log_enabled!(log::Level::Debug) {
+            let b = g.bounds().unwrap_or_default();
+            log::debug!(
+                "{}x{} image, seed ({:.1}, {:.1}): grid {} x {}, {} corners",
+                img.width,
+                img.height,
+                seed.point.x,
+                seed.point.y,
+                b.1 - b.0 + 1,
+                b.3 - b.2 + 1,
+                g.cells.len()
+            );
+        }
         if g.cells.len() >= 4 {
             used.extend(g.cells.values().copied());
         }
         let (c, r) = (params.cols as i32, params.rows as i32);
+        if best.is_none() && fits_inside(&g, c, r) && partial.as_ref().is_none_or(|p| g.cells.len() > p.cells.len()) {
+            partial = Some(g.clone());
+        }
         let fits = {
             let mut a = g.clone();
             if a.trim_to(c, r) {
@@ -249,7 +303,18 @@ fn search(img: &ImageF32, params: &ChessboardParams) -> Option<(Rows, usize, usi
             }
         }
     }
-    best.map(|(_, grid, st)| (grid, cands.len(), st))
+    match best {
+        Some((_, grid, st)) => Search { board: Some((grid, cands.len(), st)), partial: None },
+        None => Search { board: None, partial },
+    }
+}
+
+/// The grid's bounding box fits inside a `c` x `r` board in either orientation.
+fn fits_inside(g: &Grid, c: i32, r: i32) -> bool {
+    g.bounds().is_some_and(|(i0, i1, j0, j1)| {
+        let (ni, nj) = (i1 - i0 + 1, j1 - j0 + 1);
+        (ni <= c && nj <= r) || (ni <= r && nj <= c)
+    })
 }
 
 /// Corner positions as rows of `cols` points.

@@ -39,7 +39,7 @@ impl Default for GrowParams {
 }
 
 /// Predicted position, local step length, and the step vectors along i and j.
-type Prediction = (Point2<f64>, f64, Vector2<f64>, Vector2<f64>);
+pub(crate) type Prediction = (Point2<f64>, f64, Vector2<f64>, Vector2<f64>);
 
 /// Hasher for grid-cell keys (pairs of small integers): each written word is mixed in by a
 /// multiply with the 64-bit golden-ratio constant (Fibonacci hashing, Knuth TAOCP vol. 3, 6.4).
@@ -161,7 +161,7 @@ impl Grid {
 
     /// Prediction of cell (i, j) from filled neighbours, with the local step length and the two
     /// local grid step vectors (along i, along j).
-    fn predict(&self, i: i32, j: i32) -> Option<Prediction> {
+    pub(crate) fn predict(&self, i: i32, j: i32) -> Option<Prediction> {
         let mut sum = Vector2::zeros();
         let mut n = 0.0;
         let mut step_i: Option<Vector2<f64>> = None;
@@ -318,12 +318,17 @@ fn try_add(g: &mut Grid, resp: &ResponseMap, i: i32, j: i32, min_r: f32, params:
     }
     let nb_strength = [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().filter_map(|(di, dj)| g.strength.get(&(i + di, j + dj)).copied()).fold(0.0f32, f32::max);
     let min_r = min_r.max(nb_strength * params.min_neighbour_frac);
-    let Some((p, strength)) = best_peak(resp, pred, params.search_frac * step, min_r) else { return false };
+    let Some((p, strength)) = best_peak(resp, pred, params.search_frac * step, min_r) else {
+        log::trace!("cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: no peak above {min_r:.3e}", pred.x, pred.y);
+        return false;
+    };
     if (p - pred).norm() > params.max_offset_frac * step {
+        log::trace!("cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: peak {:.1} px off", pred.x, pred.y, (p - pred).norm());
         return false;
     }
     let expect = if (i + j).rem_euclid(2) == 0 { g.polarity0 } else { -g.polarity0 };
     if xcorner_polarity(&resp.smooth, p, si, sj, params.min_contrast) != Some(expect) {
+        log::trace!("cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: polarity test failed", pred.x, pred.y);
         return false;
     }
     // no duplicate of an existing neighbour

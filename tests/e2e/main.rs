@@ -28,6 +28,7 @@ mod objects;
 mod open_scenario;
 mod options_proptest;
 mod progress;
+mod real_sets;
 mod robot_motion;
 mod robustness;
 mod robustness_experiment;

@@ -46,7 +46,7 @@ pub(crate) mod consistency;
 pub(crate) mod corners;
 pub(crate) mod decode;
 mod edges;
-mod quads;
+pub(crate) mod quads;
 mod threshold;
 
 #[cfg(test)]

@@ -25,7 +25,7 @@ use crate::detect::ImageF32;
 use crate::math::polygon;
 
 /// A quadrilateral, corners in image order with a positive shoelace sum (clockwise on screen).
-pub(super) type Quad = [Point2<f64>; 4];
+pub(crate) type Quad = [Point2<f64>; 4];
 
 /// Smallest sine of a corner angle of a candidate.
 const MIN_CORNER_SINE: f64 = 0.25;
@@ -36,7 +36,7 @@ const MIN_SIDE_RATE: f64 = 0.08;
 /// full-resolution pixels. With `split_corners` (dark shapes touch the markers' corners), the
 /// components are 4-connected and each window is searched twice: as is, and eroded by one pixel
 /// (then each hull is grown back by that pixel).
-pub(super) fn candidates(img: &ImageF32, scale: f64, params: &MarkerParams, split_corners: bool) -> Vec<Quad> {
+pub(crate) fn candidates(img: &ImageF32, scale: f64, params: &MarkerParams, split_corners: bool) -> Vec<Quad> {
     let (w, h) = (img.width as u32, img.height as u32);
     if w < 4 || h < 4 {
         return Vec::new();
@@ -85,7 +85,7 @@ pub(super) fn candidates(img: &ImageF32, scale: f64, params: &MarkerParams, spli
 }
 
 /// Signed area of a quad ([`polygon::signed_area`]; positive in [`Quad`]'s order).
-pub(super) fn signed_area(q: &Quad) -> f64 {
+pub(crate) fn signed_area(q: &Quad) -> f64 {
     polygon::signed_area(&q.map(|p| p.coords))
 }
 

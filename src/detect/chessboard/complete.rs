@@ -1,0 +1,291 @@
+//! Structure recovery for the boards the fast path leaves incomplete: strong distortion (rows bent
+//! into arcs, outer squares compressed to a fraction of the centre's), corners near the image
+//! border or the dark image circle, uneven contrast (blooming, vignetting, glare).
+//!
+//! The fast path accepts a corner at the strongest saddle-response peak near its prediction when
+//! the peak is strong relative to its neighbours; the response grows with the square of the
+//! contrast, so a washed-out or compressed corner fails that test although it is plainly there.
+//! Here the best partial grid grown at any pyramid level is carried to full resolution and
+//! completed by the board's known size, each missing corner validated by what the image says
+//! at it, not by how strong it is relative to others: a full-resolution saddle-model fit
+//! ([`refine_saddle`]) from the grid's prediction must converge near it, explain the window
+//! (small residual against the light/dark amplitude), have its two edge lines along the grid's
+//! two directions, and give the X-junction the polarity the checkerboard parity demands. Holes
+//! inside the grid are filled first; then whole lines are added, one side at a time, a line
+//! only when every corner on it validates. A completed grid that could be grown by one more
+//! valid line on any side is part of a larger pattern and is rejected, as is any grid that
+//! cannot be completed: a board is reported whole or not at all.
+//!
+//! Reference: A. Geiger, F. Moosmann, O. Car, B. Schuster, "Automatic camera and range sensor
+//! calibration using a single shot", ICRA 2012 (structure recovery by growing a chessboard from
+//! validated corners, neighbour predictions following curved rows); the prediction is the
+//! grid's own ([`Grid::predict`]); the validating fit is the one every corner is refined with.
+
+use std::sync::OnceLock;
+
+use nalgebra::{Point2, Vector2};
+
+use super::super::grid::Grid;
+use super::super::markers::quads::{candidates, Quad};
+use super::super::markers::MarkerParams;
+use super::super::saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};
+use super::super::{GreyWindow, ImageF32};
+
+/// What the validating fit must show, as fractions of the local grid step or of the fitted
+/// amplitude (dimensionless, so they hold at any image scale and exposure).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompleteParams {
+    /// The fitted corner may move at most this fraction of the local step from the prediction.
+    pub max_shift_frac: f64,
+    /// RMS residual of the fit at most this fraction of the fitted amplitude (half the
+    /// light/dark difference): an L- or T-junction, a blob or clutter leave much more.
+    pub max_residual_frac: f64,
+    /// Each fitted edge line within this angle of one of the grid's two directions, degrees.
+    pub max_angle_deg: f64,
+    /// Fitted amplitude at least this many grey levels (half the light/dark difference).
+    pub min_amplitude: f64,
+    /// A corner whose local step is below this many pixels cannot be validated (the fit window
+    /// would reach the neighbouring corners).
+    pub min_step_px: f64,
+}
+
+impl Default for CompleteParams {
+    fn default() -> Self {
+        Self { max_shift_frac: 0.35, max_residual_frac: 0.6, max_angle_deg: 30.0, min_amplitude: 4.0, min_step_px: 5.0 }
+    }
+}
+
+/// Complete `g` (full-resolution positions) to `cols` x `rows` corners in either orientation.
+/// Returns the completed grid, or `None` when it cannot be completed unambiguously.
+pub(super) fn complete<I: GreyWindow>(
+    img: &I,
+    full: &ImageF32,
+    g: &Grid,
+    (cols, rows): (usize, usize),
+    refine: &SaddleFitParams,
+    p: &CompleteParams,
+) -> Option<Grid> {
+    let cx = Ctx { img, full, refine, p, steps: steps(g), quads: OnceLock::new() };
+    let (i0, i1, j0, j1) = g.bounds()?;
+    let (ni, nj) = (i1 - i0 + 1, j1 - j0 + 1);
+    if ni < 3 || nj < 3 {
+        return None;
+    }
+    let (c, r) = (cols as i32, rows as i32);
+    let mut out = None;
+    for (ti, tj) in [(c, r), (r, c)] {
+        if ni > ti || nj > tj || (out.is_some() && c == r) {
+            continue;
+        }
+        if let Some(done) = complete_to(&cx, g.clone(), (ti, tj)) {
+            if out.is_some() {
+                return None; // both orientations complete: ambiguous
+            }
+            out = Some(done);
+        }
+    }
+    out
+}
+
+/// Complete to `ti` x `tj` (along i, j).
+fn complete_to<I: GreyWindow>(cx: &Ctx<'_, I>, mut g: Grid, (ti, tj): (i32, i32)) -> Option<Grid> {
+    fill_holes(cx, &mut g)?;
+    loop {
+        let (i0, i1, j0, j1) = g.bounds()?;
+        let (ni, nj) = (i1 - i0 + 1, j1 - j0 + 1);
+        if ni == ti && nj == tj {
+            break;
+        }
+        let sides = [(ni < ti, Side::I(i0 - 1)), (ni < ti, Side::I(i1 + 1)), (nj < tj, Side::J(j0 - 1)), (nj < tj, Side::J(j1 + 1))];
+        let added = sides.iter().filter(|s| s.0).find_map(|&(_, side)| line(cx, &g, side));
+        for (key, q) in added? {
+            g.cells.insert(key, q);
+            g.strength.insert(key, 0.0);
+        }
+    }
+    let (i0, i1, j0, j1) = g.bounds()?;
+    let beyond = [Side::I(i0 - 1), Side::I(i1 + 1), Side::J(j0 - 1), Side::J(j1 + 1)];
+    if beyond.iter().any(|&side| line(cx, &g, side).is_some()) {
+        return None; // a larger pattern (or the wrong extent of it)
+    }
+    Some(g)
+}
+
+/// A line of cells beside the grid: `I(k)` the cells (k, j) for every j of the grid, `J(k)` the
+/// cells (i, k).
+#[derive(Debug, Clone, Copy)]
+enum Side {
+    I(i32),
+    J(i32),
+}
+
+/// A corner placed at a grid cell.
+type Placed = ((i32, i32), Point2<f64>);
+
+/// Fill every hole inside the grid's bounding box; `None` when one cannot be validated.
+fn fill_holes<I: GreyWindow>(cx: &Ctx<'_, I>, g: &mut Grid) -> Option<()> {
+    let (i0, i1, j0, j1) = g.bounds()?;
+    loop {
+        let holes: Vec<(i32, i32)> = (i0..=i1).flat_map(|i| (j0..=j1).map(move |j| (i, j))).filter(|k| !g.cells.contains_key(k)).collect();
+        if holes.is_empty() {
+            return Some(());
+        }
+        let mut added = false;
+        for (i, j) in holes {
+            if let Some(q) = validated(cx, g, i, j) {
+                g.cells.insert((i, j), q);
+                g.strength.insert((i, j), 0.0);
+                added = true;
+            }
+        }
+        if !added {
+            return None;
+        }
+    }
+}
+
+/// Every cell of the line beside the grid, each validated (predictions use the cells of the line
+/// already placed); `None` unless all are.
+fn line<I: GreyWindow>(cx: &Ctx<'_, I>, g: &Grid, side: Side) -> Option<Vec<Placed>> {
+    let (i0, i1, j0, j1) = g.bounds()?;
+    let keys: Vec<(i32, i32)> = match side {
+        Side::I(k) => (j0..=j1).map(|j| (k, j)).collect(),
+        Side::J(k) => (i0..=i1).map(|i| (i, k)).collect(),
+    };
+    let mut work = g.clone();
+    let mut out = Vec::with_capacity(keys.len());
+    for (i, j) in keys {
+        let q = validated(cx, &work, i, j)?;
+        work.cells.insert((i, j), q);
+        out.push(((i, j), q));
+    }
+    Some(out)
+}
+
+/// What completion works with: the image, in f32 too (for the dark quads), the fit settings, the
+/// grid's step range, and the dark quads (found once, when first needed).
+struct Ctx<'a, I> {
+    img: &'a I,
+    full: &'a ImageF32,
+    refine: &'a SaddleFitParams,
+    p: &'a CompleteParams,
+    /// Shortest and longest step between 4-neighbours of the partial grid, pixels.
+    steps: (f64, f64),
+    quads: OnceLock<Vec<Quad>>,
+}
+
+/// Shortest and longest distance between 4-neighbours of `g`.
+fn steps(g: &Grid) -> (f64, f64) {
+    let mut out = (f64::INFINITY, 0.0f64);
+    for (&(i, j), q) in &g.cells {
+        for k in [(i + 1, j), (i, j + 1)] {
+            if let Some(n) = g.cells.get(&k) {
+                let d = (n - q).norm();
+                out = (out.0.min(d), out.1.max(d));
+            }
+        }
+    }
+    out
+}
+
+/// The corner at cell (i, j) of `g` when the image shows one there: the saddle fit, else a pair
+/// of dark quads meeting there (see the module doc).
+fn validated<I: GreyWindow>(cx: &Ctx<'_, I>, g: &Grid, i: i32, j: i32) -> Option<Point2<f64>> {
+    let (pred, step, si, sj) = g.predict(i, j)?;
+    let p = cx.p;
+    if !(step >= p.min_step_px) {
+        return None;
+    }
+    let expect = if (i + j).rem_euclid(2) == 0 { g.polarity0 } else { -g.polarity0 };
+    let hw = ((0.4 * step).floor() as usize).clamp(2, cx.refine.half_window.max(2));
+    let fp = SaddleFitParams { half_window: hw, max_shift_px: p.max_shift_frac * step, ..*cx.refine };
+    if let Ok(fit) = refine_saddle(cx.img, pred, si, sj, &fp) {
+        if fit_is_corner(&fit, si, sj, expect, p) {
+            return Some(fit.point);
+        }
+    }
+    // the squares along the dark diagonal
+    let dark = if expect > 0 { si - sj } else { si + sj };
+    let q = quad_pair_corner(cx.quads.get_or_init(|| dark_quads(cx.full, cx.steps)), pred, step, dark, (si, sj), p);
+    log::trace!("completion: cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: quad pair {q:?}", pred.x, pred.y);
+    q
+}
+
+/// The dark squares of the image as quads (the marker detector's candidate search, 4-connected
+/// and eroded so that squares touching at a corner come apart), with adaptive-threshold windows
+/// from the grid's step range: twice the longest step (the mean of a window holding light and
+/// dark squares), and a window of the shortest step for the compressed squares.
+fn dark_quads(img: &ImageF32, (short, long): (f64, f64)) -> Vec<Quad> {
+    let odd = |x: f64| ((x.clamp(5.0, 401.0) as usize) / 2) * 2 + 1;
+    let params =
+        MarkerParams { threshold_windows_px: [odd(2.0 * long), odd(short), 0], min_marker_perimeter_px: (2.0 * short).max(12.0), ..MarkerParams::default() };
+    candidates(img, 1.0, &params, true)
+}
+
+/// OpenCV's classic corner (Vezhnevets; `findChessboardCorners`): two dark quads on the dark
+/// diagonal `dark` whose nearest corners lie within the search radius of the prediction `pred`;
+/// the corner is the midpoint of those two quad corners. This holds where the light squares
+/// bloom over the junction and the dark squares no longer touch (over-exposure), where no
+/// saddle is left to fit. The quads must be about the size of a grid cell (`si x sj`).
+fn quad_pair_corner(
+    quads: &[Quad],
+    pred: Point2<f64>,
+    step: f64,
+    dark: Vector2<f64>,
+    (si, sj): (Vector2<f64>, Vector2<f64>),
+    p: &CompleteParams,
+) -> Option<Point2<f64>> {
+    let radius = p.max_shift_frac * step;
+    let cell = (si.x * sj.y - si.y * sj.x).abs();
+    let light = dark.norm() * Vector2::new(-dark.y, dark.x).normalize();
+    let near: Vec<(Point2<f64>, Point2<f64>)> = quads
+        .iter()
+        .filter(|q| {
+            let a = super::super::markers::quads::signed_area(q).abs();
+            a >= 0.1 * cell && a <= 4.0 * cell
+        })
+        .flat_map(|q| {
+            let centre = Point2::from((q[0].coords + q[1].coords + q[2].coords + q[3].coords) * 0.25);
+            q.iter().filter(move |c| (*c - pred).norm() <= radius).map(move |c| (*c, centre))
+        })
+        .collect();
+    let mut best: Option<(f64, Point2<f64>)> = None;
+    for (k, &(a, ca)) in near.iter().enumerate() {
+        for &(b, cb) in &near[k + 1..] {
+            let m = Point2::from((a.coords + b.coords) * 0.5);
+            let (da, db) = (ca - m, cb - m);
+            // on opposite sides of the junction, both nearer the dark diagonal than the light one
+            let on_dark = |d: Vector2<f64>| d.dot(&dark).abs() > d.dot(&light).abs();
+            if (ca - cb).norm() < 1e-9 || da.dot(&db) >= 0.0 || !on_dark(da) || !on_dark(db) || (a - b).norm() > 0.5 * step {
+                continue;
+            }
+            let cost = (a - b).norm() + (m - pred).norm();
+            if best.is_none_or(|bst| cost < bst.0) {
+                best = Some((cost, m));
+            }
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// The fit shows an X-junction along the grid directions `si`, `sj` with polarity `expect` (+1:
+/// the squares along +-(si + sj) are light).
+fn fit_is_corner(fit: &SaddleFit, si: Vector2<f64>, sj: Vector2<f64>, expect: i8, p: &CompleteParams) -> bool {
+    let a = fit.amplitude;
+    if !(a.abs() >= p.min_amplitude && fit.rms_residual <= p.max_residual_frac * a.abs()) {
+        return false;
+    }
+    let line_dir = |t: f64| Vector2::new(t.cos(), t.sin());
+    let (l1, l2) = (line_dir(fit.angles[0]), line_dir(fit.angles[1]));
+    let cos_max = p.max_angle_deg.to_radians().cos();
+    let along = |l: Vector2<f64>, s: Vector2<f64>| (l.dot(&s) / s.norm()).abs() >= cos_max;
+    if !((along(l1, si) && along(l2, sj)) || (along(l1, sj) && along(l2, si))) {
+        return false;
+    }
+    // the model is m + a S(d1) S(d2) with d_k the signed distance to line k (normal (-sin, cos));
+    // its sign along the diagonal si + sj says whether that square is light
+    let d = si + sj;
+    let side = |l: Vector2<f64>| (-l.y * d.x + l.x * d.y).signum();
+    let light = a * side(l1) * side(l2) > 0.0;
+    light == (expect > 0)
+}
