@@ -193,7 +193,16 @@ fn board_points(target: &TargetSpec, square: f64) -> anyhow::Result<Vec<Point3<f
 impl Found {
     /// A detection of a target with `n` board points: ids given (coded boards) or the whole
     /// board in order; `Err` with the reason to skip it.
-    fn new(file: String, (width, height): (usize, usize), points: Vec<Point2<f64>>, ids: Option<Vec<u32>>, n: usize) -> Result<Self, String> {
+    /// Points listed in `untrusted` (the detector's own fit cannot place them within 0.1 px) are
+    /// left out.
+    fn new(
+        file: String,
+        (width, height): (usize, usize),
+        points: Vec<Point2<f64>>,
+        ids: Option<Vec<u32>>,
+        untrusted: &[usize],
+        n: usize,
+    ) -> Result<Self, String> {
         let ids = match ids {
             Some(ids) => ids,
             None if points.len() == n => (0..n as u32).collect(),
@@ -202,6 +211,8 @@ impl Found {
         if ids.len() != points.len() || ids.iter().any(|&i| i as usize >= n) {
             return Err(format!("{} ids for {} points, or an id beyond the board's {n}", ids.len(), points.len()));
         }
+        let (points, ids): (Vec<Point2<f64>>, Vec<u32>) =
+            points.into_iter().zip(ids).enumerate().filter(|(k, _)| !untrusted.contains(k)).map(|(_, pi)| pi).unzip();
         if points.len() < MIN_VIEW_POINTS.min(n) {
             return Err(format!("only {} points (a view needs {MIN_VIEW_POINTS})", points.len()));
         }
@@ -241,7 +252,9 @@ fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
         };
         let w = im["width"].as_u64().with_context(|| format!("{file}: `width` missing"))? as usize;
         let h = im["height"].as_u64().with_context(|| format!("{file}: `height` missing"))? as usize;
-        match Found::new(file.clone(), (w, h), pts, ids, n) {
+        let untrusted: Vec<usize> =
+            im.get("untrusted").and_then(|v| v.as_array()).map_or_else(Vec::new, |a| a.iter().filter_map(|k| k.as_u64()).map(|k| k as usize).collect());
+        match Found::new(file.clone(), (w, h), pts, ids, &untrusted, n) {
             Ok(f) => found.push(f),
             Err(why) if matches!(v["target"]["kind"].as_str(), Some("charuco" | "aprilgrid")) => skipped.push(Skipped::new(file, why)),
             Err(why) => anyhow::bail!("{file}: {why}"),
@@ -267,7 +280,7 @@ fn load_detections(args: &CalibrateArgs, n: usize) -> anyhow::Result<Detections>
                     skipped.push(Skipped::new(name, "board not found"));
                     continue;
                 }
-                match Found::new(name.clone(), (img.width, img.height), det.points_px, det.ids, n) {
+                match Found::new(name.clone(), (img.width, img.height), det.points_px, det.ids, &det.untrusted, n) {
                     Ok(f) => found.push(f),
                     Err(why) => skipped.push(Skipped::new(name, why)),
                 }

@@ -48,6 +48,12 @@ struct ImageResult {
     /// Coded boards: the id of each point (ChArUco: OpenCV's chessboard-corner id).
     #[serde(skip_serializing_if = "Option::is_none")]
     ids: Option<Vec<u32>>,
+    /// Chessboards: each point's position sigma from its own fit, px (null: the fit failed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    position_sigma_px: Option<Vec<Option<f64>>>,
+    /// Chessboards: indices of points not placed within 0.1 px (left out by `calibrate`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    untrusted: Vec<usize>,
     /// S-path: each dot's residual against the fit of the whole nominal path, px.
     #[serde(skip_serializing_if = "Option::is_none")]
     path_residuals_px: Option<Vec<[f64; 2]>>,
@@ -109,6 +115,8 @@ impl ImageResult {
             points_px: Vec::new(),
             indices: None,
             ids: None,
+            position_sigma_px: None,
+            untrusted: Vec::new(),
             path_residuals_px: None,
             path_deviation_mm: None,
             path_residual_rms_px: None,
@@ -133,6 +141,8 @@ impl ImageResult {
             path_residual_rms_px: residuals.map(|r| (r.iter().map(|p| p.residual_px.norm_squared()).sum::<f64>() / r.len().max(1) as f64).sqrt()),
             indices: det.indices,
             ids: det.ids,
+            position_sigma_px: det.position_sigma_px.map(|v| v.into_iter().map(|s| s.is_finite().then_some(s)).collect()),
+            untrusted: det.untrusted,
             unmeasured_indices: det.unmeasured,
             time_ms: Some(time_ms),
             note: det.note,

@@ -97,6 +97,10 @@ pub struct ChessboardCorners {
     pub rows: usize,
     /// Per corner: true when the saddle fit succeeded (else the response peak is reported).
     pub refined: Vec<bool>,
+    /// Per corner: the standard deviation of its position from its own saddle fit, pixels
+    /// ([`SaddleFit::position_sigma_px`](super::SaddleFit::position_sigma_px)); infinite where
+    /// the fit failed or its window had to reach the neighbouring corners.
+    pub position_sigma_px: Vec<f64>,
     /// RMS fit residual over the refined corners, grey levels.
     pub rms_fit_residual: f64,
     /// Number of response candidates.
@@ -104,6 +108,19 @@ pub struct ChessboardCorners {
     /// Seeds tried until the board was found.
     pub seeds_tried: usize,
 }
+
+impl ChessboardCorners {
+    /// Indices of the corners whose own fit cannot place them within `tolerance_px` (at two
+    /// standard deviations): the fit failed, its window had to reach the neighbouring corners
+    /// (squares under 5 px across), or its residuals leave the position that uncertain. A
+    /// calibration should leave these out (`calibrate` does).
+    pub fn untrusted(&self, tolerance_px: f64) -> Vec<usize> {
+        (0..self.points_px.len()).filter(|&k| !(2.0 * self.position_sigma_px.get(k).copied().unwrap_or(f64::INFINITY) <= tolerance_px)).collect()
+    }
+}
+
+/// The accuracy a corner must be placed to, pixels, to be trusted ([`ChessboardCorners::untrusted`]).
+pub const TRUSTED_CORNER_PX: f64 = 0.1;
 
 /// Find the full `cols` x `rows` inner-corner grid.
 ///
@@ -170,10 +187,65 @@ fn check_params(params: &ChessboardParams) -> Result<(), DetectError> {
 /// grid from the coarsest level down (the response and candidate search cost 4x less per level),
 /// carry the corners down to level 1 by local response peaks, and refine every corner at full
 /// resolution.
+///
+/// When that finds no board, the search runs again on the image with its dark regions grown by
+/// a grey-level erosion (a minimum filter) of each radius in [`EROSION_RADII_PX`]: over-exposed
+/// light squares bloom over the junctions until the dark squares no longer meet, and no saddle is
+/// left to find (OpenCV's classic detector dilates its binary image for the same reason). The
+/// erosion re-joins them; as blur and clipping before it, a symmetric structuring element keeps
+/// every junction point-symmetric about the true corner, so the corners are fitted, unbiased,
+/// on the eroded image.
 fn find_in<'a, I: GreyWindow>(
     img: &I,
     first_half: Option<ImageF32>,
     full: impl Fn() -> Cow<'a, ImageF32>,
+    params: &ChessboardParams,
+) -> Option<ChessboardCorners> {
+    if let Some(b) = find_direct(img, first_half, &full, params) {
+        return Some(b);
+    }
+    let original = full();
+    EROSION_RADII_PX.iter().find_map(|&r| {
+        let eroded = min_filter(&original, r);
+        let half = (eroded.width * eroded.height >= PYRAMID_MIN_PIXELS).then(|| eroded.half());
+        let found = find_direct(&eroded, half, &|| Cow::Borrowed(&eroded), params);
+        if found.is_some() {
+            log::debug!("board found after a grey erosion of radius {r} px (over-exposure)");
+        }
+        found
+    })
+}
+
+/// Radii of the grey erosions tried when no board is found, full-resolution pixels.
+pub const EROSION_RADII_PX: [usize; 2] = [2, 4];
+
+/// Grey-level erosion by a `(2 r + 1)`-pixel square (separable running minimum, clamped
+/// borders). Written here because imageproc's morphology works on 8-bit images and the detector
+/// works on f32.
+fn min_filter(img: &ImageF32, r: usize) -> ImageF32 {
+    let (w, h) = (img.width, img.height);
+    let mut rows = vec![0.0f32; w * h];
+    for y in 0..h {
+        let src = &img.data[y * w..(y + 1) * w];
+        for x in 0..w {
+            rows[y * w + x] = src[x.saturating_sub(r)..(x + r + 1).min(w)].iter().copied().fold(f32::INFINITY, f32::min);
+        }
+    }
+    let mut out = vec![0.0f32; w * h];
+    for y in 0..h {
+        let (y0, y1) = (y.saturating_sub(r), (y + r + 1).min(h));
+        for x in 0..w {
+            out[y * w + x] = (y0..y1).map(|yy| rows[yy * w + x]).fold(f32::INFINITY, f32::min);
+        }
+    }
+    ImageF32 { width: w, height: h, data: out }
+}
+
+/// One search over the pyramid (see [`find_in`]), with structure recovery.
+fn find_direct<'a, I: GreyWindow>(
+    img: &I,
+    first_half: Option<ImageF32>,
+    full: &impl Fn() -> Cow<'a, ImageF32>,
     params: &ChessboardParams,
 ) -> Option<ChessboardCorners> {
     if img.width() < 8 || img.height() < 8 {
@@ -193,7 +265,7 @@ fn find_in<'a, I: GreyWindow>(
         };
         if let Some((grid, n_cands, seeds)) = found.board {
             let grid = grid.into_iter().map(|row| row.into_iter().map(|p| carry_down(p, level, &pyramid, params)).collect()).collect();
-            return Some(refine_all(img, orient(grid, params.cols, params.rows), params, n_cands, seeds));
+            return even_steps(refine_all(img, orient(grid, params.cols, params.rows), params, n_cands, seeds));
         }
         if let Some(g) = found.partial.filter(|g| partial.as_ref().is_none_or(|b| g.cells.len() >= b.1.cells.len())) {
             partial = Some((level, g));
@@ -211,8 +283,44 @@ fn find_in<'a, I: GreyWindow>(
     }
     let g = complete(img, &full(), &g, (params.cols, params.rows), &params.refine, &params.complete)?;
     let grid = to_rows(&g, params.cols, params.rows)?;
-    Some(refine_all(img, orient(grid, params.cols, params.rows), params, 0, 0))
+    even_steps(refine_all(img, orient(grid, params.cols, params.rows), params, 0, 0))
 }
+
+/// The board when no two corners coincide and every pair of consecutive steps along its rows and
+/// columns differ by less than a factor [`MAX_STEP_RATIO`]: a one-to-one lens maps the evenly spaced corners of a line to
+/// points whose spacing changes smoothly, so neighbouring steps stay within a small factor of
+/// each other even where the outer squares are compressed to a fraction of the centre's; a
+/// corner reported twice, or a grid that skipped a square, breaks it.
+fn even_steps(b: ChessboardCorners) -> Option<ChessboardCorners> {
+    let (c, r) = (b.cols, b.rows);
+    let at = |row: usize, col: usize| b.points_px[row * c + col];
+    let ok = |p: Point2<f64>, q: Point2<f64>, s: Point2<f64>| {
+        let (d1, d2) = ((q - p).norm(), (s - q).norm());
+        d1.min(d2) * MAX_STEP_RATIO >= d1.max(d2)
+    };
+    let rows_ok = (0..r).all(|row| (1..c.saturating_sub(1)).all(|k| ok(at(row, k - 1), at(row, k), at(row, k + 1))));
+    let cols_ok = (0..c).all(|col| (1..r.saturating_sub(1)).all(|k| ok(at(k - 1, col), at(k, col), at(k + 1, col))));
+    // no corner on top of another one (the 4-neighbour steps above do not see a diagonal twin)
+    let distinct = (0..r * c).all(|k| {
+        let (row, col) = (k / c, k % c);
+        let nb = [(row.wrapping_sub(1), col), (row + 1, col), (row, col.wrapping_sub(1)), (row, col + 1)];
+        let step = nb.iter().filter(|&&(y, x)| y < r && x < c).map(|&(y, x)| (at(y, x) - at(row, col)).norm()).fold(f64::INFINITY, f64::min);
+        (k + 1..r * c).all(|m| (b.points_px[m] - b.points_px[k]).norm() >= MIN_SEPARATION_FRAC * step)
+    });
+    if rows_ok && cols_ok && distinct {
+        Some(b)
+    } else {
+        log::debug!("board rejected: uneven steps along a row or column (a corner twice, or a skipped square)");
+        None
+    }
+}
+
+/// Largest ratio of two consecutive steps along a row or column of a board ([`even_steps`]).
+pub const MAX_STEP_RATIO: f64 = 3.0;
+
+/// Two corners of a board are at least this fraction of the shorter one's shortest 4-neighbour
+/// step apart (a sheared cell's short diagonal is about half a step at 60 degrees of shear).
+const MIN_SEPARATION_FRAC: f64 = 0.25;
 
 /// A corner found at pyramid `level` carried to full resolution: doubled at each level, snapped
 /// to the local response peak of each finer level but the finest (the sub-pixel fit does that).
@@ -422,15 +530,17 @@ fn refine_all(img: &impl GreyWindow, g: Vec<Vec<Point2<f64>>>, params: &Chessboa
         if r > 0 {
             step = step.min((p - at(r - 1, c)).norm());
         }
-        let hw = ((params.window_frac * step).floor() as usize).clamp(2, params.refine.half_window.max(2));
-        let fp = SaddleFitParams { half_window: hw, ..params.refine };
+        let wanted = (params.window_frac * step).floor() as usize;
+        let hw = wanted.clamp(2, params.refine.half_window.max(2));
+        let fp = SaddleFitParams { half_window: inside_window(img, p, hw), ..params.refine };
         match refine_saddle(img, p, d_row, d_col, &fp) {
-            Ok(f) => (f.point, true, f.rms_residual),
-            Err(_) => (p, false, 0.0),
+            // a window wider than the geometry allows holds parts of the neighbouring corners
+            Ok(f) => (f.point, true, f.rms_residual, if wanted >= 2 { f.position_sigma_px } else { f64::INFINITY }),
+            Err(_) => (p, false, 0.0, f64::INFINITY),
         }
     };
     let n = rows * cols;
-    let res: Vec<(Point2<f64>, bool, f64)> =
+    let res: Vec<(Point2<f64>, bool, f64, f64)> =
         if worth_parallel(n, params.parallel_min_corners) { (0..n).into_par_iter().map(job).collect() } else { (0..n).map(job).collect() };
     let nref = res.iter().filter(|r| r.1).count();
     let rms = if nref > 0 { (res.iter().filter(|r| r.1).map(|r| r.2 * r.2).sum::<f64>() / nref as f64).sqrt() } else { 0.0 };
@@ -439,9 +549,25 @@ fn refine_all(img: &impl GreyWindow, g: Vec<Vec<Point2<f64>>>, params: &Chessboa
         cols,
         rows,
         refined: res.iter().map(|r| r.1).collect(),
+        position_sigma_px: res.iter().map(|r| r.3).collect(),
         rms_fit_residual: rms,
         candidates,
         seeds_tried,
+    }
+}
+
+/// The fit half-window `hw` at `p`, shrunk (to no less than 2) so the window stays inside the
+/// image: a corner a few pixels from the border is fitted on what the image holds of it.
+pub(crate) fn inside_window(img: &impl GreyWindow, p: Point2<f64>, hw: usize) -> usize {
+    let (cx, cy) = (p.x.round(), p.y.round());
+    if !(cx.is_finite() && cy.is_finite()) {
+        return hw;
+    }
+    let room = cx.min(cy).min(img.width() as f64 - 1.0 - cx).min(img.height() as f64 - 1.0 - cy);
+    if room >= hw as f64 {
+        hw
+    } else {
+        (room.max(0.0) as usize).max(2)
     }
 }
 

@@ -201,6 +201,26 @@ impl Grid {
         Some((Point2::from(sum / n), step, si, sj))
     }
 
+    /// Each single prediction of cell (i, j) that [`Grid::predict`] averages, and the linear
+    /// extrapolations beside the quadratic ones: alternatives to try where the average misses
+    /// (a quadratic extrapolation overshoots where the distortion changes fast).
+    pub(crate) fn predictions(&self, i: i32, j: i32) -> Vec<Point2<f64>> {
+        let mut out = Vec::new();
+        for (di, dj) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+            let (Some(p1), Some(p2)) = (self.get(i - di, j - dj), self.get(i - 2 * di, j - 2 * dj)) else { continue };
+            out.push(Point2::from(2.0 * p1 - p2));
+            if let Some(p3) = self.get(i - 3 * di, j - 3 * dj) {
+                out.push(Point2::from(3.0 * p1 - 3.0 * p2 + p3));
+            }
+        }
+        for (di, dj) in [(1, 1), (1, -1), (-1, 1), (-1, -1)] {
+            if let (Some(a), Some(b), Some(c)) = (self.get(i - di, j), self.get(i, j - dj), self.get(i - di, j - dj)) {
+                out.push(Point2::from(a + b - c));
+            }
+        }
+        out
+    }
+
     /// A step vector along i (`along_i`) or j taken from any filled 4-neighbour pair near (i, j).
     fn neighbour_step(&self, i: i32, j: i32, along_i: bool) -> Option<Vector2<f64>> {
         for (ci, cj) in [(i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1)] {
@@ -225,9 +245,12 @@ fn best_peak(resp: &ResponseMap, p: Point2<f64>, radius: f64, min_r: f32) -> Opt
         return None;
     }
     let rad = radius.max(1.0);
-    let (x0, x1) = ((p.x - rad).floor() as i64, (p.x + rad).ceil() as i64);
-    let (y0, y1) = ((p.y - rad).floor() as i64, (p.y + rad).ceil() as i64);
-    if x0 < 1 || y0 < 1 || x1 >= w - 1 || y1 >= h - 1 {
+    // the search disk clipped to the response's interior (corners near the image border are
+    // searched where they can be: refusing the whole disk would lose every corner within a
+    // search radius of the border)
+    let (x0, x1) = (((p.x - rad).floor() as i64).max(1), ((p.x + rad).ceil() as i64).min(w - 2));
+    let (y0, y1) = (((p.y - rad).floor() as i64).max(1), ((p.y + rad).ceil() as i64).min(h - 2));
+    if x0 > x1 || y0 > y1 {
         return None;
     }
     let mut best: Option<(usize, usize, f32)> = None;
@@ -246,8 +269,8 @@ fn best_peak(resp: &ResponseMap, p: Point2<f64>, radius: f64, min_r: f32) -> Opt
     let (mut x, mut y, mut v) = best?;
     // hill-climb to the local maximum (the disk may cut a slope towards a stronger peak)
     for _ in 0..64 {
-        if x < 2 || y < 2 || x + 2 >= r.width || y + 2 >= r.height {
-            return None;
+        if x < 1 || y < 1 || x + 1 >= r.width || y + 1 >= r.height {
+            break;
         }
         let mut moved = false;
         for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
@@ -331,8 +354,8 @@ fn try_add(g: &mut Grid, resp: &ResponseMap, i: i32, j: i32, min_r: f32, params:
         log::trace!("cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: polarity test failed", pred.x, pred.y);
         return false;
     }
-    // no duplicate of an existing neighbour
-    for (di, dj) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+    // no duplicate of an existing neighbour (diagonal ones too)
+    for (di, dj) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)] {
         if g.get(i + di, j + dj).is_some_and(|q| (q - p.coords).norm() < 0.5 * step) {
             return false;
         }

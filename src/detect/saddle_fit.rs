@@ -75,6 +75,12 @@ pub struct SaddleFit {
     pub sigma_px: f64,
     /// RMS residual of the fit, grey levels.
     pub rms_residual: f64,
+    /// Standard deviation of the corner position, pixels: the square root of the larger
+    /// eigenvalue of its 2 x 2 block of s^2 (J^T J)^-1, s^2 the residual variance (cost over
+    /// pixels minus parameters). A model that does not hold in the window (clutter, a
+    /// neighbouring corner, clipped and blurred junctions) leaves large residuals and so a large
+    /// sigma; infinite when the fit is not determined.
+    pub position_sigma_px: f64,
     /// Iterations used.
     pub iterations: usize,
 }
@@ -300,7 +306,7 @@ pub fn refine_saddle(
     let Some(first) = solve_linear_part(&mut x, first, &active) else {
         return Err(fail("degenerate initial geometry"));
     };
-    let Outcome { x, cost, cost_pixels, iterations } =
+    let Outcome { x, cost, cost_pixels, iterations, jtj } =
         iterate(x, first, &|x: &SVector<f64, NP>, exact: bool| accumulate(x, exact, &mut SVector::zeros()), params, (n, (2 * hf + 1) as usize));
     if !x.iter().all(|v| v.is_finite()) {
         return Err(fail("fit diverged"));
@@ -309,7 +315,35 @@ pub fn refine_saddle(
     if !point.x.is_finite() || !point.y.is_finite() || (point - seed).norm() > params.max_shift_px {
         return Err(fail("fit diverged"));
     }
-    Ok(SaddleFit { point, angles: [x[2], x[3]], amplitude: x[5], sigma_px: x[6].exp(), rms_residual: (cost / cost_pixels as f64).sqrt(), iterations })
+    let position_sigma_px = jtj.map_or(f64::INFINITY, |m| position_sigma(&m, cost, cost_pixels, idx.len()));
+    Ok(SaddleFit {
+        point,
+        angles: [x[2], x[3]],
+        amplitude: x[5],
+        sigma_px: x[6].exp(),
+        rms_residual: (cost / cost_pixels as f64).sqrt(),
+        position_sigma_px,
+        iterations,
+    })
+}
+
+/// Standard deviation of the corner position from the normal matrix `jtj` (inactive parameters
+/// carry identity rows) and the cost over `pixels` samples with `active` free parameters.
+fn position_sigma(jtj: &SMatrix<f64, NP, NP>, cost: f64, pixels: usize, active: usize) -> f64 {
+    let dof = pixels.saturating_sub(active);
+    let Some(inv) = jtj.try_inverse() else { return f64::INFINITY };
+    if dof == 0 {
+        return f64::INFINITY;
+    }
+    let s2 = cost / dof as f64;
+    let (a, b, c) = (inv[(0, 0)] * s2, inv[(0, 1)] * s2, inv[(1, 1)] * s2);
+    // larger eigenvalue of [[a, b], [b, c]]
+    let l = 0.5 * (a + c) + (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    if l.is_finite() && l >= 0.0 {
+        l.sqrt()
+    } else {
+        f64::INFINITY
+    }
 }
 
 #[cfg(test)]

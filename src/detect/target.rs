@@ -226,6 +226,13 @@ pub struct Detection {
     pub unmeasured: Option<Vec<usize>>,
     /// Coded boards: the id of each point (ChArUco: OpenCV's chessboard-corner id).
     pub ids: Option<Vec<u32>>,
+    /// Chessboards: the standard deviation of each point's position from its own sub-pixel fit,
+    /// pixels (infinite where the fit failed).
+    pub position_sigma_px: Option<Vec<f64>>,
+    /// Chessboards: indices of the points the refinement cannot place within
+    /// [`TRUSTED_CORNER_PX`](super::chessboard::TRUSTED_CORNER_PX) (reported, but to be left out
+    /// of a calibration).
+    pub untrusted: Vec<usize>,
     /// Why it was not found, when it was not.
     pub note: Option<String>,
 }
@@ -258,8 +265,7 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
                         indices: Some(ordered.iter().map(|d| d.index).collect()),
                         path_residuals: path_residuals(&ordered, &path),
                         unmeasured: Some(unmeasured),
-                        ids: None,
-                        note: None,
+                        ..Default::default()
                     })
                 }
                 Err(DetectError::NotFound { reason }) => Ok(Detection { note: Some(reason), ..Default::default() }),
@@ -307,7 +313,10 @@ pub fn detect_u8(img: &ImageU8, spec: &TargetSpec) -> Result<Detection, DetectEr
 
 fn board_detection(found: Option<ChessboardCorners>) -> Detection {
     match found {
-        Some(c) => Detection { found: true, points_px: c.points_px, ..Default::default() },
+        Some(c) => {
+            let untrusted = c.untrusted(super::chessboard::TRUSTED_CORNER_PX);
+            Detection { found: true, points_px: c.points_px, position_sigma_px: Some(c.position_sigma_px), untrusted, ..Default::default() }
+        }
         None => Detection { note: Some("no complete board of that size".into()), ..Default::default() },
     }
 }

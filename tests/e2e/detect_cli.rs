@@ -76,3 +76,35 @@ fn bad_target_strings_are_rejected() {
         assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
     }
 }
+
+#[test]
+fn images_of_different_sizes_are_each_detected() {
+    let dir = tmp("sizes");
+    // the same board scene at two image sizes (the second a pixel wider and taller, as a car
+    // camera's odd frame): both are detected, nothing is skipped
+    let scene = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/chessboard_k1.toml")).expect("scene");
+    let bigger = scene.replacen("width = 1280", "width = 1281", 1).replacen("height = 1024", "height = 1025", 1);
+    assert_ne!(bigger, scene, "the scene's size fields moved: update this test");
+    for (name, text) in [("a", &scene), ("b", &bigger)] {
+        std::fs::write(dir.join(format!("{name}.toml")), text).expect("write");
+        let o =
+            Command::new(bin()).arg("render").arg(dir.join(format!("{name}.toml"))).arg("-o").arg(dir.join(format!("{name}.png"))).output().expect("render");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let json = dir.join("det.json");
+    let o = Command::new(bin())
+        .arg("detect")
+        .arg(dir.join("a.png"))
+        .arg(dir.join("b.png"))
+        .args(["--target", "chessboard:11x8", "--json"])
+        .arg(&json)
+        .output()
+        .expect("detect");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("parse");
+    let images = v["images"].as_array().expect("images");
+    assert_eq!(images.len(), 2);
+    assert!(images.iter().all(|i| i["found"] == true), "{images:?}");
+    assert_eq!(images[1]["width"], 1281);
+    assert!(v.get("skipped").is_none());
+}

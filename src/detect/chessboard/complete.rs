@@ -197,8 +197,26 @@ fn validated<I: GreyWindow>(cx: &Ctx<'_, I>, g: &Grid, i: i32, j: i32) -> Option
         return None;
     }
     let expect = if (i + j).rem_euclid(2) == 0 { g.polarity0 } else { -g.polarity0 };
+    // the averaged prediction first, then each single one that differs from those tried
+    let mut tried: Vec<Point2<f64>> = Vec::new();
+    for guess in std::iter::once(pred).chain(g.predictions(i, j)) {
+        if tried.iter().any(|t| (t - guess).norm() < p.max_shift_frac * step) {
+            continue;
+        }
+        tried.push(guess);
+        if let Some(q) = validated_at(cx, guess, step, (si, sj), expect) {
+            return Some(q);
+        }
+    }
+    log::trace!("completion: cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: no corner at {} guesses", pred.x, pred.y, tried.len());
+    None
+}
+
+/// The corner near the guess `pred`: the saddle fit, else a pair of dark quads.
+fn validated_at<I: GreyWindow>(cx: &Ctx<'_, I>, pred: Point2<f64>, step: f64, (si, sj): (Vector2<f64>, Vector2<f64>), expect: i8) -> Option<Point2<f64>> {
+    let p = cx.p;
     let hw = ((0.4 * step).floor() as usize).clamp(2, cx.refine.half_window.max(2));
-    let fp = SaddleFitParams { half_window: hw, max_shift_px: p.max_shift_frac * step, ..*cx.refine };
+    let fp = SaddleFitParams { half_window: super::inside_window(cx.img, pred, hw), max_shift_px: p.max_shift_frac * step, ..*cx.refine };
     if let Ok(fit) = refine_saddle(cx.img, pred, si, sj, &fp) {
         if fit_is_corner(&fit, si, sj, expect, p) {
             return Some(fit.point);
@@ -206,9 +224,7 @@ fn validated<I: GreyWindow>(cx: &Ctx<'_, I>, g: &Grid, i: i32, j: i32) -> Option
     }
     // the squares along the dark diagonal
     let dark = if expect > 0 { si - sj } else { si + sj };
-    let q = quad_pair_corner(cx.quads.get_or_init(|| dark_quads(cx.full, cx.steps)), pred, step, dark, (si, sj), p);
-    log::trace!("completion: cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: quad pair {q:?}", pred.x, pred.y);
-    q
+    quad_pair_corner(cx.quads.get_or_init(|| dark_quads(cx.full, cx.steps)), pred, step, dark, (si, sj), p)
 }
 
 /// The dark squares of the image as quads (the marker detector's candidate search, 4-connected
@@ -217,10 +233,19 @@ fn validated<I: GreyWindow>(cx: &Ctx<'_, I>, g: &Grid, i: i32, j: i32) -> Option
 /// dark squares), and a window of the shortest step for the compressed squares.
 fn dark_quads(img: &ImageF32, (short, long): (f64, f64)) -> Vec<Quad> {
     let odd = |x: f64| ((x.clamp(5.0, 401.0) as usize) / 2) * 2 + 1;
-    let params =
-        MarkerParams { threshold_windows_px: [odd(2.0 * long), odd(short), 0], min_marker_perimeter_px: (2.0 * short).max(12.0), ..MarkerParams::default() };
+    let params = MarkerParams {
+        threshold_windows_px: [odd(2.0 * long), odd(short), 0],
+        min_marker_perimeter_px: (2.0 * short).max(12.0),
+        polygon_accuracy_rate: QUAD_ACCURACY_RATE,
+        ..MarkerParams::default()
+    };
     candidates(img, 1.0, &params, true)
 }
+
+/// Largest distance of a dark square's outline from its quadrilateral, as a fraction of the
+/// perimeter: a square under strong distortion has bowed sides (the marker search's 0.03 is for
+/// markers, small and nearly straight-sided); the pairing below checks the geometry that matters.
+const QUAD_ACCURACY_RATE: f64 = 0.08;
 
 /// OpenCV's classic corner (Vezhnevets; `findChessboardCorners`): two dark quads on the dark
 /// diagonal `dark` whose nearest corners lie within the search radius of the prediction `pred`;
@@ -249,6 +274,7 @@ fn quad_pair_corner(
             q.iter().filter(move |c| (*c - pred).norm() <= radius).map(move |c| (*c, centre))
         })
         .collect();
+    log::trace!("quads: {} in the image, {} corners near ({:.1}, {:.1}): {near:?}", quads.len(), near.len(), pred.x, pred.y);
     let mut best: Option<(f64, Point2<f64>)> = None;
     for (k, &(a, ca)) in near.iter().enumerate() {
         for &(b, cb) in &near[k + 1..] {

@@ -77,3 +77,61 @@ fn transposed_request_gives_rows_of_cols() {
     assert!(row.y.abs() > row.x.abs());
     assert!(find_chessboard(&img, &ChessboardParams::new(7, 6)).unwrap().is_none());
 }
+
+/// Over-exposure: the board blurred (sigma 2.5 px) then scaled so the light squares clip at 255
+/// with 3x headroom; the dark squares no longer meet at the corners (a light gap blooms over each
+/// junction), as on a laminated board under a lamp. Corner truth by symmetry: the blur and the
+/// clipping keep each junction point-symmetric, so the corners stay where they were.
+fn bloomed(img: &ImageF32, gain: f32) -> ImageF32 {
+    let b = super::super::response::gaussian_blur(img, 2.5);
+    ImageF32 { width: b.width, height: b.height, data: b.data.iter().map(|v| (v * gain).min(255.0)).collect() }
+}
+
+#[test]
+fn over_exposed_board_is_found_and_its_corners_are_right() {
+    let (sq, off, angle) = (30.0, (60.0, 50.0), 0.12);
+    let (s, c) = f64::sin_cos(angle);
+    let truth: Vec<Point2<f64>> = (1..6)
+        .flat_map(|j| (1..8).map(move |i| (i as f64 * sq, j as f64 * sq)))
+        .map(|(u, v)| Point2::new(off.0 + c * u - s * v, off.1 + s * u + c * v))
+        .collect();
+    let img = bloomed(&board(360, 300, sq, (8, 6), angle, off), 3.0);
+    let b = find_chessboard(&img, &ChessboardParams::new(7, 5)).unwrap().expect("the bloomed board is found");
+    let trusted: Vec<usize> = (0..b.points_px.len()).filter(|k| !b.untrusted(TRUSTED_CORNER_PX).contains(k)).collect();
+    let err = |k: usize| truth.iter().map(|t| (t - b.points_px[k]).norm()).fold(f64::INFINITY, f64::min);
+    // every corner is on its junction (no wrong board), and the trusted ones within 0.1 px
+    assert!((0..35).all(|k| err(k) < 1.0), "{:?}", (0..35).map(err).collect::<Vec<_>>());
+    assert!(trusted.iter().all(|&k| err(k) <= TRUSTED_CORNER_PX), "{:?}", trusted.iter().map(|&k| err(k)).collect::<Vec<_>>());
+    // a larger board is not cut down to the size asked for
+    assert!(find_chessboard(&img, &ChessboardParams::new(6, 5)).unwrap().is_none());
+}
+
+#[test]
+fn corners_near_the_image_border_are_searched_and_fitted() {
+    // the outer corners 3 px from the left and top borders
+    let sq = 24.0;
+    let img = board(260, 200, sq, (9, 7), 0.0, (3.0 - sq, 3.0 - sq));
+    let b = find_chessboard(&img, &ChessboardParams::new(8, 6)).unwrap().expect("found");
+    let worst = (1..7)
+        .flat_map(|j| (1..9).map(move |i| Point2::new(3.0 + (i - 1) as f64 * sq, 3.0 + (j - 1) as f64 * sq)))
+        .map(|t| b.points_px.iter().map(|p| (t - p).norm()).fold(f64::INFINITY, f64::min))
+        .fold(0.0, f64::max);
+    assert!(worst < 0.05, "worst {worst}");
+}
+
+#[test]
+fn a_corner_twice_is_not_a_board() {
+    let mut b = ChessboardCorners {
+        points_px: (0..3).flat_map(|r| (0..4).map(move |c| Point2::new(10.0 * c as f64, 10.0 * r as f64))).collect(),
+        cols: 4,
+        rows: 3,
+        refined: vec![true; 12],
+        position_sigma_px: vec![0.01; 12],
+        rms_fit_residual: 0.0,
+        candidates: 12,
+        seeds_tried: 1,
+    };
+    assert!(even_steps(b.clone()).is_some());
+    b.points_px[11] = b.points_px[6]; // the last corner on its diagonal neighbour
+    assert!(even_steps(b).is_none());
+}

@@ -11,6 +11,8 @@ pub(super) struct Outcome {
     pub(super) cost: f64,
     pub(super) cost_pixels: usize,
     pub(super) iterations: usize,
+    /// J^T J at the last linearisation point (for the covariance of the estimate).
+    pub(super) jtj: Option<SMatrix<f64, NP, NP>>,
 }
 
 /// The normal equations at a parameter vector: J^T J, J^T r, cost.
@@ -93,8 +95,9 @@ pub(super) fn iterate(
             }
         }
     }
+    let jtj = saved.map(|s| s.1);
     if let (false, Some((xs, _, _, _))) = (converged, saved) {
         x = xs;
     }
-    Outcome { x, cost, cost_pixels, iterations }
+    Outcome { x, cost, cost_pixels, iterations, jtj }
 }
