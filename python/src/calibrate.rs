@@ -9,7 +9,8 @@ use synthcam::scene::file::CameraSpec;
 use crate::convert::{chain, err, to_py};
 use crate::detect::target_spec;
 
-/// One view from a detection dict: its board points (by `ids`, or the whole board in order).
+/// One view from a detection dict: its board points (by `ids`, or the whole board in order),
+/// without those listed in `untrusted`.
 fn view_from(i: usize, det: &Bound<'_, PyAny>, board: &[Point3<f64>]) -> PyResult<Option<View>> {
     if !det.get_item("found").and_then(|f| f.extract::<bool>()).unwrap_or(true) {
         return Ok(None);
@@ -22,8 +23,13 @@ fn view_from(i: usize, det: &Bound<'_, PyAny>, board: &[Point3<f64>]) -> PyResul
         None if pts.len() == board.len() => (0..board.len()).collect(),
         None => return Err(err(format!("detection {i}: {} points, the board has {} (give `ids` for partial views)", pts.len(), board.len()))),
     };
+    // points the detector could not place within 0.1 px are left out
+    let untrusted: Vec<usize> = det.get_item("untrusted").ok().filter(|v| !v.is_none()).map(|v| v.extract()).transpose()?.unwrap_or_default();
     let mut view = View::new();
-    for (id, p) in ids.into_iter().zip(pts) {
+    for (k, (id, p)) in ids.into_iter().zip(pts).enumerate() {
+        if untrusted.contains(&k) {
+            continue;
+        }
         let x = board.get(id).ok_or_else(|| err(format!("detection {i}: id {id} is not on the board ({} points)", board.len())))?;
         view.push((*x, Point2::new(p[0], p[1])));
     }

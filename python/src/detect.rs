@@ -34,7 +34,9 @@ pub fn target_spec(target: &Bound<'_, PyAny>) -> PyResult<TargetSpec> {
 ///
 /// Returns a dict: `found` (bool), `points_px` ((N, 2) float64, OpenCV's pixel convention: the
 /// centre of the top-left pixel is (0, 0)), `ids` (coded boards: each point's id, else None),
-/// `indices` (S-path: each dot's path index, else None), `note` (why nothing was found). The GIL
+/// `indices` (S-path: each dot's path index, else None), `untrusted` (chessboards: indices of the
+/// points the sub-pixel fit cannot place within 0.1 px; `calibrate` leaves them out), `note` (why
+/// nothing was found). The GIL
 /// is released while detecting.
 #[pyfunction]
 pub fn detect<'py>(py: Python<'py>, image: &Bound<'py, PyAny>, target: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
@@ -46,6 +48,7 @@ pub fn detect<'py>(py: Python<'py>, image: &Bound<'py, PyAny>, target: &Bound<'p
     out.set_item("points_px", points_to_py(py, det.points_px.iter().map(|p| [p.x, p.y]))?)?;
     out.set_item("ids", det.ids)?;
     out.set_item("indices", det.indices)?;
+    out.set_item("untrusted", det.untrusted)?;
     out.set_item("note", det.note)?;
     Ok(out)
 }

@@ -21,6 +21,7 @@ class _Detection(TypedDict):
     points_px: npt.NDArray[np.float64]
     ids: Optional[List[int]]
     indices: Optional[List[int]]
+    untrusted: List[int]
     note: Optional[str]
 
 class _Observation(TypedDict):
