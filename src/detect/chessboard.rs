@@ -41,7 +41,10 @@ pub struct ChessboardParams {
     pub candidate_rel_threshold: f32,
     /// Maximum number of candidates kept (strongest first).
     pub max_candidates: usize,
-    /// Maximum number of seeds tried before giving up.
+    /// Maximum number of seeds tried before giving up (by default as many as there are
+    /// candidates: a small board in a cluttered scene can have its corners far down the list of
+    /// response strengths, below text, faces and furniture; corners of a grid already grown are
+    /// not tried again, so the cost stays bounded).
     pub max_seeds: usize,
     /// After a complete board was found, try at most this many further seeds (looking for a
     /// larger board, e.g. when a small copy of the board is visible on a monitor).
@@ -75,7 +78,7 @@ impl Default for ChessboardParams {
             smoothing_sigma_px: 1.0,
             candidate_rel_threshold: 0.04,
             max_candidates: 3000,
-            max_seeds: 40,
+            max_seeds: 3000,
             extra_seeds_after_found: 8,
             grow: GrowParams::default(),
             refine: SaddleFitParams::default(),
