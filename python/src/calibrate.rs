@@ -10,7 +10,8 @@ use crate::convert::{chain, err, to_py};
 use crate::detect::target_spec;
 
 /// One view from a detection dict: its board points (by `ids`, or the whole board in order),
-/// without those listed in `untrusted`.
+/// without the `untrusted` ones a calibration should leave out
+/// ([`corners_to_leave_out`](synthcam::detect::chessboard::corners_to_leave_out)).
 fn view_from(i: usize, det: &Bound<'_, PyAny>, board: &[Point3<f64>]) -> PyResult<Option<View>> {
     if !det.get_item("found").and_then(|f| f.extract::<bool>()).unwrap_or(true) {
         return Ok(None);
@@ -23,8 +24,11 @@ fn view_from(i: usize, det: &Bound<'_, PyAny>, board: &[Point3<f64>]) -> PyResul
         None if pts.len() == board.len() => (0..board.len()).collect(),
         None => return Err(err(format!("detection {i}: {} points, the board has {} (give `ids` for partial views)", pts.len(), board.len()))),
     };
-    // points the detector could not place within 0.1 px are left out
+    // points whose fit failed or that are far less certain than the rest of the view are left out
     let untrusted: Vec<usize> = det.get_item("untrusted").ok().filter(|v| !v.is_none()).map(|v| v.extract()).transpose()?.unwrap_or_default();
+    let sigma: Vec<Option<f64>> = det.get_item("position_sigma_px").ok().filter(|v| !v.is_none()).map(|v| v.extract()).transpose()?.unwrap_or_default();
+    let sigma: Vec<f64> = sigma.into_iter().map(|s| s.unwrap_or(f64::INFINITY)).collect();
+    let untrusted = synthcam::detect::chessboard::corners_to_leave_out(&sigma, &untrusted);
     let mut view = View::new();
     for (k, (id, p)) in ids.into_iter().zip(pts).enumerate() {
         if untrusted.contains(&k) {

@@ -35,7 +35,9 @@ pub fn target_spec(target: &Bound<'_, PyAny>) -> PyResult<TargetSpec> {
 /// Returns a dict: `found` (bool), `points_px` ((N, 2) float64, OpenCV's pixel convention: the
 /// centre of the top-left pixel is (0, 0)), `ids` (coded boards: each point's id, else None),
 /// `indices` (S-path: each dot's path index, else None), `untrusted` (chessboards: indices of the
-/// points the sub-pixel fit cannot place within 0.1 px; `calibrate` leaves them out), `note` (why
+/// points the sub-pixel fit cannot place within 0.1 px), `position_sigma_px` (chessboards: each
+/// point's standard deviation from its fit, None where it failed; `calibrate` leaves out the
+/// untrusted points that failed or are outliers in their view), `note` (why
 /// nothing was found). The GIL
 /// is released while detecting.
 #[pyfunction]
@@ -49,6 +51,7 @@ pub fn detect<'py>(py: Python<'py>, image: &Bound<'py, PyAny>, target: &Bound<'p
     out.set_item("ids", det.ids)?;
     out.set_item("indices", det.indices)?;
     out.set_item("untrusted", det.untrusted)?;
+    out.set_item("position_sigma_px", det.position_sigma_px.map(|v| v.into_iter().map(|s| s.is_finite().then_some(s)).collect::<Vec<_>>()))?;
     out.set_item("note", det.note)?;
     Ok(out)
 }

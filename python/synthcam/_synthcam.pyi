@@ -22,6 +22,7 @@ class _Detection(TypedDict):
     ids: Optional[List[int]]
     indices: Optional[List[int]]
     untrusted: List[int]
+    position_sigma_px: Optional[List[Optional[float]]]
     note: Optional[str]
 
 class _Observation(TypedDict):

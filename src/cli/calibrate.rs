@@ -11,6 +11,7 @@ use synthcam::calib::{calibrate, cross_validate, CalibModel, CalibParams, CalibR
 use synthcam::camera::formats::{kalibr_yaml, mrcal_cameramodel, opencv_yaml, ros_yaml};
 use synthcam::camera::{intrinsic_names, ImageSize, Lens};
 use synthcam::dataset::{load_grey, write_atomic};
+use synthcam::detect::chessboard::corners_to_leave_out;
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::report::calib::{document, plot_png, CalibInputs};
 use synthcam::report::doc::{Block, Document};
@@ -193,14 +194,14 @@ fn board_points(target: &TargetSpec, square: f64) -> anyhow::Result<Vec<Point3<f
 impl Found {
     /// A detection of a target with `n` board points: ids given (coded boards) or the whole
     /// board in order; `Err` with the reason to skip it.
-    /// Points listed in `untrusted` (the detector's own fit cannot place them within 0.1 px) are
-    /// left out.
+    /// Points in `leave_out` (the detector's fit failed there, or it is far less certain than the
+    /// rest of its view: [`corners_to_leave_out`]) are left out.
     fn new(
         file: String,
         (width, height): (usize, usize),
         points: Vec<Point2<f64>>,
         ids: Option<Vec<u32>>,
-        untrusted: &[usize],
+        leave_out: &[usize],
         n: usize,
     ) -> Result<Self, String> {
         let ids = match ids {
@@ -212,7 +213,7 @@ impl Found {
             return Err(format!("{} ids for {} points, or an id beyond the board's {n}", ids.len(), points.len()));
         }
         let (points, ids): (Vec<Point2<f64>>, Vec<u32>) =
-            points.into_iter().zip(ids).enumerate().filter(|(k, _)| !untrusted.contains(k)).map(|(_, pi)| pi).unzip();
+            points.into_iter().zip(ids).enumerate().filter(|(k, _)| !leave_out.contains(k)).map(|(_, pi)| pi).unzip();
         if points.len() < MIN_VIEW_POINTS.min(n) {
             return Err(format!("only {} points (a view needs {MIN_VIEW_POINTS})", points.len()));
         }
@@ -254,7 +255,9 @@ fn from_json(path: &PathBuf, n: usize) -> anyhow::Result<Detections> {
         let h = im["height"].as_u64().with_context(|| format!("{file}: `height` missing"))? as usize;
         let untrusted: Vec<usize> =
             im.get("untrusted").and_then(|v| v.as_array()).map_or_else(Vec::new, |a| a.iter().filter_map(|k| k.as_u64()).map(|k| k as usize).collect());
-        match Found::new(file.clone(), (w, h), pts, ids, &untrusted, n) {
+        let sigma: Vec<f64> =
+            im.get("position_sigma_px").and_then(|v| v.as_array()).map_or_else(Vec::new, |a| a.iter().map(|s| s.as_f64().unwrap_or(f64::INFINITY)).collect());
+        match Found::new(file.clone(), (w, h), pts, ids, &corners_to_leave_out(&sigma, &untrusted), n) {
             Ok(f) => found.push(f),
             Err(why) if matches!(v["target"]["kind"].as_str(), Some("charuco" | "aprilgrid")) => skipped.push(Skipped::new(file, why)),
             Err(why) => anyhow::bail!("{file}: {why}"),
@@ -280,7 +283,8 @@ fn load_detections(args: &CalibrateArgs, n: usize) -> anyhow::Result<Detections>
                     skipped.push(Skipped::new(name, "board not found"));
                     continue;
                 }
-                match Found::new(name.clone(), (img.width, img.height), det.points_px, det.ids, &det.untrusted, n) {
+                let leave_out = corners_to_leave_out(det.position_sigma_px.as_deref().unwrap_or_default(), &det.untrusted);
+                match Found::new(name.clone(), (img.width, img.height), det.points_px, det.ids, &leave_out, n) {
                     Ok(f) => found.push(f),
                     Err(why) => skipped.push(Skipped::new(name, why)),
                 }

@@ -115,8 +115,8 @@ pub struct ChessboardCorners {
 impl ChessboardCorners {
     /// Indices of the corners whose own fit cannot place them within `tolerance_px` (at two
     /// standard deviations): the fit failed, its window had to reach the neighbouring corners
-    /// (squares under 5 px across), or its residuals leave the position that uncertain. A
-    /// calibration should leave these out (`calibrate` does).
+    /// (squares under 5 px across), or its residuals leave the position that uncertain. Which of
+    /// them a calibration should leave out: [`corners_to_leave_out`].
     pub fn untrusted(&self, tolerance_px: f64) -> Vec<usize> {
         (0..self.points_px.len()).filter(|&k| !(2.0 * self.position_sigma_px.get(k).copied().unwrap_or(f64::INFINITY) <= tolerance_px)).collect()
     }
@@ -124,6 +124,24 @@ impl ChessboardCorners {
 
 /// The accuracy a corner must be placed to, pixels, to be trusted ([`ChessboardCorners::untrusted`]).
 pub const TRUSTED_CORNER_PX: f64 = 0.1;
+
+/// Of the `untrusted` points of one view, those a calibration should leave out: the ones whose
+/// fit failed (infinite or missing sigma) and those far less certain than the rest of their view
+/// (`position_sigma_px` above [`OUTLIER_SIGMA_FACTOR`] times the view's median). A view whose
+/// corners are all uncertain alike (a blurred, noisy or over-exposed photo: its corners scatter
+/// by a few tenths of a pixel) keeps them: their scatter shows in the calibration's residuals and
+/// uncertainties, while one corner an order worse than its neighbours (a board edge-on at the
+/// border of a fisheye's field) would pull the whole fit.
+pub fn corners_to_leave_out(position_sigma_px: &[f64], untrusted: &[usize]) -> Vec<usize> {
+    let mut finite: Vec<f64> = position_sigma_px.iter().copied().filter(|s| s.is_finite()).collect();
+    finite.sort_by(f64::total_cmp);
+    let median = finite.get(finite.len() / 2).copied().unwrap_or(f64::INFINITY);
+    untrusted.iter().copied().filter(|&k| position_sigma_px.get(k).is_none_or(|s| !s.is_finite() || *s > OUTLIER_SIGMA_FACTOR * median)).collect()
+}
+
+/// A corner's sigma this many times its view's median makes it an outlier
+/// ([`corners_to_leave_out`]).
+pub const OUTLIER_SIGMA_FACTOR: f64 = 3.0;
 
 /// Find the full `cols` x `rows` inner-corner grid.
 ///

@@ -135,3 +135,14 @@ fn a_corner_twice_is_not_a_board() {
     b.points_px[11] = b.points_px[6]; // the last corner on its diagonal neighbour
     assert!(even_steps(b).is_none());
 }
+
+#[test]
+fn calibration_leaves_out_failed_fits_and_outliers_only() {
+    // a view of uniformly uncertain corners keeps them; a failed fit and a 10x outlier go
+    let sigma = [0.06, 0.07, 0.065, f64::INFINITY, 0.7, 0.06];
+    let untrusted = [0, 1, 2, 3, 4, 5];
+    assert_eq!(corners_to_leave_out(&sigma, &untrusted), vec![3, 4]);
+    // only untrusted points are candidates, and a missing sigma counts as a failed fit
+    assert_eq!(corners_to_leave_out(&sigma[..3], &[1, 7]), vec![7]);
+    assert!(corners_to_leave_out(&[], &[]).is_empty());
+}
