@@ -15,7 +15,13 @@ the camera frame by 0.1-0.2 m in a random direction; poses whose sphere outline 
 (radial r_d = r (1 + k1 r^2 + k2 r^4 + k3 r^6), inverted per sample by Newton on the radius).
 ``--deviate-mm D`` adds a set whose cap centres move on the sphere by a tangential offset uniform
 in a disc of radius D mm (redrawn if it would touch the previous cap); the detector still assumes
-the nominal path. Both sets use the same poses and noise seeds.
+the nominal path (default 7 mm). Both sets use the same poses and noise seeds. Wide poses (default;
+--narrow gives the ones above): orbited 0-35 deg, rolled -45..45 deg about the optical axis, 0.6-1.6 times
+the course's distance, the sphere centre anywhere in the middle 70 % of the image, the outline free to leave
+it (at least 40 caps facing the camera inside the image); see sample_poses. A fresh seed is drawn per run
+and printed (--seed reproduces it). Dots the image border cuts (any coverage on its outermost row or
+column) are left out of the recall; those reported anyway are counted with their error against the
+visible part's centroid.
 
 How exact: a pixel is the area average over its square of the grey of each ray's first hit,
 90 + 135 cov_sphere - 205 sum_i cov_i (caps are disjoint), each cov the area fraction of one binary
@@ -33,10 +39,11 @@ convergence on boundary pixels and the distortion inverse.
 
 Run (repository root; numpy + Pillow):
     python3 benches/spath_independent.py --validate
-    python3 benches/spath_independent.py                 # 20 views x cameras A, B x 2 sets
+    python3 benches/spath_independent.py                 # fresh seed: 20 views x cameras A, B x 2 sets
+    python3 benches/spath_independent.py --views 10 --seed 497783 --binary /tmp/old/synthcam   # rescore
     python3 benches/spath_independent.py --views 5 --seed 3 --deviate-mm 2 --out /tmp/si
-Writes --out (default /work/scratch/spath_indep)/SET/CAM_VV.png, .truth.json, .det.json, results.md,
-validation.md; waits up to --wait-min minutes for --binary, then runs `detect IMAGE --target s-path`.
+Writes --out (default /work/scratch/spath_indep/{wide,narrow}_sSEED)/SET/CAM_VV.png, .truth.json, .det.json, results.md (and
+results_BINARYHASH.md), validation.md; waits up to --wait-min minutes for --binary, then runs `detect IMAGE --target s-path`.
 """
 import argparse, hashlib, itertools, json, math, os, subprocess, sys, time
 from pathlib import Path
@@ -244,15 +251,19 @@ def dot_truth(sc, stats, ids=None):
         if gamma[i] - 2 * math.asin(sc.r[i] / (2 * RADIUS)) > math.acos(RADIUS / D) + 1e-3:
             continue                                      # the whole cap is on the far side
         u, v = sc.cam.project(sc.P[i] + sc.r[i] * cube)
+        if u.max() < -3 or v.max() < -3 or u.min() > sc.cam.w + 2 or v.min() > sc.cam.h + 2:
+            continue                                      # wholly outside the image
         yy, xx = np.mgrid[max(math.floor(v.min()) - 2, 0):min(math.ceil(v.max()) + 2, sc.cam.h - 1) + 1,
                           max(math.floor(u.min()) - 2, 0):min(math.ceil(u.max()) + 2, sc.cam.w - 1) + 1]
         windows.append((xx.ravel(), yy.ravel(), np.full(xx.size, i)))
     px, py, lab = (np.concatenate(c) for c in zip(*windows))
     cov = region_coverage(sc.in_dot, px.astype(float), py.astype(float), lab, stats, LIGHT - DARK)
     area = np.bincount(lab, cov, minlength=n)
+    edge = (px == 0) | (py == 0) | (px == sc.cam.w - 1) | (py == sc.cam.h - 1)
+    cut = np.bincount(lab, edge * cov, minlength=n) > 0           # the image border cuts the cap
     with np.errstate(invalid="ignore", divide="ignore"):
         cen = np.stack([np.bincount(lab, cov * px, minlength=n), np.bincount(lab, cov * py, minlength=n)], 1) / area[:, None]
-    return area, cen, (px, py, cov)
+    return area, cen, (px, py, cov), cut
 
 
 def render(sc, stats):
@@ -264,9 +275,9 @@ def render(sc, stats):
     py, px = np.nonzero(np.abs(theta - alpha) < 2 * rho)  # the limb band
     img[py, px] = BACKGROUND + (LIGHT - BACKGROUND) * region_coverage(
         sc.in_sphere, px.astype(float), py.astype(float), np.zeros(len(px), int), stats, LIGHT - BACKGROUND)
-    area, cen, (qx, qy, cov) = dot_truth(sc, stats)
+    area, cen, (qx, qy, cov), cut = dot_truth(sc, stats)
     np.subtract.at(img, (qy, qx), (LIGHT - DARK) * cov)
-    return img, area, cen
+    return img, area, cen, cut
 
 
 def sphere_in_view(cam, C, margin=3.0):
@@ -279,16 +290,40 @@ def sphere_in_view(cam, C, margin=3.0):
     return min(u.min(), v.min()) >= margin and u.max() <= cam.w - 1 - margin and v.max() <= cam.h - 1 - margin
 
 
-def sample_poses(cam, rng, n, max_deg=15.0, t_range=(0.1, 0.2)):
-    """cam_from_target (R, t): the camera orbited about the sphere centre by Q, then moved in its own frame."""
+def sample_poses(cam, rng, n, wide=True):
+    """cam_from_target (R, t). Narrow (--narrow, the earlier sessions' set): the camera orbited about the
+    sphere centre by 0-15 deg about a random axis, then moved in its own frame by 0.1-0.2 m in a random
+    direction, the whole outline in the image (3 px margin). Wide (default): orbited by 0-35 deg, rolled
+    about its optical axis by -45..45 deg, its distance to the sphere centre scaled by 0.6-1.6 (1.1-3.0 m
+    from the course's 1.87 m), moved sideways in its own frame so that the sphere centre lands anywhere in
+    the middle 70 % of the image; the outline may leave the image, but at least 40 caps must face the
+    camera with their centres in the image."""
     poses = []
     while len(poses) < n:
-        k, angle = unit(rng.normal(size=3)), math.radians(rng.uniform(0, max_deg))
+        k, angle = unit(rng.normal(size=3)), math.radians(rng.uniform(0, 35.0 if wide else 15.0))
         K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
         Q = np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
         R = R_DESIRED @ Q.T
-        t = R_DESIRED @ (CENTRE - Q.T @ CENTRE) + T_DESIRED + unit(rng.normal(size=3)) * rng.uniform(*t_range)
-        if sphere_in_view(cam, R @ CENTRE + t):
+        t = R_DESIRED @ (CENTRE - Q.T @ CENTRE) + T_DESIRED
+        if not wide:
+            t = t + unit(rng.normal(size=3)) * rng.uniform(0.1, 0.2)
+            if sphere_in_view(cam, R @ CENTRE + t):
+                poses.append((R, t))
+            continue
+        roll = math.radians(rng.uniform(-45.0, 45.0))
+        Rz = np.array([[math.cos(roll), -math.sin(roll), 0], [math.sin(roll), math.cos(roll), 0], [0, 0, 1.0]])
+        R, t = Rz @ R, Rz @ t
+        C = R @ CENTRE + t
+        depth = np.linalg.norm(C) * rng.uniform(0.6, 1.6)
+        u, v = rng.uniform(0.15, 0.85) * cam.w, rng.uniform(0.15, 0.85) * cam.h
+        x, y = cam.undistort(np.array([u]), np.array([v]))
+        t = t + depth * unit(np.array([x[0], y[0], 1.0])) - C
+        P = s_path() @ R.T + t
+        C = R @ CENTRE + t
+        pu, pv = cam.project(P)
+        facing = np.sum(unit(P - C) * unit(-P), 1) > 0.05
+        inside = (pu > 0) & (pv > 0) & (pu < cam.w - 1) & (pv < cam.h - 1)
+        if (facing & inside).sum() >= 40:
             poses.append((R, t))
     return poses
 
@@ -323,7 +358,7 @@ def validate(out):
         x = unit(np.cross(-n, [0, 0, 1.0]))
         Rv = np.stack([x, np.cross(-n, x), -n])
         sc = Scene(cam, Rv, -Rv @ (CENTRE + (RADIUS + dist) * n + lat[0] * x + lat[1] * Rv[1]), (CENTRE + RADIUS * n)[None], np.array([r]))
-        area, cen, (qx, qy, cov) = dot_truth(sc, {})
+        area, cen, (qx, qy, cov), _ = dot_truth(sc, {})
         Z = dist + r * r / (2 * RADIUS)
         rpx, u0, v0 = cam.f * r * math.sqrt(1 - r * r / (4 * RADIUS**2)) / Z, cam.cx - cam.f * lat[0] / Z, cam.cy - cam.f * lat[1] / Z
         dcov = region_coverage(lambda u, v, l: (u - u0)**2 + (v - v0)**2 < rpx**2, qx.astype(float), qy.astype(float), 0 * qx, {}, 1)
@@ -377,11 +412,11 @@ def render_set(args, cam, poses, folder, dev_mm):
             continue
         dots = deviate(nominal, np.random.default_rng([args.seed, ci, k, 2]), dev_mm) if dev_mm > 0 else nominal
         sc, st, t0 = Scene(cam, R, t, dots, radii(101)), {}, time.time()
-        img, area, cen = render(sc, st)
+        img, area, cen, cut = render(sc, st)
         img += np.random.default_rng([args.seed, ci, k, 1]).normal(0.0, 1.0, img.shape)
         Image.fromarray(np.clip(np.round(img), 0, 255).astype(np.uint8)).save(stem.with_suffix(".png"))
         recs.append(dict(file=stem.name + ".png", R=R.tolist(), t_m=t.tolist(), dots_m=dots.tolist(), area_px=area.tolist(),
-                         centroid_px=np.nan_to_num(cen, nan=-1).tolist(), view_deg=sc.view_angle_deg().tolist(), stats=st))
+                         centroid_px=np.nan_to_num(cen, nan=-1).tolist(), cut=cut.tolist(), view_deg=sc.view_angle_deg().tolist(), stats=st))
         stem.with_suffix(".truth.json").write_text(json.dumps(recs[-1]))
         print(f"{folder}/{stem.name}: {time.time() - t0:.1f} s, {int((area > 0).sum())} dots visible, {stats_text(st)}", flush=True)
     return recs
@@ -396,20 +431,28 @@ def detect(args, png):
 
 def score(recs, dets, cam_name):
     """Figures of one camera's views: a detection > 1 px from its index's exact centroid is false."""
-    s = dict(views=len(recs), found=0, eligible=0, recalled=0, false=0, wrong_index=0, order=0, errs=[], worst=[], notes=[])
+    s = dict(views=len(recs), found=0, eligible=0, cut=0, cut_reported=0, cut_errs=[], missed=[], recalled=0, false=0, wrong_index=0, order=0, errs=[], worst=[], notes=[])
     for k, (rec, det) in enumerate(zip(recs, dets)):
         area, cen = np.array(rec["area_px"]), np.array(rec["centroid_px"])
         eq, vis = np.sqrt(area / math.pi), area > 0
-        s["eligible"] += int((eq >= MIN_EQ_R).sum())
+        cut = np.array(rec.get("cut", [False] * len(area)), bool)
+        ok = (eq >= MIN_EQ_R) & ~cut
+        s["eligible"] += int(ok.sum())
+        s["cut"] += int(((eq >= MIN_EQ_R) & cut).sum())
+        got = set(det.get("indices") or [])
+        s["missed"] += [(cam_name, k, i, float(eq[i]), rec["view_deg"][i]) for i in np.flatnonzero(ok) if i not in got]
         s["found"] += bool(det["found"])
         s["notes"] += [] if det["found"] else [f"{cam_name}_{k:02d}: {det.get('note') or det.get('error')}"]
         false_here = 0
         for p, i in zip(det.get("points_px") or [], det.get("indices") or []):
             e = float(np.hypot(*(np.array(p) - cen[i]))) if vis[i] else math.inf
-            if e > 1.0:
+            if cut[i] and e <= 1.0:
+                s["cut_reported"] += 1
+                s["cut_errs"].append(e)
+            elif e > 1.0:
                 false_here += 1
                 s["wrong_index"] += bool(vis.any() and np.hypot(*(cen[vis] - p).T).min() <= 1.0)
-            elif eq[i] >= MIN_EQ_R:
+            elif ok[i]:
                 s["recalled"] += 1
                 s["errs"].append(e)
                 s["worst"].append((e, cam_name, k, i, float(eq[i]), rec["view_deg"][i]))
@@ -423,18 +466,23 @@ def merge(parts):
 
 
 def table(results):
-    rows = ["| set | camera | views | found | recall (eq. radius >= 1.5 px) | false dots (wrong index) | order right | "
-            "error vs exact centroid RMS / p99 / max px |", "|---|---|---|---|---|---|---|---|"]
+    rows = ["| set | camera | views | found | recall (eq. radius >= 1.5 px, not cut) | false dots (wrong index) | order right | "
+            "error vs exact centroid RMS / p99 / max px | cut by the border (reported) |", "|---|---|---|---|---|---|---|---|---|"]
     notes = []
     for set_name, cams in results:
         m = merge(list(cams.values()))
         for cam, s in list(cams.items()) + [("all", m)]:
             e = np.array(s["errs"])
             err = f"{math.sqrt((e**2).mean()):.4f} / {np.percentile(e, 99):.4f} / {e.max():.4f}" if len(e) else "-"
+            cut_err = f", max {max(s['cut_errs']):.3f} px from the visible part's centroid" if s["cut_errs"] else ""
             rows.append(f"| {set_name} | {cam} | {s['views']} | {s['found']} | {s['recalled']}/{s['eligible']} "
-                        f"({100 * s['recalled'] / max(s['eligible'], 1):.2f} %) | {s['false']} ({s['wrong_index']}) | {s['order']} | {err} |")
+                        f"({100 * s['recalled'] / max(s['eligible'], 1):.2f} %) | {s['false']} ({s['wrong_index']}) | {s['order']} | {err} | {s['cut']} ({s['cut_reported']}{cut_err}) |")
         notes.append(f"\nWorst 5 dots, {set_name} (error px, camera_view, index, eq. radius px, angle from cap normal):")
         notes += [f"- {w[0]:.4f}  {w[1]}_{w[2]:02d}  dot {w[3]}  r_eq {w[4]:.2f}  {w[5]:.1f} deg" for w in sorted(m["worst"], reverse=True)[:5]]
+        if m["missed"]:
+            notes += [f"\nMissed, {set_name}: {len(m['missed'])} dots (camera_view, index, eq. radius px, angle from cap normal)"]
+            notes += [f"- {w[0]}_{w[1]:02d}  dot {w[2]}  r_eq {w[3]:.2f}  {w[4]:.1f} deg" for w in m["missed"][:12]]
+            notes += [f"- ... {len(m['missed']) - 12} more"] if len(m["missed"]) > 12 else []
         if m["notes"]:
             notes += [f"\nNot found, {set_name}: {len(m['notes'])} views"] + [f"- {n}" for n in m["notes"][:6]]
             notes += [f"- ... {len(m['notes']) - 6} more"] if len(m["notes"]) > 6 else []
@@ -444,23 +492,30 @@ def table(results):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--views", type=int, default=20, help="views per camera (default 20)")
-    ap.add_argument("--seed", type=int, default=1, help="seeds poses, deviations and noise (default 1)")
-    ap.add_argument("--deviate-mm", type=float, default=5.0, help="second set's cap offsets, mm (default 5; 0: no second set)")
+    ap.add_argument("--seed", type=int, default=None, help="seeds poses, deviations and noise (default: a fresh one, printed)")
+    ap.add_argument("--deviate-mm", type=float, default=7.0, help="second set's cap offsets, mm (default 7; 0: no second set)")
+    ap.add_argument("--narrow", action="store_true", help="the earlier sessions' narrow poses (orbit 0-15 deg, 0.1-0.2 m, "
+                    "whole outline in view) instead of the wide ones (sample_poses)")
     ap.add_argument("--cameras", default="A,B", help="subset of A,B")
-    ap.add_argument("--out", type=Path, default=Path("/work/scratch/spath_indep"))
+    ap.add_argument("--out", type=Path, default=None, help="default /work/scratch/spath_indep/{wide,narrow}_sSEED")
     ap.add_argument("--binary", type=Path, default=REPO / "target/release/synthcam")
     ap.add_argument("--wait-min", type=float, default=40.0, help="minutes to wait for --binary, polled every 60 s (default 40)")
     ap.add_argument("--validate", action="store_true", help="run the validation only")
     ap.add_argument("--no-detect", action="store_true", help="render only")
     ap.add_argument("--force", action="store_true", help="re-render views that exist")
     args = ap.parse_args()
+    if args.seed is None:
+        args.seed = int.from_bytes(os.urandom(4), "little") % 1_000_000
+    print(f"seed {args.seed} (rerun with --seed {args.seed})", flush=True)
+    if args.out is None:
+        args.out = Path(f"/work/scratch/spath_indep/{'narrow' if args.narrow else 'wide'}_s{args.seed}")
     args.out.mkdir(parents=True, exist_ok=True)
     if args.validate:
         return validate(args.out)
     cams = [Camera(c, **CAMERAS[c]) for c in args.cameras.split(",")]
     sets = [("caps course-like", "caps", 0.0)]
     sets += [(f"caps, {args.deviate_mm:g} mm deviations", f"caps_dev{args.deviate_mm:g}mm", args.deviate_mm)] if args.deviate_mm > 0 else []
-    poses = {c.name: sample_poses(c, np.random.default_rng([args.seed, list(CAMERAS).index(c.name), 0]), args.views) for c in cams}
+    poses = {c.name: sample_poses(c, np.random.default_rng([args.seed, list(CAMERAS).index(c.name), 0]), args.views, not args.narrow) for c in cams}
     truth = {(folder, c.name): render_set(args, c, poses[c.name], folder, dev) for _, folder, dev in sets for c in cams}
     if args.no_detect:
         return 0
@@ -474,10 +529,11 @@ def main():
     results = [(label, {c.name: score(truth[(folder, c.name)], [detect(args, args.out / folder / r["file"]) for r in truth[(folder, c.name)]],
                                       c.name) for c in cams}) for label, folder, _ in sets]
     md = (f"Independent caps check: `benches/spath_independent.py --views {args.views} --seed {args.seed} --deviate-mm {args.deviate_mm:g} "
-          f"--cameras {args.cameras}`, binary {args.binary} ({stamp}); camera A f 1500 no distortion, B f 1200 k1 -0.1; noise sigma 1 "
+          f"--cameras {args.cameras}{' --narrow' if args.narrow else ''}`, binary {args.binary} ({stamp}); camera A f 1500 no distortion, B f 1200 k1 -0.1; noise sigma 1 "
           f"grey.\n\n" + table(results))
     print(md)
     (args.out / "results.md").write_text(md)
+    (args.out / f"results_{stamp.split()[1].rstrip(',')}.md").write_text(md)
 
 
 if __name__ == "__main__":

@@ -15,18 +15,26 @@
 
 use std::borrow::Cow;
 
-use nalgebra::{Point2, Vector2};
-use rayon::prelude::*;
+use nalgebra::Point2;
 
 use super::grid::{grow_grid, Grid, GrowParams};
-use super::par::worth_parallel;
 use super::response::{find_candidates, local_peak, saddle_response, Candidate};
-use super::saddle_fit::{refine_saddle, SaddleFitParams};
+use super::saddle_fit::SaddleFitParams;
 use super::{DetectError, GreyWindow, ImageF32, ImageU8};
 use complete::complete;
 pub use complete::CompleteParams;
+use erosion::{min_filter, EROSION_RADII_PX};
+use order::{orient, polygon_area, to_rows};
+pub(crate) use refine::inside_window;
+use refine::refine_all;
+use trust::even_steps;
+pub use trust::{corners_to_leave_out, MAX_STEP_RATIO, OUTLIER_SIGMA_FACTOR, TRUSTED_CORNER_PX};
 
 mod complete;
+mod erosion;
+mod order;
+mod refine;
+mod trust;
 
 /// Parameters of [`find_chessboard`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -111,37 +119,6 @@ pub struct ChessboardCorners {
     /// Seeds tried until the board was found.
     pub seeds_tried: usize,
 }
-
-impl ChessboardCorners {
-    /// Indices of the corners whose own fit cannot place them within `tolerance_px` (at two
-    /// standard deviations): the fit failed, its window had to reach the neighbouring corners
-    /// (squares under 5 px across), or its residuals leave the position that uncertain. Which of
-    /// them a calibration should leave out: [`corners_to_leave_out`].
-    pub fn untrusted(&self, tolerance_px: f64) -> Vec<usize> {
-        (0..self.points_px.len()).filter(|&k| !(2.0 * self.position_sigma_px.get(k).copied().unwrap_or(f64::INFINITY) <= tolerance_px)).collect()
-    }
-}
-
-/// The accuracy a corner must be placed to, pixels, to be trusted ([`ChessboardCorners::untrusted`]).
-pub const TRUSTED_CORNER_PX: f64 = 0.1;
-
-/// Of the `untrusted` points of one view, those a calibration should leave out: the ones whose
-/// fit failed (infinite or missing sigma) and those far less certain than the rest of their view
-/// (`position_sigma_px` above [`OUTLIER_SIGMA_FACTOR`] times the view's median). A view whose
-/// corners are all uncertain alike (a blurred, noisy or over-exposed photo: its corners scatter
-/// by a few tenths of a pixel) keeps them: their scatter shows in the calibration's residuals and
-/// uncertainties, while one corner an order worse than its neighbours (a board edge-on at the
-/// border of a fisheye's field) would pull the whole fit.
-pub fn corners_to_leave_out(position_sigma_px: &[f64], untrusted: &[usize]) -> Vec<usize> {
-    let mut finite: Vec<f64> = position_sigma_px.iter().copied().filter(|s| s.is_finite()).collect();
-    finite.sort_by(f64::total_cmp);
-    let median = finite.get(finite.len() / 2).copied().unwrap_or(f64::INFINITY);
-    untrusted.iter().copied().filter(|&k| position_sigma_px.get(k).is_none_or(|s| !s.is_finite() || *s > OUTLIER_SIGMA_FACTOR * median)).collect()
-}
-
-/// A corner's sigma this many times its view's median makes it an outlier
-/// ([`corners_to_leave_out`]).
-pub const OUTLIER_SIGMA_FACTOR: f64 = 3.0;
 
 /// Find the full `cols` x `rows` inner-corner grid.
 ///
@@ -237,31 +214,6 @@ fn find_in<'a, I: GreyWindow>(
     })
 }
 
-/// Radii of the grey erosions tried when no board is found, full-resolution pixels.
-pub const EROSION_RADII_PX: [usize; 2] = [2, 4];
-
-/// Grey-level erosion by a `(2 r + 1)`-pixel square (separable running minimum, clamped
-/// borders). Written here because imageproc's morphology works on 8-bit images and the detector
-/// works on f32.
-fn min_filter(img: &ImageF32, r: usize) -> ImageF32 {
-    let (w, h) = (img.width, img.height);
-    let mut rows = vec![0.0f32; w * h];
-    for y in 0..h {
-        let src = &img.data[y * w..(y + 1) * w];
-        for x in 0..w {
-            rows[y * w + x] = src[x.saturating_sub(r)..(x + r + 1).min(w)].iter().copied().fold(f32::INFINITY, f32::min);
-        }
-    }
-    let mut out = vec![0.0f32; w * h];
-    for y in 0..h {
-        let (y0, y1) = (y.saturating_sub(r), (y + r + 1).min(h));
-        for x in 0..w {
-            out[y * w + x] = (y0..y1).map(|yy| rows[yy * w + x]).fold(f32::INFINITY, f32::min);
-        }
-    }
-    ImageF32 { width: w, height: h, data: out }
-}
-
 /// One search over the pyramid (see [`find_in`]), with structure recovery.
 fn find_direct<'a, I: GreyWindow>(
     img: &I,
@@ -306,42 +258,6 @@ fn find_direct<'a, I: GreyWindow>(
     let grid = to_rows(&g, params.cols, params.rows)?;
     even_steps(refine_all(img, orient(grid, params.cols, params.rows), params, 0, 0))
 }
-
-/// The board when no two corners coincide and every pair of consecutive steps along its rows and
-/// columns differ by less than a factor [`MAX_STEP_RATIO`]: a one-to-one lens maps the evenly spaced corners of a line to
-/// points whose spacing changes smoothly, so neighbouring steps stay within a small factor of
-/// each other even where the outer squares are compressed to a fraction of the centre's; a
-/// corner reported twice, or a grid that skipped a square, breaks it.
-fn even_steps(b: ChessboardCorners) -> Option<ChessboardCorners> {
-    let (c, r) = (b.cols, b.rows);
-    let at = |row: usize, col: usize| b.points_px[row * c + col];
-    let ok = |p: Point2<f64>, q: Point2<f64>, s: Point2<f64>| {
-        let (d1, d2) = ((q - p).norm(), (s - q).norm());
-        d1.min(d2) * MAX_STEP_RATIO >= d1.max(d2)
-    };
-    let rows_ok = (0..r).all(|row| (1..c.saturating_sub(1)).all(|k| ok(at(row, k - 1), at(row, k), at(row, k + 1))));
-    let cols_ok = (0..c).all(|col| (1..r.saturating_sub(1)).all(|k| ok(at(k - 1, col), at(k, col), at(k + 1, col))));
-    // no corner on top of another one (the 4-neighbour steps above do not see a diagonal twin)
-    let distinct = (0..r * c).all(|k| {
-        let (row, col) = (k / c, k % c);
-        let nb = [(row.wrapping_sub(1), col), (row + 1, col), (row, col.wrapping_sub(1)), (row, col + 1)];
-        let step = nb.iter().filter(|&&(y, x)| y < r && x < c).map(|&(y, x)| (at(y, x) - at(row, col)).norm()).fold(f64::INFINITY, f64::min);
-        (k + 1..r * c).all(|m| (b.points_px[m] - b.points_px[k]).norm() >= MIN_SEPARATION_FRAC * step)
-    });
-    if rows_ok && cols_ok && distinct {
-        Some(b)
-    } else {
-        log::debug!("board rejected: uneven steps along a row or column (a corner twice, or a skipped square)");
-        None
-    }
-}
-
-/// Largest ratio of two consecutive steps along a row or column of a board ([`even_steps`]).
-pub const MAX_STEP_RATIO: f64 = 3.0;
-
-/// Two corners of a board are at least this fraction of the shorter one's shortest 4-neighbour
-/// step apart (a sheared cell's short diagonal is about half a step at 60 degrees of shear).
-const MIN_SEPARATION_FRAC: f64 = 0.25;
 
 /// A corner found at pyramid `level` carried to full resolution: doubled at each level, snapped
 /// to the local response peak of each finer level but the finest (the sub-pixel fit does that).
@@ -465,131 +381,6 @@ fn nearest(cands: &[Candidate], seed: &Candidate, k: usize, min_frac: f32) -> Ve
         }
     }
     best.into_iter().map(|b| b.1).collect()
-}
-
-/// A full grid of exactly cols x rows (either orientation) as rows of `cols` points.
-fn to_rows(g: &Grid, cols: usize, rows: usize) -> Option<Vec<Vec<Point2<f64>>>> {
-    if !g.is_full() {
-        return None;
-    }
-    let (i0, i1, j0, j1) = g.bounds()?;
-    let (ni, nj) = ((i1 - i0 + 1) as usize, (j1 - j0 + 1) as usize);
-    let along_i = if (ni, nj) == (cols, rows) {
-        true
-    } else if (ni, nj) == (rows, cols) {
-        false
-    } else {
-        return None;
-    };
-    let mut out = Vec::with_capacity(rows);
-    for r in 0..rows as i32 {
-        let mut row = Vec::with_capacity(cols);
-        for c in 0..cols as i32 {
-            let key = if along_i { (i0 + c, j0 + r) } else { (i0 + r, j0 + c) };
-            row.push(*g.cells.get(&key)?);
-        }
-        out.push(row);
-    }
-    Some(out)
-}
-
-/// Area of the quadrilateral of the four outer corners, px^2.
-fn polygon_area(g: &[Vec<Point2<f64>>]) -> f64 {
-    let (Some(first), Some(last)) = (g.first(), g.last()) else { return 0.0 };
-    let (Some(a), Some(b), Some(c), Some(d)) = (first.first(), first.last(), last.last(), last.first()) else { return 0.0 };
-    let q = [a, b, c, d];
-    let mut s = 0.0;
-    for k in 0..4 {
-        let (p, n) = (q[k], q[(k + 1) % 4]);
-        s += p.x * n.y - n.x * p.y;
-    }
-    0.5 * s.abs()
-}
-
-/// Apply the documented ordering rule (module doc).
-fn orient(mut g: Vec<Vec<Point2<f64>>>, cols: usize, rows: usize) -> Vec<Vec<Point2<f64>>> {
-    let rowdir = g[0][cols - 1] - g[0][0] + (g[rows - 1][cols - 1] - g[rows - 1][0]);
-    let coldir = g[rows - 1][0] - g[0][0] + (g[rows - 1][cols - 1] - g[0][cols - 1]);
-    if rowdir.x * coldir.y - rowdir.y * coldir.x < 0.0 {
-        for row in &mut g {
-            row.reverse();
-        }
-    }
-    let mut options = vec![g.clone(), rot180(&g)];
-    if cols == rows {
-        let r90 = rot90(&g);
-        options.push(rot180(&r90));
-        options.push(r90);
-    }
-    let key = |o: &Vec<Vec<Point2<f64>>>| o[0][0].coords.norm_squared();
-    options.into_iter().min_by(|a, b| key(a).total_cmp(&key(b))).unwrap_or(g)
-}
-
-fn rot180(g: &[Vec<Point2<f64>>]) -> Vec<Vec<Point2<f64>>> {
-    g.iter().rev().map(|r| r.iter().rev().copied().collect()).collect()
-}
-
-/// Rotate a square grid by 90 degrees keeping handedness.
-fn rot90(g: &[Vec<Point2<f64>>]) -> Vec<Vec<Point2<f64>>> {
-    let n = g.len();
-    (0..n).map(|r| (0..n).map(|c| g[n - 1 - c][r]).collect()).collect()
-}
-
-/// Refine every corner with the saddle fit; window from the local grid step.
-fn refine_all(img: &impl GreyWindow, g: Vec<Vec<Point2<f64>>>, params: &ChessboardParams, candidates: usize, seeds_tried: usize) -> ChessboardCorners {
-    let (rows, cols) = (params.rows, params.cols);
-    let at = |r: usize, c: usize| g[r][c];
-    let job = |k: usize| {
-        let (r, c) = (k / cols, k % cols);
-        let p = at(r, c);
-        let d_row: Vector2<f64> = if c + 1 < cols { at(r, c + 1) - p } else { p - at(r, c - 1) };
-        let d_col: Vector2<f64> = if r + 1 < rows { at(r + 1, c) - p } else { p - at(r - 1, c) };
-        let mut step = d_row.norm().min(d_col.norm());
-        if c > 0 {
-            step = step.min((p - at(r, c - 1)).norm());
-        }
-        if r > 0 {
-            step = step.min((p - at(r - 1, c)).norm());
-        }
-        let wanted = (params.window_frac * step).floor() as usize;
-        let hw = wanted.clamp(2, params.refine.half_window.max(2));
-        let fp = SaddleFitParams { half_window: inside_window(img, p, hw), ..params.refine };
-        match refine_saddle(img, p, d_row, d_col, &fp) {
-            // a window wider than the geometry allows holds parts of the neighbouring corners
-            Ok(f) => (f.point, true, f.rms_residual, if wanted >= 2 { f.position_sigma_px } else { f64::INFINITY }),
-            Err(_) => (p, false, 0.0, f64::INFINITY),
-        }
-    };
-    let n = rows * cols;
-    let res: Vec<(Point2<f64>, bool, f64, f64)> =
-        if worth_parallel(n, params.parallel_min_corners) { (0..n).into_par_iter().map(job).collect() } else { (0..n).map(job).collect() };
-    let nref = res.iter().filter(|r| r.1).count();
-    let rms = if nref > 0 { (res.iter().filter(|r| r.1).map(|r| r.2 * r.2).sum::<f64>() / nref as f64).sqrt() } else { 0.0 };
-    ChessboardCorners {
-        points_px: res.iter().map(|r| r.0).collect(),
-        cols,
-        rows,
-        refined: res.iter().map(|r| r.1).collect(),
-        position_sigma_px: res.iter().map(|r| r.3).collect(),
-        rms_fit_residual: rms,
-        candidates,
-        seeds_tried,
-    }
-}
-
-/// The fit half-window `hw` at `p`, shrunk (to no less than 2) so the window stays inside the
-/// image: a corner a few pixels from the border is fitted on what the image holds of it.
-pub(crate) fn inside_window(img: &impl GreyWindow, p: Point2<f64>, hw: usize) -> usize {
-    let (cx, cy) = (p.x.round(), p.y.round());
-    if !(cx.is_finite() && cy.is_finite()) {
-        return hw;
-    }
-    let room = cx.min(cy).min(img.width() as f64 - 1.0 - cx).min(img.height() as f64 - 1.0 - cy);
-    if room >= hw as f64 {
-        hw
-    } else {
-        (room.max(0.0) as usize).max(2)
-    }
 }
 
 #[cfg(test)]

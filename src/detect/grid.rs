@@ -341,17 +341,14 @@ fn try_add(g: &mut Grid, resp: &ResponseMap, i: i32, j: i32, min_r: f32, params:
     }
     let nb_strength = [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().filter_map(|(di, dj)| g.strength.get(&(i + di, j + dj)).copied()).fold(0.0f32, f32::max);
     let min_r = min_r.max(nb_strength * params.min_neighbour_frac);
+    let reject = |why: &str| log::trace!("cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: {why}", pred.x, pred.y);
     let Some((p, strength)) = best_peak(resp, pred, params.search_frac * step, min_r) else {
-        log::trace!("cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: no peak above {min_r:.3e}", pred.x, pred.y);
+        reject("no peak strong enough");
         return false;
     };
-    if (p - pred).norm() > params.max_offset_frac * step {
-        log::trace!("cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: peak {:.1} px off", pred.x, pred.y, (p - pred).norm());
-        return false;
-    }
     let expect = if (i + j).rem_euclid(2) == 0 { g.polarity0 } else { -g.polarity0 };
-    if xcorner_polarity(&resp.smooth, p, si, sj, params.min_contrast) != Some(expect) {
-        log::trace!("cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: polarity test failed", pred.x, pred.y);
+    if (p - pred).norm() > params.max_offset_frac * step || xcorner_polarity(&resp.smooth, p, si, sj, params.min_contrast) != Some(expect) {
+        reject("peak too far, or not an X-junction of the expected polarity");
         return false;
     }
     // no duplicate of an existing neighbour (diagonal ones too)
