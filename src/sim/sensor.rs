@@ -2,6 +2,7 @@
 //! runs the detector for the target's kind; [`IdealSensor`] projects the target's features and
 //! adds Gaussian noise (the course's method). A loop runs the same over either.
 
+use crate::detect::chessboard::corners_to_leave_out;
 use nalgebra::{Point2, Vector2};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -59,7 +60,9 @@ impl Sensor for RenderedSensor<'_> {
         let features = if det.found {
             let coded = det.ids.map(|ids| ids.into_iter().map(|i| i as usize).collect());
             let ids = det.indices.or(coded).unwrap_or_else(|| (0..det.points_px.len()).collect());
-            ids.into_iter().zip(det.points_px).map(|(id, pixel_px)| Feature { id, pixel_px }).collect()
+            // corners whose fit failed, or far less certain than the rest, are not measurements
+            let leave_out = det.position_sigma_px.as_deref().map(|s| corners_to_leave_out(s, &det.untrusted)).unwrap_or_default();
+            ids.into_iter().zip(det.points_px).enumerate().filter(|(k, _)| !leave_out.contains(k)).map(|(_, (id, pixel_px))| Feature { id, pixel_px }).collect()
         } else {
             Vec::new()
         };

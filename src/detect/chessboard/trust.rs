@@ -66,7 +66,8 @@ pub(super) fn even_steps(b: ChessboardCorners) -> Option<ChessboardCorners> {
     }
 }
 
-/// Largest ratio of two consecutive steps along a row or column of a board ([`even_steps`]).
+/// Largest ratio of two consecutive steps along a row or column of a found board (a larger one
+/// rejects it: a corner reported twice, or a skipped square).
 pub const MAX_STEP_RATIO: f64 = 3.0;
 
 /// Two corners of a board are at least this fraction of the shorter one's shortest 4-neighbour
