@@ -34,7 +34,7 @@ pub(crate) mod xcorner;
 
 pub use self::image::{GreyWindow, ImageF32, ImageU8};
 pub use aprilgrid::{find_aprilgrid, AprilGridDetection, AprilGridParams};
-pub use charuco::{find_charuco, CharucoDetection, CharucoParams};
+pub use charuco::{find_charuco, find_charuco_u8, CharucoDetection, CharucoParams};
 pub use chessboard::{find_chessboard, ChessboardCorners, ChessboardParams};
 pub use markers::{find_markers, CornerParams, MarkerDetection, MarkerParams, MarkerSet};
 pub use saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};

@@ -6,7 +6,7 @@ use std::str::FromStr;
 use nalgebra::Point2;
 
 use super::aprilgrid::{find_aprilgrid, AprilGridParams};
-use super::charuco::{find_charuco, CharucoParams};
+use super::charuco::{find_charuco, find_charuco_u8, CharucoDetection, CharucoParams};
 use super::chessboard::{find_chessboard, find_chessboard_u8, ChessboardCorners, ChessboardParams};
 use super::dots::{find_dots, DotParams};
 use super::grid_order::order_grid;
@@ -272,12 +272,7 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
                 Err(e) => Err(e),
             }
         }
-        TargetSpec::Charuco { .. } => {
-            let Some(board) = spec.charuco_board(1.0) else { return Err(DetectError::BadParams { reason: "not a ChArUco target" }) };
-            let found = find_charuco(img, &board, &CharucoParams::default())?;
-            let note = found.ids.is_empty().then(|| format!("{} markers decoded, no ChArUco corner", found.markers.len()));
-            Ok(Detection { found: !found.ids.is_empty(), points_px: found.corners_px, ids: Some(found.ids), note, ..Default::default() })
-        }
+        TargetSpec::Charuco { .. } => Ok(charuco_detection(find_charuco(img, &charuco_board(spec)?, &CharucoParams::default())?)),
         TargetSpec::Aprilgrid { .. } => {
             let Some(grid) = spec.aprilgrid(1.0) else { return Err(DetectError::BadParams { reason: "not an AprilGrid target" }) };
             let found = find_aprilgrid(img, &grid, &AprilGridParams::default())?;
@@ -300,15 +295,28 @@ fn course_path(points: usize) -> Option<std::borrow::Cow<'static, SPath>> {
 }
 
 /// [`detect`] on 8-bit samples, with identical results: the chessboard detector works on them
-/// directly ([`find_chessboard_u8`]), the dot detectors on the image converted to f32.
+/// directly ([`find_chessboard_u8`]), the ChArUco detector halves them for its marker search
+/// ([`find_charuco_u8`]), the other detectors work on the image converted to f32.
 ///
 /// # Errors
 /// As [`detect`].
 pub fn detect_u8(img: &ImageU8, spec: &TargetSpec) -> Result<Detection, DetectError> {
     match *spec {
         TargetSpec::Chessboard { cols, rows } => Ok(board_detection(find_chessboard_u8(img, &ChessboardParams::new(cols, rows))?)),
+        TargetSpec::Charuco { .. } => Ok(charuco_detection(find_charuco_u8(img, &charuco_board(spec)?, &CharucoParams::default())?)),
         _ => detect(&img.to_f32(), spec),
     }
+}
+
+/// The board of a ChArUco spec (unit squares).
+fn charuco_board(spec: &TargetSpec) -> Result<Charuco, DetectError> {
+    spec.charuco_board(1.0).ok_or(DetectError::BadParams { reason: "not a ChArUco target" })
+}
+
+/// The [`Detection`] of a ChArUco board's corners.
+fn charuco_detection(found: CharucoDetection) -> Detection {
+    let note = found.ids.is_empty().then(|| format!("{} markers decoded, no ChArUco corner", found.markers.len()));
+    Detection { found: !found.ids.is_empty(), points_px: found.corners_px, ids: Some(found.ids), note, ..Default::default() }
 }
 
 fn board_detection(found: Option<ChessboardCorners>) -> Detection {

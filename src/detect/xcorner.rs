@@ -14,8 +14,9 @@ pub fn bilinear(img: &ImageF32, p: Point2<f64>) -> Option<f32> {
     if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= (w as f64 - 1.0) && p.y <= (h as f64 - 1.0)) {
         return None;
     }
-    let x0 = (p.x.floor() as usize).min(w.saturating_sub(2));
-    let y0 = (p.y.floor() as usize).min(h.saturating_sub(2));
+    // p is inside the image: the casts truncate as floor does (without its libm call)
+    let x0 = (p.x as usize).min(w.saturating_sub(2));
+    let y0 = (p.y as usize).min(h.saturating_sub(2));
     if w < 2 || h < 2 {
         return Some(img.data[0]);
     }

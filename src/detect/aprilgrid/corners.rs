@@ -21,7 +21,7 @@
 use nalgebra::{Point2, Vector2};
 use rayon::prelude::*;
 
-use crate::detect::markers::corners::{local_homography, refine_junction, CornerParams, Junction};
+use crate::detect::markers::corners::{local_homography, refine_junction, Area, CornerParams, Junction};
 use crate::detect::par::worth_parallel;
 use crate::detect::{ImageF32, MarkerDetection};
 use crate::target::AprilGrid;
@@ -83,6 +83,7 @@ pub(super) fn refine(img: &ImageF32, grid: &AprilGrid, tags: &[MarkerDetection],
             h,
             c: Point2::new(corner.x, corner.y),
             margin_m,
+            area: Area::Square,
             probe_m: Vector2::new(-(sx as f64), -(sy as f64)) * (0.5 * margin_m),
             probe_light: false,
             // The tag's own corner: its sides are fitted to the sub-pixel, and a homography of

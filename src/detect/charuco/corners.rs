@@ -8,9 +8,13 @@
 //! with fewer than two markers (8 point pairs) is skipped. A fit whose RMS residual exceeds
 //! `max_homography_rms_rate` of the marker side is refused.
 //!
-//! The prediction is refined by [`refine_junction`] (see `markers::corners`) inside the white
-//! margin around the corner (`(square - marker) / 2` on the board), with the sign checked on
-//! the bottom-left square (light when it holds a marker).
+//! The prediction is refined by [`refine_junction`] (see `markers::corners`) in a window kept
+//! out of the two markers next to the corner ([`Area::Inset`]: the white margin,
+//! `(square - marker) / 2` on the board, runs along both edges of each light square, and the
+//! dark squares are uniform to their far side), so that a tilted or rolled board, whose margin
+//! square around the corner is thin or turned in the image, keeps a window of 5 x 5 pixels or
+//! more; where even that reaches into a marker, its pixels there read as the light square. The
+//! sign is checked on the bottom-left square (light when it holds a marker).
 //!
 //! Reference: OpenCV `modules/objdetect/src/aruco/charuco_detector.cpp`
 //! (`interpolateCornersCharucoLocalHom`, `_selectAndRefineChessboardCorners`).
@@ -18,9 +22,10 @@
 use nalgebra::{Point2, Vector2};
 use rayon::prelude::*;
 
-use crate::detect::markers::corners::{local_homography, refine_junction, CornerParams, Junction};
+use crate::detect::markers::corners::{local_homography, refine_junction, Area, CornerParams, Junction};
+use crate::detect::markers::Samples;
 use crate::detect::par::worth_parallel;
-use crate::detect::{ImageF32, MarkerDetection};
+use crate::detect::MarkerDetection;
 use crate::target::Charuco;
 
 /// The board with its detected markers indexed by square.
@@ -79,7 +84,7 @@ impl<'a> Layout<'a> {
 }
 
 /// The refined corners: ids ascending and positions.
-pub(super) fn interpolate(img: &ImageF32, board: &Charuco, markers: &[MarkerDetection], params: &CornerParams) -> (Vec<u32>, Vec<Point2<f64>>) {
+pub(super) fn interpolate<I: Samples + ?Sized>(img: &I, board: &Charuco, markers: &[MarkerDetection], params: &CornerParams) -> (Vec<u32>, Vec<Point2<f64>>) {
     let layout = Layout::new(board, markers);
     let [nx, ny] = board.squares;
     let jobs: Vec<(u32, i64, i64)> =
@@ -94,7 +99,7 @@ pub(super) fn interpolate(img: &ImageF32, board: &Charuco, markers: &[MarkerDete
 }
 
 /// Corner `(i, j)` (board point `(i s, j s)`), refined; `None` when it is not measurable.
-fn corner(img: &ImageF32, layout: &Layout, markers: &[MarkerDetection], (i, j): (i64, i64), params: &CornerParams) -> Option<Point2<f64>> {
+fn corner<I: Samples + ?Sized>(img: &I, layout: &Layout, markers: &[MarkerDetection], (i, j): (i64, i64), params: &CornerParams) -> Option<Point2<f64>> {
     let set = layout.markers_for(i, j);
     if set.len() < 2 {
         return None;
@@ -104,13 +109,16 @@ fn corner(img: &ImageF32, layout: &Layout, markers: &[MarkerDetection], (i, j): 
     let dst: Vec<Point2<f64>> = set.iter().flat_map(|&k| markers[k].corners_px).collect();
     let h = local_homography(&src, &dst, params)?;
     let margin_m = 0.5 * (board.square_m - board.marker_m);
+    // the bottom-left square (i - 1, j) is light when it holds a marker
+    let probe_light = board.has_marker((i - 1) as u32, j as u32);
     let junction = Junction {
         h,
         c: Point2::new(i as f64 * board.square_m, j as f64 * board.square_m),
         margin_m,
+        // the light squares are (i - 1, j) and (i, j - 1), or (i - 1, j - 1) and (i, j)
+        area: Area::Inset { light: if probe_light { [-1.0, 1.0] } else { [1.0, 1.0] }, square_m: board.square_m },
         probe_m: Vector2::new(-0.5 * margin_m, 0.5 * margin_m),
-        // the bottom-left square (i - 1, j) is light when it holds a marker
-        probe_light: board.has_marker((i - 1) as u32, j as u32),
+        probe_light,
         seed_px: None,
         predicted: false,
     };

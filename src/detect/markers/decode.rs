@@ -17,9 +17,7 @@ use nalgebra::{Matrix3, Point2};
 
 use super::edges;
 use super::quads::{signed_area, Quad};
-use super::{MarkerDetection, MarkerParams, MarkerSet};
-use crate::detect::xcorner::bilinear;
-use crate::detect::ImageF32;
+use super::{MarkerDetection, MarkerParams, MarkerSet, Samples};
 
 /// Most cells of a marker (12 x 12: 8 x 8 bits with a 2-bit border).
 const MAX_CELLS: usize = 144;
@@ -72,7 +70,7 @@ pub(super) struct Decoded {
 }
 
 /// Refine and decode candidate `q`; `None` when it is not one of the wanted markers.
-pub(super) fn marker(img: &ImageF32, q: &Quad, codes: &Codes, params: &MarkerParams) -> Option<Decoded> {
+pub(super) fn marker<I: Samples + ?Sized>(img: &I, q: &Quad, codes: &Codes, params: &MarkerParams) -> Option<Decoded> {
     let cells = codes.cells();
     if cells * cells > MAX_CELLS || codes.n * codes.n > 64 || codes.codes.is_empty() {
         return None;
@@ -97,14 +95,14 @@ pub(super) fn marker(img: &ImageF32, q: &Quad, codes: &Codes, params: &MarkerPar
 /// quad `q` must span at least half of `min_contrast` (a marker has black and white cells; a
 /// uniform dark shape, such as a ChArUco board's black square, does not, and [`classify`] would
 /// refuse it after the costlier refinement anyway). Samples outside the image are skipped.
-fn has_contrast(img: &ImageF32, q: &Quad, cells: usize, min_contrast: f64) -> bool {
+fn has_contrast<I: Samples + ?Sized>(img: &I, q: &Quad, cells: usize, min_contrast: f64) -> bool {
     let Some(h) = square_to_quad(q) else { return false };
     let k = cells as f64;
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for i in 0..cells * cells {
         let (u, v) = (((i % cells) as f64 + 0.5) / k, ((i / cells) as f64 + 0.5) / k);
         let p = h * nalgebra::Vector3::new(u, v, 1.0);
-        if let Some(s) = bilinear(img, Point2::new(p.x / p.z, p.y / p.z)) {
+        if let Some(s) = img.bilinear(Point2::new(p.x / p.z, p.y / p.z)) {
             let s = f64::from(s);
             (lo, hi) = (lo.min(s), hi.max(s));
         }
@@ -130,7 +128,7 @@ pub(crate) fn square_to_quad(q: &Quad) -> Option<Matrix3<f64>> {
 }
 
 /// Mean grey of each cell, row-major; `None` when a sample leaves the image or is not finite.
-fn cell_means(img: &ImageF32, h: &Matrix3<f64>, cells: usize) -> Option<[f64; MAX_CELLS]> {
+fn cell_means<I: Samples + ?Sized>(img: &I, h: &Matrix3<f64>, cells: usize) -> Option<[f64; MAX_CELLS]> {
     let mut means = [0.0f64; MAX_CELLS];
     let k = cells as f64;
     for (i, m) in means.iter_mut().take(cells * cells).enumerate() {
@@ -139,7 +137,7 @@ fn cell_means(img: &ImageF32, h: &Matrix3<f64>, cells: usize) -> Option<[f64; MA
         for fy in SAMPLES {
             for fx in SAMPLES {
                 let p = h * nalgebra::Vector3::new((cx + fx) / k, (cy + fy) / k, 1.0);
-                sum += f64::from(bilinear(img, Point2::new(p.x / p.z, p.y / p.z))?);
+                sum += f64::from(img.bilinear(Point2::new(p.x / p.z, p.y / p.z))?);
             }
         }
         *m = sum / (SAMPLES.len() * SAMPLES.len()) as f64;

@@ -10,8 +10,7 @@
 use nalgebra::{Point2, Vector2};
 
 use super::quads::Quad;
-use crate::detect::xcorner::bilinear;
-use crate::detect::ImageF32;
+use super::Samples;
 
 /// Profile sample spacing of the two passes, pixels.
 const STEPS: [f64; 2] = [1.0, 0.5];
@@ -33,7 +32,7 @@ struct Line {
 
 /// Refine `q` (border_rate: black border width over marker side; margin_rate: white margin width
 /// over marker side), with at least `min_contrast` grey levels across each profile.
-pub(super) fn refine(img: &ImageF32, q: &Quad, border_rate: f64, margin_rate: f64, min_contrast: f64) -> Option<Quad> {
+pub(super) fn refine<I: Samples + ?Sized>(img: &I, q: &Quad, border_rate: f64, margin_rate: f64, min_contrast: f64) -> Option<Quad> {
     let mut cur = *q;
     for (pass, step) in STEPS.into_iter().enumerate() {
         let side = (0..4).map(|i| (cur[(i + 1) % 4] - cur[i]).norm()).fold(f64::INFINITY, f64::min);
@@ -56,7 +55,7 @@ pub(super) fn refine(img: &ImageF32, q: &Quad, border_rate: f64, margin_rate: f6
 }
 
 /// The fitted line of side `a -> b` (interior on its left in the positive orientation).
-fn side_line(img: &ImageF32, a: Point2<f64>, b: Point2<f64>, reach: (f64, f64, f64), (profiles, min_contrast): (usize, f64)) -> Option<Line> {
+fn side_line<I: Samples + ?Sized>(img: &I, a: Point2<f64>, b: Point2<f64>, reach: (f64, f64, f64), (profiles, min_contrast): (usize, f64)) -> Option<Line> {
     let len = (b - a).norm();
     if !(len > 2.0) {
         return None;
@@ -79,11 +78,18 @@ fn side_line(img: &ImageF32, a: Point2<f64>, b: Point2<f64>, reach: (f64, f64, f
 
 /// Offset along `out` of the dark-to-light mid-level crossing nearest `c` on the profile from
 /// `-reach.0` to `reach.1` in steps of `reach.2`.
-fn crossing(img: &ImageF32, c: Point2<f64>, out: Vector2<f64>, (inside, outside, step): (f64, f64, f64), min_contrast: f64, v: &mut Vec<f64>) -> Option<f64> {
+fn crossing<I: Samples + ?Sized>(
+    img: &I,
+    c: Point2<f64>,
+    out: Vector2<f64>,
+    (inside, outside, step): (f64, f64, f64),
+    min_contrast: f64,
+    v: &mut Vec<f64>,
+) -> Option<f64> {
     let (k0, k1) = ((inside / step).ceil() as i64, (outside / step).ceil() as i64);
     v.clear();
     for k in -k0..=k1 {
-        v.push(f64::from(bilinear(img, c + out * (k as f64 * step))?));
+        v.push(f64::from(img.bilinear(c + out * (k as f64 * step))?));
     }
     let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(*x), h.max(*x)));
     if !(hi - lo >= min_contrast) {

@@ -10,7 +10,10 @@
 //!    markers' corners diagonally (an AprilGrid tag and the black squares at its corners), the
 //!    components are 4-connected (as AprilTag 3 connects dark pixels) and also taken from the
 //!    dark pixels eroded by one pixel, which cuts such contacts. Large images are searched at
-//!    half resolution.
+//!    half resolution (the ChArUco detector searches again at full resolution where its board
+//!    implies markers the first search missed: `find_markers_in`). A hull is a candidate when it
+//!    lies within `polygon_accuracy_rate` of the perimeter plus one search-image pixel of its
+//!    quadrilateral (the pixel: a small, foreshortened marker's corner pixels read light).
 //! 2. Sub-pixel quad (`edges`): candidates whose cell centres show no contrast are dropped
 //!    first (`decode`); on the full-resolution image each side is located by the
 //!    mid-level crossings of intensity profiles across it; a line fit per side, adjacent lines
@@ -38,7 +41,7 @@ use nalgebra::Point2;
 use rayon::prelude::*;
 
 use super::par::worth_parallel;
-use super::{DetectError, ImageF32};
+use super::{DetectError, GreyWindow, ImageF32, ImageU8};
 use crate::target::Dictionary;
 
 mod components;
@@ -48,6 +51,7 @@ pub(crate) mod decode;
 mod edges;
 pub(crate) mod quads;
 mod threshold;
+mod window;
 
 #[cfg(test)]
 pub(crate) mod test_render;
@@ -69,7 +73,9 @@ pub struct MarkerParams {
     /// Images with at least this many pixels are searched for candidates at half resolution
     /// (decoding and all fits stay at full resolution); markers then need sides of about 16
     /// full-resolution pixels (5x5 dictionary, 1280 x 1024: all 44 ChArUco markers found at 20 px,
-    /// 43 at 16 px, 25 at 14 px). `usize::MAX` never downsamples.
+    /// 43 at 16 px, 25 at 14 px), less foreshortened; the ChArUco detector retries at full
+    /// resolution where its board implies markers that were missed. `usize::MAX` never
+    /// downsamples.
     pub downsample_min_pixels: usize,
     /// Smallest marker perimeter, full-resolution pixels.
     pub min_marker_perimeter_px: f64,
@@ -169,17 +175,161 @@ pub struct MarkerDetection {
 /// non-positive margin).
 pub fn find_markers(img: &ImageF32, set: &MarkerSet, params: &MarkerParams) -> Result<Vec<MarkerDetection>, DetectError> {
     check_image(img)?;
+    check_set(set, params)?;
+    let (search, scale) = search_image(img, params);
+    Ok(search_and_decode(img, &search, scale, set, params))
+}
+
+/// [`find_markers`] on 8-bit samples, with identical results: the search image is made from them
+/// ([`ImageU8::half`]: a quarter of the memory traffic of halving an f32 copy, and no check for
+/// non-finite samples) and the outlines and codes are sampled from them, so the image is never
+/// converted to f32 as a whole.
+pub(crate) fn find_markers_u8(img: &ImageU8, set: &MarkerSet, params: &MarkerParams) -> Result<Vec<MarkerDetection>, DetectError> {
+    check_image_u8(img)?;
+    check_set(set, params)?;
+    let (search, scale) = if searched_at_half(img.width, img.height, params) { (img.half(), 2.0) } else { (img.to_f32(), 1.0) };
+    Ok(search_and_decode(img, &search, scale, set, params))
+}
+
+/// Typed check of the parameters and the marker set.
+fn check_set(set: &MarkerSet, params: &MarkerParams) -> Result<(), DetectError> {
     params.validate()?;
     if !((1..=4).contains(&set.border_bits) && set.margin_rate > 0.0 && set.margin_rate.is_finite()) {
         return Err(DetectError::BadParams { reason: "the marker set needs 1..=4 border bits and a positive margin rate" });
     }
-    let (search, scale) = search_image(img, params);
-    let quads = quads::candidates(&search, scale, params, set.touching_corners);
+    Ok(())
+}
+
+/// Candidates of `search` (`scale` times smaller than `img`, all samples finite), decoded on
+/// `img`.
+fn search_and_decode<I: Samples + ?Sized>(img: &I, search: &ImageF32, scale: f64, set: &MarkerSet, params: &MarkerParams) -> Vec<MarkerDetection> {
+    let quads = quads::candidates(search, scale, params, set.touching_corners);
+    decode_all(img, &quads, set, params)
+}
+
+/// A grey image the marker pipeline samples at full resolution: f32, or 8-bit samples read
+/// directly (identical values: bilinear interpolation in f32 either way).
+pub(crate) trait Samples: GreyWindow {
+    /// Bilinear sample with clamped coordinates ([`crate::detect::xcorner::bilinear`]); `None`
+    /// outside the image.
+    fn bilinear(&self, p: Point2<f64>) -> Option<f32>;
+    /// Sample `(x, y)` (inside the image).
+    fn sample(&self, x: usize, y: usize) -> f32;
+    /// The samples of `win` (inside the image) as an f32 image, non-finite ones as 0.
+    fn crop(&self, win: Window) -> ImageF32;
+}
+
+impl Samples for ImageF32 {
+    fn bilinear(&self, p: Point2<f64>) -> Option<f32> {
+        super::xcorner::bilinear(self, p)
+    }
+    fn sample(&self, x: usize, y: usize) -> f32 {
+        self.at(x, y)
+    }
+    fn crop(&self, win: Window) -> ImageF32 {
+        crop_rows(self.width, win, &self.data, |v: &f32| if v.is_finite() { *v } else { 0.0 })
+    }
+}
+
+impl Samples for ImageU8 {
+    fn bilinear(&self, p: Point2<f64>) -> Option<f32> {
+        let (w, h) = (self.width, self.height);
+        if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= (w as f64 - 1.0) && p.y <= (h as f64 - 1.0)) {
+            return None;
+        }
+        let d = &self.data;
+        if w < 2 || h < 2 {
+            return d.first().map(|v| f32::from(*v));
+        }
+        let (x0, y0) = ((p.x as usize).min(w - 2), (p.y as usize).min(h - 2));
+        let (fx, fy) = ((p.x - x0 as f64) as f32, (p.y - y0 as f64) as f32);
+        let i = y0 * w + x0;
+        let v = |k: usize| f32::from(d[k]);
+        let top = v(i) + (v(i + 1) - v(i)) * fx;
+        let bot = v(i + w) + (v(i + w + 1) - v(i + w)) * fx;
+        Some(top + (bot - top) * fy)
+    }
+    fn sample(&self, x: usize, y: usize) -> f32 {
+        f32::from(self.data[y * self.width + x])
+    }
+    fn crop(&self, win: Window) -> ImageF32 {
+        crop_rows(self.width, win, &self.data, |v: &u8| f32::from(*v))
+    }
+}
+
+/// The rows `win.y0..win.y1`, columns `win.x0..win.x1` of a row-major image `width` wide, each
+/// sample through `f`.
+fn crop_rows<T>(width: usize, win: Window, data: &[T], f: impl Fn(&T) -> f32) -> ImageF32 {
+    let (w, h) = (win.x1.saturating_sub(win.x0), win.y1.saturating_sub(win.y0));
+    let mut out = super::pool::scratch(w * h);
+    for (o, row) in out.chunks_exact_mut(w.max(1)).zip(data.chunks_exact(width.max(1)).skip(win.y0)) {
+        for (o, v) in o.iter_mut().zip(&row[win.x0..win.x1]) {
+            *o = f(v);
+        }
+    }
+    ImageF32 { width: w, height: h, data: out }
+}
+
+/// A rectangle of an image: columns `x0..x1`, rows `y0..y1`, pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Window {
+    /// First column.
+    pub x0: usize,
+    /// First row.
+    pub y0: usize,
+    /// One past the last column.
+    pub x1: usize,
+    /// One past the last row.
+    pub y1: usize,
+}
+
+/// Whether [`find_markers`] searches an image of `width x height` at half resolution.
+pub(crate) fn searched_at_half(width: usize, height: usize, params: &MarkerParams) -> bool {
+    width.saturating_mul(height) >= params.downsample_min_pixels && width >= 16 && height >= 16
+}
+
+/// [`find_markers`] with the candidate search at full resolution inside `win` (clipped to the
+/// image), skipping candidates whose centre lies inside one of `known` (markers already found;
+/// their outlines, positively oriented or not). `img` and `params` must have passed
+/// [`check_image`] and [`MarkerParams::validate`].
+pub(crate) fn find_markers_in<I: Samples + ?Sized>(
+    img: &I,
+    set: &MarkerSet,
+    params: &MarkerParams,
+    win: Window,
+    known: &[[Point2<f64>; 4]],
+) -> Vec<MarkerDetection> {
+    let (x1, y1) = (win.x1.min(img.width()), win.y1.min(img.height()));
+    let win = Window { x0: win.x0.min(x1), y0: win.y0.min(y1), x1, y1 };
+    let crop = img.crop(win);
+    let shift = nalgebra::Vector2::new(win.x0 as f64, win.y0 as f64);
+    let inside = |q: &quads::Quad| {
+        let c = Point2::from(q.iter().fold(nalgebra::Vector2::zeros(), |s, p| s + p.coords) / 4.0 + shift);
+        known.iter().any(|k| in_convex_quad(k, c))
+    };
+    let quads: Vec<quads::Quad> =
+        quads::candidates(&crop, 1.0, params, set.touching_corners).into_iter().filter(|q| !inside(q)).map(|q| q.map(|p| p + shift)).collect();
+    decode_all(img, &quads, set, params)
+}
+
+/// Whether `p` lies inside the convex quadrilateral `q` (either orientation).
+fn in_convex_quad(q: &[Point2<f64>; 4], p: Point2<f64>) -> bool {
+    let sides = (0..4).map(|k| (q[(k + 1) % 4] - q[k]).perp(&(p - q[k])));
+    let (mut pos, mut neg) = (false, false);
+    for s in sides {
+        pos |= s > 0.0;
+        neg |= s < 0.0;
+    }
+    !(pos && neg)
+}
+
+/// The candidates `quads` decoded on `img`, one per id, sorted by id.
+fn decode_all<I: Samples + ?Sized>(img: &I, quads: &[quads::Quad], set: &MarkerSet, params: &MarkerParams) -> Vec<MarkerDetection> {
     let codes = decode::Codes::new(set, params);
     let decode = |q: &quads::Quad| decode::marker(img, q, &codes, params);
     let found: Vec<decode::Decoded> =
         if worth_parallel(quads.len(), PARALLEL_MIN_QUADS) { quads.par_iter().filter_map(decode).collect() } else { quads.iter().filter_map(decode).collect() };
-    Ok(decode::best_per_id(found))
+    decode::best_per_id(found)
 }
 
 /// [`DetectError::EmptyImage`] or [`DetectError::BadBuffer`] for an unusable image.
@@ -194,10 +344,22 @@ pub(crate) fn check_image(img: &ImageF32) -> Result<(), DetectError> {
     Ok(())
 }
 
+/// [`check_image`] of 8-bit samples.
+pub(crate) fn check_image_u8(img: &ImageU8) -> Result<(), DetectError> {
+    if img.width == 0 || img.height == 0 {
+        return Err(DetectError::EmptyImage { width: img.width, height: img.height });
+    }
+    let expected = img.width.saturating_mul(img.height);
+    if img.data.len() != expected {
+        return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
+    }
+    Ok(())
+}
+
 /// The image the candidate search runs on and its scale to full resolution (1 or 2); non-finite
 /// samples are replaced by 0.
 fn search_image<'a>(img: &'a ImageF32, params: &MarkerParams) -> (Cow<'a, ImageF32>, f64) {
-    let (search, finite, scale) = if img.data.len() >= params.downsample_min_pixels && img.width >= 16 && img.height >= 16 {
+    let (search, finite, scale) = if searched_at_half(img.width, img.height, params) {
         let (half, finite) = img.half_checked();
         (Cow::Owned(half), finite, 2.0)
     } else {
