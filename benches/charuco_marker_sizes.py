@@ -13,6 +13,7 @@ Usage
     python3 benches/charuco_marker_sizes.py --out /tmp/chs/s201 --seed 201 --render   # tuning set
     python3 benches/charuco_marker_sizes.py --out /tmp/chs/s301 --seed 301 --render   # held out
     python3 benches/charuco_marker_sizes.py --out /tmp/chs/s301 --seed 301            # score again
+    python3 benches/charuco_marker_sizes.py --out /tmp/chs/far401 --seed 401 --render --distance-m 1.4 1.9  # small markers
 
 Scoring (as ``coded_boards.py``): a corner is expected when its truth lies in front of the camera
 and at least ``--border`` (3) px inside the image; a detection farther than 2 px from its id's
@@ -39,7 +40,7 @@ import coded_boards as cb  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 SPEC = ROOT / "assets/specs/charuco_small_tilted_1280.toml"
 VARIANTS = [("11x8", [11, 8], False), ("11x8_legacy", [11, 8], True), ("10x8", [10, 8], False), ("10x8_legacy", [10, 8], True)]
-BINS = [(0, 14), (14, 20), (20, 30), (30, 1e9)]
+BINS = [(0, 10), (10, 12), (12, 14), (14, 20), (20, 30), (30, 1e9)]
 
 
 def bin_name(b):
@@ -51,8 +52,10 @@ def bin_of(side):
     return next(b for b in BINS if b[0] <= side < b[1])
 
 
-def render(out, seed, count, binary):
+def render(out, seed, count, binary, distance_m=None):
     base = SPEC.read_text()
+    if distance_m:
+        base = re.sub(r"(?m)^distance_m = \[.*\]", f"distance_m = [{distance_m[0]}, {distance_m[1]}]", base)
     for k, (name, squares, legacy) in enumerate(VARIANTS):
         text = re.sub(r"(?m)^seed = \d+", f"seed = {seed + k}", base)
         text = re.sub(r"(?m)^count = \d+", f"count = {count}", text)
@@ -102,6 +105,7 @@ def main():
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--count", type=int, default=20)
     ap.add_argument("--render", action="store_true", help="render the four variants first")
+    ap.add_argument("--distance-m", type=float, nargs=2, metavar=("NEAR", "FAR"), help="the spec's board distance range replaced (1.4 1.9: markers of about 8-16 px, the smallest bin)")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--border", type=float, default=3.0)
     ap.add_argument("--wrong-px", type=float, default=2.0)
@@ -109,7 +113,7 @@ def main():
     ap.add_argument("--json")
     a = ap.parse_args()
     if a.render:
-        render(a.out, a.seed, a.count, a.binary)
+        render(a.out, a.seed, a.count, a.binary, a.distance_m)
     rows = {d: {b: {"expected": 0, "right": 0, "wrong": 0, "errs": []} for b in BINS} for d in ("opencv", "synthcam")}
     times = {d: {b: [] for b in BINS} for d in ("opencv", "synthcam")}
     worse = []

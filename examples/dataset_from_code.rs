@@ -8,7 +8,7 @@
 use synthcam::camera::CameraModel;
 use synthcam::dataset::{load_grey_u8, write_image_and_truth};
 use synthcam::render::Renderer;
-use synthcam::scene::{Scene, TruthLabels};
+use synthcam::scene::{Facing, Scene, TruthLabels};
 use synthcam::target::{DotGrid, Target};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -19,7 +19,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let grid = Target::DotGrid(DotGrid { n: 7, edge_m: 0.2, dot_radius_m: 0.008, margin_m: 0.03, ..DotGrid::default() });
     for k in 0..12 {
         let (tilt_x, tilt_y, roll) = (f64::from(k % 4) * 10.0 - 15.0, f64::from(k / 4) * 12.0 - 12.0, f64::from(k) * 7.0 - 40.0);
-        let scene = Scene::builder().camera(camera).target(grid.clone()).facing(0.45, tilt_x, tilt_y, roll).noise(0.5).build()?;
+        let scene = Scene::builder()
+            .camera(camera)
+            .target(grid.clone())
+            .facing(Facing { distance_m: 0.45, tilt_x_deg: tilt_x, tilt_y_deg: tilt_y, roll_deg: roll })
+            .noise(0.5)
+            .build()?;
         let (image, truth) = renderer.render_with_truth(&scene)?;
         let path = out.join(format!("view_{k:03}.png"));
         write_image_and_truth(&path, &image, &truth)?;

@@ -7,12 +7,17 @@
 use synthcam::camera::CameraModel;
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::render::Renderer;
-use synthcam::scene::Scene;
+use synthcam::scene::{Facing, Scene};
 use synthcam::target::Target;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let camera = CameraModel::pinhole(1280, 960, 1000.0).with_distortion([-0.25, 0.08, 0.0, 0.0, 0.0]);
-    let scene = Scene::builder().camera(camera).target(Target::chessboard(10, 7, 0.03)).facing(0.45, 35.0, -15.0, 10.0).noise(1.0).build()?;
+    let scene = Scene::builder()
+        .camera(camera)
+        .target(Target::chessboard(10, 7, 0.03))
+        .facing(Facing { distance_m: 0.45, tilt_x_deg: 35.0, tilt_y_deg: -15.0, roll_deg: 10.0 })
+        .noise(1.0)
+        .build()?;
     let (image, truth) = Renderer::headless()?.render_with_truth(&scene)?;
     // The detector under test: synthcam's own here; put yours in its place.
     let found = detect(&image.to_detector_image()?, &TargetSpec::for_target(&scene.target))?;

@@ -1,43 +1,34 @@
 //! `calibrate(detections, target, square_m, image_size, ...)`.
 
-use nalgebra::{Point2, Point3};
+use nalgebra::Point2;
 use pyo3::prelude::*;
-use synthcam::calib::{calibrate as calibrate_views, CalibModel, CalibParams, CalibResult, View};
+use synthcam::calib::{calibrate as calibrate_views, views_from_detections, BoardViews, CalibModel, CalibParams, CalibResult};
 use synthcam::camera::{intrinsic_names, ImageSize};
+use synthcam::detect::target::Detection;
 use synthcam::scene::file::CameraSpec;
 
 use crate::convert::{chain, err, to_py};
 use crate::detect::target_spec;
 
-/// One view from a detection dict: its board points (by `ids`, or the whole board in order),
-/// without the `untrusted` ones a calibration should leave out
-/// ([`corners_to_leave_out`](synthcam::detect::chessboard::corners_to_leave_out)).
-fn view_from(i: usize, det: &Bound<'_, PyAny>, board: &[Point3<f64>]) -> PyResult<Option<View>> {
+/// A detection dict (as `detect` returns it) as the library's detection: `points_px`, `ids`
+/// (coded boards), `position_sigma_px` and `untrusted` (chessboards); `found` defaults to true.
+fn detection_from(det: &Bound<'_, PyAny>) -> PyResult<Detection> {
     if !det.get_item("found").and_then(|f| f.extract::<bool>()).unwrap_or(true) {
-        return Ok(None);
+        return Ok(Detection::default());
     }
+    let optional = |key: &str| det.get_item(key).ok().filter(|v| !v.is_none());
     let pts: Vec<[f64; 2]> = det.py().import("numpy")?.call_method1("asarray", (det.get_item("points_px")?, "float64"))?.call_method0("tolist")?.extract()?;
-    let ids: Option<Vec<usize>> = det.get_item("ids").ok().filter(|v| !v.is_none()).map(|v| v.extract()).transpose()?;
-    let ids = match ids {
-        Some(ids) if ids.len() == pts.len() => ids,
-        Some(ids) => return Err(err(format!("detection {i}: {} ids for {} points", ids.len(), pts.len()))),
-        None if pts.len() == board.len() => (0..board.len()).collect(),
-        None => return Err(err(format!("detection {i}: {} points, the board has {} (give `ids` for partial views)", pts.len(), board.len()))),
-    };
-    // points whose fit failed or that are far less certain than the rest of the view are left out
-    let untrusted: Vec<usize> = det.get_item("untrusted").ok().filter(|v| !v.is_none()).map(|v| v.extract()).transpose()?.unwrap_or_default();
-    let sigma: Vec<Option<f64>> = det.get_item("position_sigma_px").ok().filter(|v| !v.is_none()).map(|v| v.extract()).transpose()?.unwrap_or_default();
-    let sigma: Vec<f64> = sigma.into_iter().map(|s| s.unwrap_or(f64::INFINITY)).collect();
-    let untrusted = synthcam::detect::chessboard::corners_to_leave_out(&sigma, &untrusted);
-    let mut view = View::new();
-    for (k, (id, p)) in ids.into_iter().zip(pts).enumerate() {
-        if untrusted.contains(&k) {
-            continue;
-        }
-        let x = board.get(id).ok_or_else(|| err(format!("detection {i}: id {id} is not on the board ({} points)", board.len())))?;
-        view.push((*x, Point2::new(p[0], p[1])));
-    }
-    Ok(Some(view))
+    let ids: Option<Vec<u32>> = optional("ids").map(|v| v.extract()).transpose()?;
+    let untrusted: Vec<usize> = optional("untrusted").map(|v| v.extract()).transpose()?.unwrap_or_default();
+    let sigma: Option<Vec<Option<f64>>> = optional("position_sigma_px").map(|v| v.extract()).transpose()?;
+    Ok(Detection {
+        found: true,
+        points_px: pts.into_iter().map(|p| Point2::new(p[0], p[1])).collect(),
+        ids,
+        position_sigma_px: sigma.map(|s| s.into_iter().map(|s| s.unwrap_or(f64::INFINITY)).collect()),
+        untrusted,
+        ..Default::default()
+    })
 }
 
 #[derive(serde::Serialize)]
@@ -87,7 +78,9 @@ fn output(r: &CalibResult, model: CalibModel, used: Vec<usize>) -> Output {
 /// Levenberg-Marquardt over every view, as OpenCV's `calibrateCamera`).
 ///
 /// `detections`: dicts as `detect` returns them (`points_px`, and `ids` for coded boards;
-/// `found: False` ones are skipped). `target`: the board ("chessboard:9x6", ChArUco, AprilGrid;
+/// `found: False` ones, and views left with fewer than 8 trusted points, are skipped; `used`
+/// lists the ones calibrated from). Poses are of the target's frame: its origin at the board's
+/// outer corner, a chessboard's first inner corner at (square_m, square_m, 0). `target`: the board ("chessboard:9x6", ChArUco, AprilGrid;
 /// see `detect`). `square_m`: square edge (AprilGrid: tag edge), metres. `image_size`: (width,
 /// height). `model`: "opencv5" (k1 k2 p1 p2 k3; also opencv4, opencv8, opencv12, opencv14,
 /// "fisheye" (Kannala-Brandt), "ds" (Double Sphere)).
@@ -95,7 +88,7 @@ fn output(r: &CalibResult, model: CalibModel, used: Vec<usize>) -> Output {
 /// Returns a dict: `rms_px`, `K` (3 x 3), `dist` (the lens parameters: OpenCV's coefficients in OpenCV's order; fisheye k1..k4; Double
 /// Sphere xi, alpha),
 /// `camera` (the scene-file camera, usable in a scene dict), `std` (standard deviation of each
-/// estimated intrinsic), `views` (per view `rms_px`, `max_px`, `rvec`, `tvec` in metres),
+/// estimated intrinsic), `views` (per view `rms_px`, `max_px`, `rvec`, `tvec` in metres: `cam_from_target`),
 /// `used`, `iterations`, `converged`. The GIL is released while solving.
 #[pyfunction]
 #[pyo3(signature = (detections, target, square_m, image_size, model="opencv5", estimate_skew=false))]
@@ -113,15 +106,11 @@ pub fn calibrate<'py>(
     }
     let model: CalibModel = model.parse().map_err(|e: String| pyo3::exceptions::PyValueError::new_err(e))?;
     let spec = target_spec(target)?;
-    let board =
-        spec.board_points_m(square_m).ok_or_else(|| pyo3::exceptions::PyValueError::new_err("calibrate takes a chessboard, ChArUco or AprilGrid target"))?;
-    let (mut views, mut used) = (Vec::new(), Vec::new());
-    for (i, d) in detections.iter().enumerate() {
-        if let Some(v) = view_from(i, d, &board)? {
-            views.push(v);
-            used.push(i);
-        }
+    if spec.board_points_m(square_m).is_none() {
+        return Err(pyo3::exceptions::PyValueError::new_err("calibrate takes a chessboard, ChArUco or AprilGrid target"));
     }
+    let dets = detections.iter().map(detection_from).collect::<PyResult<Vec<Detection>>>()?;
+    let BoardViews { views, used, .. } = views_from_detections(&dets, &spec, square_m).map_err(|e| err(chain(&e)))?;
     let size = ImageSize { width: image_size.0, height: image_size.1 };
     let params = CalibParams { estimate_skew, model, ..CalibParams::default() };
     let r = py.detach(move || calibrate_views(&views, size, &params)).map_err(|e| err(format!("calibrating: {}", chain(&e))))?;

@@ -5,32 +5,75 @@ Double Sphere), anti-aliased and deterministic; every image comes with its truth
 detector, calibration and the closed-loop simulator run on the rendered pixels.
 
     import synthcam
-    image, truth = synthcam.render(scene_toml_or_dict)      # (H, W) uint8, dict
-    found = synthcam.detect(image, "chessboard:9x6")          # points_px (N, 2)
-    result = synthcam.calibrate([found, ...], "chessboard:9x6", 0.03, (1280, 1024))
+    scene["facing"] = synthcam.facing(0.5, tilt_x_deg=30.0)  # or scene["pose"] = synthcam.pose(...)
+    image, truth = synthcam.render(scene_toml_or_dict)      # (H, W) uint8, Truth
+    found = synthcam.detect(image, "chessboard:9x6")          # Detection: points_px (N, 2)
+    result = synthcam.calibrate([found, ...], "chessboard:9x6", 0.03, (1280, 1024))  # Calibration: K, dist, views
     for image, truth in synthcam.Dataset("out/dataset"): ...
     sim = synthcam.Sim("ur5e_chessboard"); obs = sim.observe(); sim.command(qdot, 0.1)
 
 Pixels follow OpenCV's convention: the centre of the top-left pixel is (0, 0). Scenes, targets
 and scenarios are the CLI's files (TOML or JSON text, or the same as dicts); see the repository's
-README and assets/.
+README and assets/. Results are classes with NumPy arrays (``Detection``, ``Truth``,
+``Calibration``, ``Pose``) that also answer ``result["key"]`` as the dicts did.
 """
 
+from os import PathLike
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _synthcam
 from ._synthcam import (
     SynthcamError,
     Sim,
     __version__,
     adapter,
-    calibrate,
-    detect,
     load_image,
-    render,
     render_depth_mask,
 )
 from .dataset import Dataset, Sample
+from .poses import facing, pose, rotation_from_rvec
+from .results import Calibration, CalibratedView, Detection, Pose, Truth
+
+_Text = Union[str, Dict[str, Any]]
+
+
+def render(scene: _Text, base_dir: Optional[Union[str, "PathLike[str]"]] = None) -> Tuple[np.ndarray, Truth]:
+    """Render a scene (TOML/JSON text or a dict): ((H, W) uint8/uint16 or (H, W, 3) image, its
+    ``Truth``). ``base_dir`` resolves relative mesh paths. The GIL is released while rendering."""
+    image, truth = _synthcam.render(scene, base_dir)
+    return image, Truth.from_dict(truth)
+
+
+def detect(image: np.ndarray, target: _Text) -> Detection:
+    """Detect a target ("chessboard:9x6", "charuco:...", "aprilgrid:...", "dot-grid:3x3",
+    "s-path", or a scene's target) in a (H, W) uint8/uint16 or float image."""
+    return Detection.from_dict(_synthcam.detect(image, target))
+
+
+def calibrate(
+    detections: Sequence[Union[Detection, Dict[str, Any]]],
+    target: _Text,
+    square_m: float,
+    image_size: Tuple[int, int],
+    model: str = "opencv5",
+    estimate_skew: bool = False,
+) -> Calibration:
+    """Calibrate from detections of a planar board (Zhang or a focal sweep, then
+    Levenberg-Marquardt); see ``Calibration``. Views' poses are ``cam_from_target`` in the
+    target's frame (origin at the board's outer corner)."""
+    dets = [d.raw if isinstance(d, Detection) else d for d in detections]
+    return Calibration.from_dict(_synthcam.calibrate(dets, target, square_m, image_size, model, estimate_skew))
+
 
 __all__ = [
+    "Calibration",
+    "CalibratedView",
     "Dataset",
+    "Detection",
+    "Pose",
+    "Truth",
     "Sample",
     "Sim",
     "SynthcamError",
@@ -38,7 +81,10 @@ __all__ = [
     "adapter",
     "calibrate",
     "detect",
+    "facing",
     "load_image",
+    "pose",
     "render",
     "render_depth_mask",
+    "rotation_from_rvec",
 ]

@@ -11,17 +11,9 @@ tomllib = pytest.importorskip("tomllib", reason="skipped: tomllib needs Python 3
 RVECS = [(0.45, 0.0, 0.0), (-0.45, 0.0, 0.0), (0.0, 0.45, 0.0), (0.0, -0.45, 0.0), (0.35, 0.35, 0.3), (-0.35, 0.3, -0.3)]
 
 
-def rodrigues(rvec):
-    r = np.asarray(rvec, float)
-    theta = np.linalg.norm(r)
-    if theta < 1e-12:
-        return np.eye(3)
-    k = r / theta
-    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(theta) * kx + (1 - np.cos(theta)) * kx @ kx
+rodrigues = synthcam.rotation_from_rvec
 
-
-CENTRE = np.array([0.25, 0.175, 0.0])  # middle of the 11 x 8 inner corners, 50 mm apart
+CENTRE = np.array([0.3, 0.225, 0.0])  # middle of the 11 x 8 inner corners, 50 mm apart, in the target frame
 
 
 def views(board_scene_text):
@@ -35,11 +27,10 @@ def views(board_scene_text):
 
 
 def test_calibration_recovers_the_rendered_camera(board_scene_text):
-    detections, truths = [], []
+    detections = []
     for scene in views(board_scene_text):
-        image, truth = synthcam.render(scene)
+        image, _ = synthcam.render(scene)
         detections.append(synthcam.detect(image, "chessboard:11x8"))
-        truths.append(truth)
     assert all(d["found"] for d in detections)
     r = synthcam.calibrate(detections, "chessboard:11x8", 0.05, (1280, 1024))
     k, dist = np.array(r["K"]), r["dist"]
@@ -51,11 +42,16 @@ def test_calibration_recovers_the_rendered_camera(board_scene_text):
     assert k[0, 2] == pytest.approx(639.5, abs=1.0) and k[1, 2] == pytest.approx(511.5, abs=1.0)
     assert dist[0] == pytest.approx(-0.25, abs=0.003)
     assert len(dist) == 5 and r["camera"]["width"] == 1280
-    # The poses, in metres (square_m 0.05 given): the calibration's board frame has its origin
-    # at the first inner corner, the scene's target frame where the truth says that corner is.
-    for rvec, view, truth in zip(RVECS, r["views"], truths):
-        t_true = np.array([0.0, 0.0, 1.0]) - rodrigues(rvec) @ CENTRE + rodrigues(rvec) @ np.array(truth["features"][0]["point_target_m"])
+    # The poses, in metres (square_m 0.05 given): the calibration's board frame is the scene's
+    # target frame (origin at the board's outer corner), so each view's pose is the scene's.
+    for rvec, view, typed in zip(RVECS, r["views"], r.views):
+        t_true = np.array([0.0, 0.0, 1.0]) - rodrigues(rvec) @ CENTRE
         assert np.abs(np.array(view["tvec"]) - t_true).max() < 0.002
+        assert np.abs(np.array(view["rvec"]) - np.array(rvec)).max() < 0.002
+        # the typed result: the same pose as a Pose (R from the rvec the dict holds)
+        assert np.abs(typed.cam_from_target.t_m - t_true).max() < 0.002
+        assert np.abs(typed.cam_from_target.R - rodrigues(rvec)).max() < 0.002
+    assert isinstance(r, synthcam.Calibration) and r.K.shape == (3, 3) and r.dist.shape == (5,)
 
 
 def test_calibrate_bad_input():

@@ -10,6 +10,7 @@ pub mod cross;
 pub mod init_wide;
 pub mod model;
 pub mod refine;
+pub mod views;
 pub mod zhang;
 
 pub use cross::{cross_validate, CrossValidation, Fold};
@@ -19,6 +20,7 @@ use nalgebra::{Point2, Point3, Vector2, Vector3, Vector6};
 
 use crate::camera::{CameraModel, ImageSize, MAX_LENS_PARAMS, N_INTRINSICS};
 pub use refine::View;
+pub use views::{views_from_detections, BoardViews, SkippedDetection};
 
 /// Errors of the calibration.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -53,6 +55,14 @@ pub enum CalibError {
     /// An option out of its range.
     #[error("bad option: {reason}")]
     BadOption {
+        /// Why.
+        reason: String,
+    },
+    /// A detection whose points do not fit the board.
+    #[error("detection {index}: {reason}")]
+    BadDetection {
+        /// Index into the detections.
+        index: usize,
         /// Why.
         reason: String,
     },

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use nalgebra::{Point2, Point3};
+use nalgebra::Point2;
 use serde::Serialize;
 use synthcam::calib::{calibrate, cross_validate, CalibModel, CalibParams, CalibResult, View};
 use synthcam::camera::formats::{kalibr_yaml, mrcal_cameramodel, opencv_yaml, ros_yaml};
@@ -168,16 +168,6 @@ fn cross_out(
     }))
 }
 
-/// The board points by id: a chessboard's inner corners row by row, a ChArUco board's corners by
-/// OpenCV's id; `square` metres per square.
-fn board_points(target: &TargetSpec, square: f64) -> anyhow::Result<Vec<Point3<f64>>> {
-    target.board_points_m(square).ok_or_else(|| {
-        anyhow::anyhow!(
-            "calibrate takes a chessboard, ChArUco or AprilGrid target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO, aprilgrid:NXxNY:tag36h11:SPACING)"
-        )
-    })
-}
-
 /// The camera files asked for, as (path, text); an error names the format that cannot hold the camera.
 fn export_files<'a>(args: &'a CalibrateArgs, cam: &synthcam::camera::CameraModel, rms_px: f64) -> anyhow::Result<Vec<(&'a PathBuf, String)>> {
     let mut out = Vec::new();
@@ -199,11 +189,14 @@ fn export_files<'a>(args: &'a CalibrateArgs, cam: &synthcam::camera::CameraModel
 /// Run `calibrate`.
 pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be a positive number of metres, got {}", args.square);
-    let board = board_points(&args.target, args.square)?;
-    let (found, skipped) = keep_first_size(load_detections(args, board.len())?);
+    anyhow::ensure!(
+        args.target.board_points_m(args.square).is_some(),
+        "calibrate takes a chessboard, ChArUco or AprilGrid target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO, aprilgrid:NXxNY:tag36h11:SPACING)"
+    );
+    let (found, skipped) = keep_first_size(load_detections(args)?);
     let Some(first) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
     let size = ImageSize { width: first.width as u32, height: first.height as u32 };
-    let views: Vec<View> = found.iter().map(|f| f.ids.iter().map(|&i| board[i as usize]).zip(f.points.iter().copied()).collect()).collect();
+    let views: Vec<View> = found.iter().map(|f| f.view.clone()).collect();
     let t0 = std::time::Instant::now();
     let params = CalibParams { estimate_skew: args.skew, model: args.model, ..Default::default() };
     let r = calibrate(&views, size, &params).context("calibrating")?;
@@ -236,14 +229,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         views: found
             .iter()
             .zip(&r.views)
-            .map(|(f, v)| ViewOut {
-                file: f.file.clone(),
-                points: f.points.len(),
-                rms_px: v.rms_px,
-                max_px: v.max_px,
-                rvec: v.rvec.into(),
-                tvec: v.tvec.into(),
-            })
+            .map(|(f, v)| ViewOut { file: f.file.clone(), points: f.view.len(), rms_px: v.rms_px, max_px: v.max_px, rvec: v.rvec.into(), tvec: v.tvec.into() })
             .collect(),
         used: found.len(),
         skipped,
@@ -258,7 +244,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     for (p, text) in files {
         write_atomic(p, text.as_bytes())?;
     }
-    let pts: Vec<Vec<Point2<f64>>> = found.iter().map(|f| f.points.clone()).collect();
+    let pts: Vec<Vec<Point2<f64>>> = found.iter().map(|f| f.view.iter().map(|(_, q)| *q).collect()).collect();
     if let Some(p) = &args.plot {
         write_atomic(p, &plot_png(&r, &pts)?)?;
     }

@@ -98,14 +98,16 @@ impl TargetSpec {
         }
     }
 
-    /// The planar board points by point id, on z = 0, for calibration: a chessboard's inner
-    /// corners row by row `square_m` apart, a ChArUco board's corners by OpenCV's id, an
+    /// The planar board points by point id, on z = 0, for calibration, in the target's frame
+    /// (origin at the board's outer corner, as the renderer and the truth place it: see
+    /// `calib::views`): a chessboard's inner corners row by row `square_m` apart from
+    /// `(square_m, square_m)`, a ChArUco board's corners by OpenCV's id, an
     /// AprilGrid's tag corners by Kalibr's id (`square_m` is then the tag edge). `None` for the dot
     /// targets, which `calib` does not take.
     pub fn board_points_m(&self, square_m: f64) -> Option<Vec<nalgebra::Point3<f64>>> {
         match *self {
             TargetSpec::Chessboard { cols, rows } => {
-                Some((0..cols * rows).map(|k| nalgebra::Point3::new((k % cols) as f64 * square_m, (k / cols) as f64 * square_m, 0.0)).collect())
+                Some((0..cols * rows).map(|k| nalgebra::Point3::new((k % cols + 1) as f64 * square_m, (k / cols + 1) as f64 * square_m, 0.0)).collect())
             }
             TargetSpec::Charuco { .. } => self.charuco_board(square_m).map(|b| b.chessboard_corners_m()),
             TargetSpec::Aprilgrid { .. } => self.aprilgrid(square_m).map(|g| g.corners_by_id_m()),
@@ -337,7 +339,9 @@ mod tests {
     fn board_points_row_by_row() {
         let pts = TargetSpec::Chessboard { cols: 3, rows: 2 }.board_points_m(0.1).unwrap_or_default();
         assert_eq!(pts.len(), 6);
-        assert!((pts[4] - nalgebra::Point3::new(0.1, 0.1, 0.0)).norm() < 1e-15);
+        assert!((pts[4] - nalgebra::Point3::new(0.2, 0.2, 0.0)).norm() < 1e-15);
+        // the frame the renderer draws the board in (its truth's `point_target_m`)
+        assert_eq!(pts, crate::target::Target::chessboard(4, 3, 0.1).feature_points_m());
         assert!(TargetSpec::DotGrid { n: 3 }.board_points_m(0.1).is_none());
     }
 

@@ -1,20 +1,20 @@
 //! [`Scene::builder`]: a scene in a few lines, with the course's camera and a default chessboard
 //! until told otherwise, validated on [`SceneBuilder::build`].
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::Isometry3;
 
-use super::{RenderSettings, Scene, SceneError};
+use super::{Facing, RenderSettings, Scene, SceneError};
 use crate::camera::CameraModel;
 use crate::target::{Chessboard, Target};
 
 /// Builds a [`Scene`].
 ///
 /// ```
-/// use synthcam::{camera::CameraModel, scene::Scene, target::Target};
+/// use synthcam::{camera::CameraModel, scene::{Facing, Scene}, target::Target};
 /// let scene = Scene::builder()
 ///     .camera(CameraModel::pinhole(640, 480, 600.0).with_distortion([-0.2, 0.0, 0.0, 0.0, 0.0]))
 ///     .target(Target::chessboard(9, 7, 0.03))
-///     .facing(0.5, 20.0, -10.0, 5.0)
+///     .facing(Facing { distance_m: 0.5, tilt_x_deg: 20.0, tilt_y_deg: -10.0, roll_deg: 5.0 })
 ///     .noise(1.0)
 ///     .build()?;
 /// assert!(scene.camera.sees_all(&scene.cam_from_target, &scene.target.feature_points_m(), 0.0));
@@ -25,7 +25,7 @@ pub struct SceneBuilder {
     camera: CameraModel,
     target: Target,
     cam_from_target: Option<Isometry3<f64>>,
-    facing: Option<[f64; 4]>,
+    facing: Facing,
     render: RenderSettings,
 }
 
@@ -37,7 +37,7 @@ impl Scene {
             camera: CameraModel::course(),
             target: Target::Chessboard(Chessboard::default()),
             cam_from_target: None,
-            facing: None,
+            facing: Facing::default(),
             render: RenderSettings::default(),
         }
     }
@@ -59,15 +59,12 @@ impl SceneBuilder {
     /// The exact pose `cam_from_target` (overrides [`SceneBuilder::facing`]).
     pub fn cam_from_target(mut self, cam_from_target: Isometry3<f64>) -> Self {
         self.cam_from_target = Some(cam_from_target);
-        self.facing = None;
         self
     }
 
-    /// The target's centre (the mean of its feature points) on the optical axis at `distance_m`,
-    /// turned by `tilt_x_deg` about the camera's x axis, then `tilt_y_deg` about y, then
-    /// `roll_deg` about the optical axis.
-    pub fn facing(mut self, distance_m: f64, tilt_x_deg: f64, tilt_y_deg: f64, roll_deg: f64) -> Self {
-        self.facing = Some([distance_m, tilt_x_deg, tilt_y_deg, roll_deg]);
+    /// The pose by distance and tilts ([`Facing`]; overrides [`SceneBuilder::cam_from_target`]).
+    pub fn facing(mut self, facing: Facing) -> Self {
+        self.facing = facing;
         self.cam_from_target = None;
         self
     }
@@ -95,14 +92,10 @@ impl SceneBuilder {
     /// # Errors
     /// An invalid camera, target or setting, a non-finite pose, or a target behind the camera.
     pub fn build(self) -> Result<Scene, SceneError> {
-        let [d, tx, ty, roll] = self.facing.unwrap_or([0.5, 0.0, 0.0, 0.0]);
-        let pts = self.target.feature_points_m();
-        let centre = pts.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / pts.len().max(1) as f64;
-        let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), roll.to_radians())
-            * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), ty.to_radians())
-            * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), tx.to_radians());
-        let facing = Isometry3::from_parts(Translation3::new(0.0, 0.0, d), rot) * Translation3::from(-centre);
-        let cam_from_target = self.cam_from_target.unwrap_or(facing);
+        let cam_from_target = match self.cam_from_target {
+            Some(pose) => pose,
+            None => self.facing.cam_from_target(&self.target)?,
+        };
         if !cam_from_target.to_homogeneous().iter().all(|v| v.is_finite()) {
             return Err(SceneError::InvalidField { field: "pose".into(), reason: "must be finite".into() });
         }

@@ -21,6 +21,10 @@
 //! [pose]                     # cam_from_target: x_cam = R x_target + t_m
 //! R = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # or rvec = [rx, ry, rz] (radians, Rodrigues)
 //! t_m = [-0.1, -0.1, 0.8]
+//! # or, instead of [pose], the board's centre on the optical axis (super::Facing):
+//! # [facing]
+//! # distance_m = 0.8
+//! # tilt_x_deg = 20.0        # then tilt_y_deg, then roll_deg (defaults 0)
 //!
 //! [render]
 //! samples = 16               # sub-samples per axis where brute force is needed
@@ -133,8 +137,12 @@ pub struct SceneSpec {
     pub camera: CameraSpec,
     /// `[target]`.
     pub target: TargetSpec,
-    /// `[pose]`.
-    pub pose: PoseSpec,
+    /// `[pose]` (or `[facing]`, not both).
+    #[serde(default)]
+    pub pose: Option<PoseSpec>,
+    /// `[facing]`: the pose by distance and tilts ([`super::Facing`]).
+    #[serde(default)]
+    pub facing: Option<super::Facing>,
     /// `[render]` (optional).
     #[serde(default)]
     pub render: RenderSpec,
@@ -181,11 +189,26 @@ impl SceneSpec {
                 reason: "only a robot scenario moves the camera with its arm; give `twist` here".into(),
             });
         }
-        let cam_from_target = self.pose.to_isometry()?;
+        let cam_from_target = self.cam_from_target()?;
         let objects = object::scene_objects(&self.objects, &cam_from_target, load)?;
         let scene = Scene { camera: self.camera.to_model()?, target: self.target.to_target(), cam_from_target, render, objects };
         scene.validate()?;
         Ok(scene)
+    }
+}
+
+impl SceneSpec {
+    /// `cam_from_target` from `[pose]` or `[facing]`.
+    ///
+    /// # Errors
+    /// Neither or both given, or an invalid field.
+    pub fn cam_from_target(&self) -> Result<Isometry3<f64>, SceneError> {
+        match (&self.pose, &self.facing) {
+            (Some(pose), None) => pose.to_isometry(),
+            (None, Some(facing)) => facing.cam_from_target(&self.target.to_target()),
+            (None, None) => Err(SceneError::InvalidField { field: "pose".into(), reason: "a scene needs `[pose]` or `[facing]`".into() }),
+            (Some(_), Some(_)) => Err(SceneError::InvalidField { field: "pose".into(), reason: "give `[pose]` or `[facing]`, not both".into() }),
+        }
     }
 }
 
@@ -246,6 +269,26 @@ t_m = [-0.05, -0.04, 0.3]
         let s = parse_scene(GOOD).unwrap();
         assert_eq!(s.camera.size.width, 64);
         assert!(matches!(s.target, Target::Chessboard(_)));
+    }
+
+    #[test]
+    fn facing_table_poses_the_board_as_the_builder_does() {
+        let pose = "[pose]\nrvec = [0.1, 0.0, 0.0]\nt_m = [-0.05, -0.04, 0.3]\n";
+        let facing = "[facing]\ndistance_m = 0.3\ntilt_x_deg = 10.0\nroll_deg = -5.0\n";
+        let s = parse_scene(&GOOD.replace(pose, facing)).unwrap();
+        let b = Scene::builder()
+            .camera(s.camera)
+            .target(s.target.clone())
+            .facing(super::super::Facing { distance_m: 0.3, tilt_x_deg: 10.0, roll_deg: -5.0, ..Default::default() })
+            .build()
+            .unwrap();
+        assert_eq!(s.cam_from_target, b.cam_from_target);
+        let both = parse_scene(&GOOD.replace(pose, &format!("{pose}{facing}"))).unwrap_err().to_string();
+        assert!(both.contains("not both"), "{both}");
+        let neither = parse_scene(&GOOD.replace(pose, "")).unwrap_err().to_string();
+        assert!(neither.contains("[facing]"), "{neither}");
+        let typo = parse_scene(&GOOD.replace(pose, "[facing]\ndistance = 0.3\n")).unwrap_err().to_string();
+        assert!(typo.contains("distance"), "{typo}");
     }
 
     #[test]

@@ -12,6 +12,7 @@ pub mod effect_fields;
 pub mod effect_truth;
 pub mod effects;
 pub mod exact;
+pub mod facing;
 pub mod file;
 pub mod motion;
 pub mod objects;
@@ -23,6 +24,7 @@ pub mod truth;
 pub mod views;
 
 pub use builder::SceneBuilder;
+pub use facing::Facing;
 pub use truth::{truth_labels, TruthLabels};
 
 use nalgebra::Isometry3;
