@@ -15,7 +15,7 @@ use synthcam::robot::{base_from_tool, Joints};
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::Scene;
 use synthcam::servo::{ibvs_step, image_jacobian, pbvs_error, pbvs_step, IbvsParams, PbvsParams};
-use synthcam::sim::handeye_run::Observation;
+use synthcam::sim::handeye_run::ObservationKind;
 use synthcam::sim::observe::{pose_from_dots, render_and_detect};
 use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
 
@@ -110,7 +110,7 @@ fn bench_servo(c: &mut Criterion) {
         o.max_steps = 1;
         o.stop = None;
         o.handeye = HandEyeSource::Truth;
-        o.observation = Observation::Rendered;
+        o.observation = ObservationKind::Rendered;
         // One run = desired-feature render + 2 loop steps; reported per run.
         b.iter(|| run_servo(Some(&r), &ServoScenario::default(), &o, &mut |_, _| {}).map(|t| t.steps.len()))
     });

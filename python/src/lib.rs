@@ -32,6 +32,6 @@ fn _synthcam(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render::load_image, m)?)?;
     m.add_function(wrap_pyfunction!(detect::detect, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
-    m.add_class::<sim::Sim>()?;
+    m.add_class::<sim::PySim>()?;
     Ok(())
 }

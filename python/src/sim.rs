@@ -112,13 +112,13 @@ fn handle(sim: &mut LibSim<'_>, request: Request) -> Result<Reply, String> {
 /// dict (`assets/scenarios/*.toml`); URDF and mesh paths in it are read relative to `base_dir`
 /// (default: the working directory). Every observation renders the camera's view on the GPU
 /// and runs synthcam's detector on the pixels; the GIL is released meanwhile.
-#[pyclass(module = "synthcam")]
-pub struct Sim {
+#[pyclass(name = "Sim", module = "synthcam")]
+pub struct PySim {
     jobs: Option<mpsc::Sender<Job>>,
     info: Info,
 }
 
-impl Sim {
+impl PySim {
     fn call(&self, py: Python<'_>, request: Request) -> PyResult<Reply> {
         let jobs = self.jobs.as_ref().ok_or_else(|| err("the simulator is closed"))?.clone();
         py.detach(move || {
@@ -150,7 +150,7 @@ impl Sim {
 }
 
 #[pymethods]
-impl Sim {
+impl PySim {
     #[new]
     #[pyo3(signature = (scenario=None, base_dir=None))]
     fn new(py: Python<'_>, scenario: Option<&Bound<'_, PyAny>>, base_dir: Option<PathBuf>) -> PyResult<Self> {

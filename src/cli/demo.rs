@@ -15,7 +15,7 @@ use synthcam::render::Renderer;
 use synthcam::report::doc::{Document, Table};
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::truth::truth_labels;
-use synthcam::sim::handeye_run::Observation;
+use synthcam::sim::handeye_run::ObservationKind;
 use synthcam::sim::servo_run::{run_servo, Law, ServoOptions, ServoScenario};
 use synthcam::target::Target;
 
@@ -134,7 +134,7 @@ fn calibration(renderer: &Renderer, report: &mut Document) -> anyhow::Result<()>
 fn hand_eye(renderer: &Renderer, report: &mut Document) -> anyhow::Result<()> {
     // Hand-eye: the course's variant A, 5 views, rendered and detected S-path dots.
     let t0 = std::time::Instant::now();
-    let he = synthcam::sim::handeye_run::run_handeye(Some(renderer), synthcam::sim::handeye_run::Observation::Rendered, &Default::default(), 5, 0)
+    let he = synthcam::sim::handeye_run::run_handeye(Some(renderer), synthcam::sim::handeye_run::ObservationKind::Rendered, &Default::default(), 5, 0)
         .context("hand-eye experiment")?;
     let names = [
         "tool_from_cam (course linear)",
@@ -169,11 +169,11 @@ fn servo(renderer: &Renderer, out: &Path, report: &mut Document) -> anyhow::Resu
         let dir = out.join(name);
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
         let mut traces = Vec::new();
-        for (obs, label) in [(Observation::Rendered, "rendered + detected"), (Observation::Ideal, "ideal + 0.1 px")] {
+        for (obs, label) in [(ObservationKind::Rendered, "rendered + detected"), (ObservationKind::Ideal, "ideal + 0.1 px")] {
             let options = ServoOptions { observation: obs, ..ServoOptions::new(law) };
-            let r = (obs == Observation::Rendered).then_some(renderer);
+            let r = (obs == ObservationKind::Rendered).then_some(renderer);
             let t = run_servo(r, &ServoScenario::default(), &options, &mut |_, _| {}).with_context(|| format!("{name} run"))?;
-            super::servo::write_trace(&dir, if obs == Observation::Rendered { "trace" } else { "trace_ideal" }, &t)?;
+            super::servo::write_trace(&dir, if obs == ObservationKind::Rendered { "trace" } else { "trace_ideal" }, &t)?;
             traces.push((label, t));
         }
         let section = super::servo::write_report(&dir, name, &traces, (1280, 1024), Vec::new())?;

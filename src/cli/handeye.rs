@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use synthcam::dataset::write_atomic;
 use synthcam::robot::Cell;
-use synthcam::sim::handeye_run::{run_handeye, run_handeye_on, Observation};
+use synthcam::sim::handeye_run::{run_handeye, run_handeye_on, ObservationKind};
 
 use super::scenario_file::ScenarioFile;
 
@@ -39,7 +39,7 @@ pub struct HandEyeArgs {
 /// Run `handeye`.
 pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.views >= 3, "--views must be at least 3 (the AX = XB solver needs 3 views), got {}", args.views);
-    let obs = if args.ideal { Observation::Ideal } else { Observation::Rendered };
+    let obs = if args.ideal { ObservationKind::Ideal } else { ObservationKind::Rendered };
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
     let (r, x, wb) = match super::scenario_file::read::<Cell>(args.scenario.as_deref(), "a course cell")? {
         ScenarioFile::Course(cell) => {

@@ -25,12 +25,12 @@ mod skipped;
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
-    pub command: Command,
+    pub command: CliCommand,
 }
 
 /// Subcommands, alphabetical.
 #[derive(Debug, Subcommand)]
-pub enum Command {
+pub enum CliCommand {
     /// Time the renderer (render + readback) on the embedded scenes.
     Bench(bench::BenchArgs),
     /// Detect a target's points in images (files or folders) and print or write them as JSON.
@@ -91,17 +91,17 @@ pub enum Command {
 /// Whatever the subcommand reports; `main` prints the chain and exits non-zero.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Bench(args) => bench::run(&args),
-        Command::Calibrate(args) => calibrate::run(&args),
-        Command::Dataset(args) => dataset::run(&args),
-        Command::Demo { out } => demo::run(&out),
-        Command::Detect(args) => detect::run(&args),
-        Command::Experiment(e) => experiment::run(&e),
-        Command::Export(args) => export::run(&args),
-        Command::Handeye(args) => handeye::run(&args),
-        Command::Render(args) => render::run(&args),
-        Command::Servo(args) => servo::run(&args),
-        Command::Sim(args) => sim::run(&args),
+        CliCommand::Bench(args) => bench::run(&args),
+        CliCommand::Calibrate(args) => calibrate::run(&args),
+        CliCommand::Dataset(args) => dataset::run(&args),
+        CliCommand::Demo { out } => demo::run(&out),
+        CliCommand::Detect(args) => detect::run(&args),
+        CliCommand::Experiment(e) => experiment::run(&e),
+        CliCommand::Export(args) => export::run(&args),
+        CliCommand::Handeye(args) => handeye::run(&args),
+        CliCommand::Render(args) => render::run(&args),
+        CliCommand::Servo(args) => servo::run(&args),
+        CliCommand::Sim(args) => sim::run(&args),
     }
 }
 

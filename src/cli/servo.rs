@@ -10,7 +10,7 @@ use synthcam::render::GreyImage;
 use synthcam::report::doc::Document;
 use synthcam::report::servo::{budget_table, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
 use synthcam::servo::{IbvsParams, InteractionFrom};
-use synthcam::sim::handeye_run::Observation;
+use synthcam::sim::handeye_run::ObservationKind;
 use synthcam::sim::servo_run::{run_servo_on, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
 use synthcam::sim::{RobotSpec, SimScenario};
 
@@ -84,7 +84,7 @@ pub struct ServoArgs {
     pub mcap: Option<PathBuf>,
 }
 
-fn options(args: &ServoArgs, observation: Observation) -> ServoOptions {
+fn options(args: &ServoArgs, observation: ObservationKind) -> ServoOptions {
     let law = if args.law == LawArg::Pbvs { Law::Pbvs } else { Law::Ibvs };
     let mut o = ServoOptions::new(law);
     o.observation = observation;
@@ -283,8 +283,8 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
         eprintln!("{law_name}: rendered + detected (hand-eye from {}) ...", if args.true_handeye { "the truth" } else { "5 rendered views" });
-        let bar = super::progress::bar(options(args, Observation::Rendered).max_steps as u64, law_name, "steps");
-        let t = run(Some(&renderer), Observation::Rendered, &mut |step, img| {
+        let bar = super::progress::bar(options(args, ObservationKind::Rendered).max_steps as u64, law_name, "steps");
+        let t = run(Some(&renderer), ObservationKind::Rendered, &mut |step, img| {
             bar.set_position(step as u64 + 1);
             sink.take(step, img);
         })
@@ -299,7 +299,7 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         traces.push(("rendered + detected", t));
     }
     if args.ideal || !args.no_compare {
-        let t = run(None, Observation::Ideal, &mut |_, _| {}).context("servo run (ideal)")?;
+        let t = run(None, ObservationKind::Ideal, &mut |_, _| {}).context("servo run (ideal)")?;
         print_run("ideal + 0.1 px", &t);
         write_trace(&out, if args.ideal { "trace" } else { "trace_ideal" }, &t)?;
         traces.push(("ideal + 0.1 px", t));

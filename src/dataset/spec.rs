@@ -6,7 +6,7 @@
 //! count = 200
 //! seed = 7
 //! [camera]            # as in a scene file (scene/file.rs `CameraSpec`)
-//! [target]            # as in a scene file (`TargetSpec`)
+//! [target]            # as in a scene file (`TargetTable`)
 //! [render]            # as in a scene file, without `seed` (per-image seeds derive from `seed`)
 //! [poses]
 //! mode = "board"      # or "course", "robot"; see [`PosesSpec`]
@@ -18,7 +18,7 @@ use serde::Deserialize;
 
 use crate::camera::CameraModel;
 use crate::robot::Cell;
-use crate::scene::file::{CameraSpec, RenderSpec, TargetSpec};
+use crate::scene::file::{CameraSpec, RenderSpec, TargetTable};
 use crate::scene::{RenderSettings, SceneError};
 use crate::target::Target;
 
@@ -77,7 +77,7 @@ pub struct DatasetSpec {
     /// `[camera]`.
     pub camera: CameraSpec,
     /// `[target]`.
-    pub target: TargetSpec,
+    pub target: TargetTable,
     /// `[render]` (optional; `seed` is not allowed here).
     #[serde(default)]
     pub render: RenderSpec,

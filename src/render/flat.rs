@@ -7,11 +7,11 @@ use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
 use super::gpu_scene::TileCornerRays;
-use crate::scene::views::{View, ViewSet};
+use crate::scene::views::{ExposureView, ViewSet};
 use crate::scene::Scene;
 use crate::target::{CellLattice, Target};
 
-/// A view ([`crate::scene::views::View`]) as the flat test casts rays: its centre and the map
+/// A view ([`crate::scene::views::ExposureView`]) as the flat test casts rays: its centre and the map
 /// from a pinhole direction to its ray's direction, in the target frame (matrices, not
 /// quaternions: the test casts millions of rays per frame with defocus or motion).
 struct RayFrame {
@@ -20,7 +20,7 @@ struct RayFrame {
 }
 
 impl RayFrame {
-    fn new(view: &View) -> Self {
+    fn new(view: &ExposureView) -> Self {
         let target_from_cam = view.cam_from_target.inverse();
         let rot = target_from_cam.rotation.to_rotation_matrix().into_inner();
         let m = view.direction_map().unwrap_or_else(Matrix3::identity);

@@ -9,13 +9,13 @@
 use nalgebra::Matrix3;
 
 use super::RenderError;
-use crate::scene::views::{View, ViewSet};
+use crate::scene::views::{ExposureView, ViewSet};
 
 /// `H` of one view (rows scaled so the largest entry is 1, sign kept: W > 0 in front).
 ///
 /// # Errors
 /// [`RenderError::Degenerate`] when the target plane contains the view's centre.
-pub fn homography(view: &View) -> Result<Matrix3<f64>, RenderError> {
+pub fn homography(view: &ExposureView) -> Result<Matrix3<f64>, RenderError> {
     let r = view.cam_from_target.rotation.to_rotation_matrix();
     let t = view.cam_from_target.translation.vector;
     let m = r.matrix();

@@ -45,7 +45,7 @@ mod target;
 
 pub use camera::{CameraSpec, ModelName};
 pub use object::{MeshLoader, ObjectFrame, ObjectSpec};
-pub use target::TargetSpec;
+pub use target::TargetTable;
 
 use super::{RenderSettings, Scene, SceneError};
 use crate::math::so3::rotation_from_rvec;
@@ -136,7 +136,7 @@ pub struct SceneSpec {
     /// `[camera]`.
     pub camera: CameraSpec,
     /// `[target]`.
-    pub target: TargetSpec,
+    pub target: TargetTable,
     /// `[pose]` (or `[facing]`, not both).
     #[serde(default)]
     pub pose: Option<PoseSpec>,

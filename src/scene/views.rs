@@ -16,7 +16,7 @@ use crate::camera::optics::{samples_for_coc, ThinLens};
 
 /// One view: the target's pose in the camera at the view's time and the aperture point.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct View {
+pub struct ExposureView {
     /// `cam(t)_from_target(t)` at the view's time.
     pub cam_from_target: Isometry3<f64>,
     /// Aperture point in the camera frame (x, y; z = 0), metres.
@@ -25,7 +25,7 @@ pub struct View {
     pub focus_m: Option<f64>,
 }
 
-impl View {
+impl ExposureView {
     /// The pixel where this view images the camera-frame point `p` (the pinhole pixel of the
     /// point of the focus plane that its ray through `p` passes), or `None` behind the camera.
     pub fn image_of(&self, camera: &crate::camera::CameraModel, p_target: &nalgebra::Point3<f64>) -> Option<nalgebra::Point2<f64>> {
@@ -47,7 +47,7 @@ impl View {
     }
 
     /// The linear map from a pinhole ray direction `d` to this view's ray direction from
-    /// [`View::aperture`]: `F I - a e_z^T` (the ray `F d - a d_z` passes the focus plane where
+    /// [`ExposureView::aperture`]: `F I - a e_z^T` (the ray `F d - a d_z` passes the focus plane where
     /// the pinhole's does); `None` for a pinhole view (the identity).
     pub fn direction_map(&self) -> Option<Matrix3<f64>> {
         self.focus_m.map(|f| Matrix3::identity() * f - self.aperture() * Vector3::z().transpose())
@@ -62,7 +62,7 @@ pub struct ViewSet {
     /// Whether each row has its own views (rolling shutter); else all rows share one set.
     pub per_row: bool,
     /// `samples` views per row (or one set), row-major.
-    pub views: Vec<View>,
+    pub views: Vec<ExposureView>,
     /// A bound on how far, in pixels, any view of a row images a target point from where the
     /// row's first view images it (`spread_px` in this module); the shader grows a pixel's footprint by it.
     pub spread_px: f64,
@@ -70,7 +70,7 @@ pub struct ViewSet {
 
 impl ViewSet {
     /// The views of row `y`.
-    pub fn row(&self, y: u32) -> &[View] {
+    pub fn row(&self, y: u32) -> &[ExposureView] {
         let n = self.samples as usize;
         let start = if self.per_row { y as usize * n } else { 0 };
         self.views.get(start..start + n).unwrap_or(&[])
@@ -137,7 +137,7 @@ pub fn view_set(scene: &Scene) -> ViewSet {
             let t = t_row + offsets.get(((u64::from(k) * u64::from(c)) % u64::from(n)) as usize).copied().unwrap_or(0.0);
             let cam_from_target = if fx.motion.is_still() { scene.cam_from_target } else { fx.motion.cam_from_target_at(&scene.cam_from_target, t) };
             let aperture_m = aperture.as_ref().and_then(|a| a.get(k as usize).copied()).unwrap_or([0.0; 2]);
-            views.push(View { cam_from_target, aperture_m, focus_m: lens.map(|l| l.focus_distance_m) });
+            views.push(ExposureView { cam_from_target, aperture_m, focus_m: lens.map(|l| l.focus_distance_m) });
         }
     }
     let mut set = ViewSet { samples: n, per_row, views, spread_px: 0.0 };

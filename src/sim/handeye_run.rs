@@ -19,7 +19,7 @@ use crate::robot::{Cell, Irb1200, Robot};
 
 /// How the dots are observed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Observation {
+pub enum ObservationKind {
     /// Ideal projections plus N(0, 0.1^2) px noise (the course's method).
     Ideal,
     /// Rendered (noise 1 grey level) and detected.
@@ -88,7 +88,7 @@ pub enum HandEyeRunError {
 ///
 /// # Errors
 /// Unreachable scenario, failed detection or PnP, degenerate motions.
-pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Cell, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
+pub fn run_handeye(renderer: Option<&Renderer>, obs: ObservationKind, scenario: &Cell, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
     let sc = course_world(scenario, &scenario.q0_rad, Isometry3::identity(), seed);
     run_handeye_on(renderer, obs, sc, Box::new(Irb1200), views, scenario.spread_rad, seed)
 }
@@ -100,7 +100,7 @@ pub fn run_handeye(renderer: Option<&Renderer>, obs: Observation, scenario: &Cel
 /// As [`run_handeye_in`], and a scenario the simulator refuses.
 pub fn run_handeye_on(
     renderer: Option<&Renderer>,
-    obs: Observation,
+    obs: ObservationKind,
     scenario: SimScenario,
     robot: Box<dyn Robot>,
     views: usize,

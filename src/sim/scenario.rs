@@ -49,7 +49,7 @@ use super::SimError;
 use crate::camera::CameraModel;
 use crate::robot::chain::{IRB1200_URDF, UR5E_URDF};
 use crate::robot::{Irb1200, Robot, SerialChain};
-use crate::scene::file::{CameraSpec, PoseSpec, RenderSpec, TargetSpec};
+use crate::scene::file::{CameraSpec, PoseSpec, RenderSpec, TargetTable};
 use crate::scene::RenderSettings;
 use crate::target::Target;
 
@@ -115,7 +115,7 @@ pub struct ScenarioSpec {
     /// The camera.
     pub camera: CameraSpec,
     /// The target.
-    pub target: TargetSpec,
+    pub target: TargetTable,
     /// Image formation.
     #[serde(default)]
     pub render: RenderSpec,

@@ -111,15 +111,15 @@ impl Sensor for IdealSensor {
 /// # Errors
 /// A rendered observation without a renderer, or a bad noise level.
 pub fn sensor_for(
-    observation: super::handeye_run::Observation,
+    observation: super::handeye_run::ObservationKind,
     renderer: Option<&crate::render::Renderer>,
     noise_px: f64,
     seed: u64,
 ) -> Result<Box<dyn Sensor + '_>, SimError> {
-    use super::handeye_run::Observation;
+    use super::handeye_run::ObservationKind;
     match (observation, renderer) {
-        (Observation::Rendered, Some(r)) => Ok(Box::new(RenderedSensor { renderer: r })),
-        (Observation::Rendered, None) => Err(SimError::Scenario("a rendered observation needs a renderer".into())),
-        (Observation::Ideal, _) => Ok(Box::new(IdealSensor::new(noise_px, seed)?)),
+        (ObservationKind::Rendered, Some(r)) => Ok(Box::new(RenderedSensor { renderer: r })),
+        (ObservationKind::Rendered, None) => Err(SimError::Scenario("a rendered observation needs a renderer".into())),
+        (ObservationKind::Ideal, _) => Ok(Box::new(IdealSensor::new(noise_px, seed)?)),
     }
 }

@@ -3,11 +3,11 @@
 //! <= 0.05 degrees; median and worst over seeds.
 
 use synthcam::robot::Cell;
-use synthcam::sim::handeye_run::{run_handeye, HandEyeRunError, Observation};
+use synthcam::sim::handeye_run::{run_handeye, HandEyeRunError, ObservationKind};
 
 use crate::common::renderer;
 
-fn summary(name: &str, obs: Observation, seeds: u64) -> Vec<[f64; 7]> {
+fn summary(name: &str, obs: ObservationKind, seeds: u64) -> Vec<[f64; 7]> {
     let mut rows = Vec::new();
     for seed in 0..seeds {
         let r = run_handeye(Some(renderer()), obs, &Cell::default(), 5, seed).expect("hand-eye run");
@@ -30,8 +30,8 @@ fn summary(name: &str, obs: Observation, seeds: u64) -> Vec<[f64; 7]> {
 
 #[test]
 fn hand_eye_on_rendered_and_detected_dots() {
-    let ideal = summary("ideal + 0.1 px", Observation::Ideal, 20);
-    let rows = summary("rendered + detected", Observation::Rendered, 20);
+    let ideal = summary("ideal + 0.1 px", ObservationKind::Ideal, 20);
+    let rows = summary("rendered + detected", ObservationKind::Rendered, 20);
     let worst = |k: usize| rows.iter().map(|r| r[k]).fold(0.0, f64::max);
     let median = |rows: &[[f64; 7]], k: usize| {
         let mut v: Vec<f64> = rows.iter().map(|r| r[k]).collect();
@@ -59,7 +59,7 @@ fn hand_eye_on_rendered_and_detected_dots() {
 fn unreachable_scenario_is_a_typed_error() {
     // The robot folded at q = 0 never sees the S from behind its base.
     let s = Cell { q0_rad: [3.1, 0.0, 0.0, 0.0, 0.0, 0.0], spread_rad: 0.01, ..Default::default() };
-    let e = run_handeye(None, Observation::Ideal, &s, 5, 0).expect_err("unreachable");
+    let e = run_handeye(None, ObservationKind::Ideal, &s, 5, 0).expect_err("unreachable");
     assert!(matches!(e, HandEyeRunError::Unreachable(_)), "{e}");
 }
 

@@ -29,7 +29,7 @@ proptest! {
     #[test]
     fn servo_options_never_panic(stall in 0usize..4, steps in 0usize..4, noise in odd_f64(), min_dots in 0usize..200, singular in odd_f64(), ibvs in any::<bool>()) {
         let mut o = ServoOptions::new(if ibvs { Law::Ibvs } else { Law::Pbvs });
-        o.observation = synthcam::sim::handeye_run::Observation::Ideal;
+        o.observation = synthcam::sim::handeye_run::ObservationKind::Ideal;
         o.handeye = HandEyeSource::Truth;
         (o.stall_window, o.max_steps, o.ideal_noise_px, o.min_dots, o.singular_stop) = (stall, steps, noise, min_dots, singular);
         if let Ok(t) = run_servo(None, &ServoScenario::default(), &o, &mut |_, _| {}) {

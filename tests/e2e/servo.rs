@@ -5,15 +5,15 @@
 
 use std::process::Command;
 
-use synthcam::sim::handeye_run::Observation;
+use synthcam::sim::handeye_run::ObservationKind;
 use synthcam::sim::servo_run::{run_servo, Law, ServoOptions, ServoScenario, ServoStatus, ServoTrace};
 
 use crate::common::{bin, renderer};
 
-fn run(law: Law, observation: Observation) -> ServoTrace {
+fn run(law: Law, observation: ObservationKind) -> ServoTrace {
     let mut o = ServoOptions::new(law);
     o.observation = observation;
-    let r = (observation == Observation::Rendered).then(renderer);
+    let r = (observation == ObservationKind::Rendered).then(renderer);
     let t = run_servo(r, &ServoScenario::default(), &o, &mut |_, _| {}).expect("servo run");
     let s = t.last().expect("steps");
     eprintln!(
@@ -33,9 +33,9 @@ fn run(law: Law, observation: Observation) -> ServoTrace {
 
 #[test]
 fn pbvs_on_rendered_and_detected_pixels_reaches_the_goal() {
-    let ideal = run(Law::Pbvs, Observation::Ideal);
+    let ideal = run(Law::Pbvs, ObservationKind::Ideal);
     assert_eq!(ideal.status, ServoStatus::Converged);
-    let t = run(Law::Pbvs, Observation::Rendered);
+    let t = run(Law::Pbvs, ObservationKind::Rendered);
     assert_eq!(t.status, ServoStatus::Converged);
     let s = t.last().expect("steps");
     assert!(s.pose_error_mm <= 1.0 && s.pose_error_deg <= 0.1, "{} mm, {} deg", s.pose_error_mm, s.pose_error_deg);
@@ -43,9 +43,9 @@ fn pbvs_on_rendered_and_detected_pixels_reaches_the_goal() {
 
 #[test]
 fn ibvs_on_rendered_and_detected_pixels_reaches_the_goal() {
-    let ideal = run(Law::Ibvs, Observation::Ideal);
+    let ideal = run(Law::Ibvs, ObservationKind::Ideal);
     assert_eq!(ideal.status, ServoStatus::Converged);
-    let t = run(Law::Ibvs, Observation::Rendered);
+    let t = run(Law::Ibvs, ObservationKind::Rendered);
     assert_eq!(t.status, ServoStatus::Converged);
     assert!(t.updates <= 200, "{} updates", t.updates);
     let s = t.last().expect("steps");
@@ -61,7 +61,7 @@ fn the_course_constant_gain_law_passes_the_shoulder_singularity_and_loses_the_ta
     // Documented behaviour: with damping 0.1 px^2 the course's IBVS swings joint 1 near the
     // shoulder singularity at step ~20 and loses the S; the default damping (100 px^2) does not.
     let mut o = ServoOptions::new(Law::Ibvs);
-    o.observation = Observation::Ideal;
+    o.observation = ObservationKind::Ideal;
     o.ibvs = synthcam::servo::IbvsParams::course();
     o.max_steps = 200;
     let t = run_servo(None, &ServoScenario::default(), &o, &mut |_, _| {}).expect("run");

@@ -9,7 +9,7 @@ use crate::target::{AprilGrid, AprilGridTarget, BoardLook, Charuco, CharucoTarge
 /// `deny_unknown_fields`, and a typo must stay an error.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum TargetSpec {
+pub enum TargetTable {
     /// A chessboard.
     Chessboard {
         /// Squares along x and y.
@@ -111,11 +111,11 @@ pub enum TargetSpec {
     },
 }
 
-impl TargetSpec {
+impl TargetTable {
     /// The target this table describes (not yet validated).
     pub fn to_target(&self) -> Target {
         match *self {
-            TargetSpec::Chessboard { squares, square_m, margin_m, dark, light, margin, background } => {
+            TargetTable::Chessboard { squares, square_m, margin_m, dark, light, margin, background } => {
                 let d = Chessboard::default();
                 let light = light.unwrap_or(d.light);
                 Target::Chessboard(Chessboard {
@@ -128,7 +128,7 @@ impl TargetSpec {
                     background: background.unwrap_or(d.background),
                 })
             }
-            TargetSpec::DotGrid { n, edge_m, dot_radius_m, margin_m, dark, light, background } => {
+            TargetTable::DotGrid { n, edge_m, dot_radius_m, margin_m, dark, light, background } => {
                 let d = DotGrid::default();
                 let edge_m = edge_m.unwrap_or(d.edge_m);
                 let pitch = if n >= 2 { edge_m / f64::from(n - 1) } else { edge_m };
@@ -142,12 +142,12 @@ impl TargetSpec {
                     background: background.unwrap_or(d.background),
                 })
             }
-            TargetSpec::Charuco { squares, square_m, marker_m, dictionary, legacy, first_id, margin_m, dark, light, margin, background } => {
+            TargetTable::Charuco { squares, square_m, marker_m, dictionary, legacy, first_id, margin_m, dark, light, margin, background } => {
                 let board = Charuco { squares, square_m, marker_m, dictionary, legacy: legacy.unwrap_or(false), first_id: first_id.unwrap_or(0) };
                 let look = look(margin_m.unwrap_or(0.5 * square_m), [dark, light, margin, background]);
                 Target::Charuco(CharucoTarget { board, look })
             }
-            TargetSpec::Aprilgrid { tags, tag_m, spacing, family, border_bits, first_id, margin_m, dark, light, margin, background } => {
+            TargetTable::Aprilgrid { tags, tag_m, spacing, family, border_bits, first_id, margin_m, dark, light, margin, background } => {
                 let d = AprilGrid::default();
                 let grid = AprilGrid {
                     tags,
@@ -160,7 +160,7 @@ impl TargetSpec {
                 let look = look(margin_m.unwrap_or(spacing * tag_m), [dark, light, margin, background]);
                 Target::AprilGrid(AprilGridTarget { grid, look })
             }
-            TargetSpec::SPath { style, dot_radius_m, start_dot_radius_m, dark, light, background } => {
+            TargetTable::SPath { style, dot_radius_m, start_dot_radius_m, dark, light, background } => {
                 let d = SPathDots::default();
                 Target::SPath(SPathDots {
                     style: style.unwrap_or(d.style),

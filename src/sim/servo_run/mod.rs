@@ -18,7 +18,7 @@
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
-use super::handeye_run::{HandEyeRunError, Observation};
+use super::handeye_run::{HandEyeRunError, ObservationKind};
 use super::scenario::{course_world, SimScenario};
 use super::sensor::sensor_for;
 use super::{Sim, SimError};
@@ -136,7 +136,7 @@ pub struct ServoOptions {
     /// The law.
     pub law: Law,
     /// Rendered and detected, or ideal projections plus noise.
-    pub observation: Observation,
+    pub observation: ObservationKind,
     /// Noise of the ideal projections, pixels (course: 0.1).
     pub ideal_noise_px: f64,
     /// Maximum number of control steps.
@@ -169,7 +169,7 @@ impl ServoOptions {
     pub fn new(law: Law) -> Self {
         Self {
             law,
-            observation: Observation::Rendered,
+            observation: ObservationKind::Rendered,
             ideal_noise_px: 0.1,
             max_steps: if law == Law::Pbvs { 100 } else { 300 },
             stop: Some(StopCriteria::default()),

@@ -13,7 +13,7 @@ use super::{HandEyeSource, Law, ServoOptions, ServoRunError};
 use crate::render::GreyImage;
 use crate::servo::{cam_twist_jacobian_of, ibvs_increment, interaction_matrix, joint_image_jacobian, pbvs_error, pbvs_increment, InteractionFrom};
 use crate::sim::controller::EyeInHand;
-use crate::sim::handeye_run::{Observation, PoseError};
+use crate::sim::handeye_run::{ObservationKind, PoseError};
 use crate::sim::handeye_views::estimate_hand_eye;
 use crate::sim::observe::CentroidBias;
 use crate::sim::{Sim, SimError};
@@ -73,7 +73,7 @@ pub fn run_servo_in(sim: &mut Sim<'_>, options: &ServoOptions, frame: &mut dyn F
     let truth_target_from_base = sc.world_from_target.inverse() * sc.world_from_base;
     let mut trace = ServoTrace {
         law: options.law,
-        observation: if options.observation == Observation::Rendered { "rendered" } else { "ideal" },
+        observation: if options.observation == ObservationKind::Rendered { "rendered" } else { "ideal" },
         status: ServoStatus::MaxSteps,
         updates: 0,
         handeye_error: [PoseError::between(&cell.tool_from_cam, &sc.tool_from_cam), PoseError::between(&target_from_base, &truth_target_from_base)],
@@ -119,7 +119,7 @@ fn teach(sim: &mut Sim<'_>, plan: &Plan, options: &ServoOptions) -> Result<Resul
         return Ok(Err(ServoStatus::GoalNotVisible { reason: "some target points project outside the image or behind the camera".into() }));
     }
     let obs = sim.observe_from(plan.goal)?;
-    if options.observation == Observation::Ideal {
+    if options.observation == ObservationKind::Ideal {
         return Ok(Ok(obs.truth.projected_px));
     }
     if obs.features.len() != plan.pts.len() {
@@ -163,7 +163,7 @@ fn servo(
 ) -> Result<(), ServoRunError> {
     // Ideal features carry N(0, sigma^2) per coordinate: their RMS distance to noise-free desired
     // features cannot fall below sigma sqrt(2); the IBVS stop is raised to 2 sigma there.
-    let pixel_floor = if options.observation == Observation::Ideal { 2.0 * options.ideal_noise_px } else { 0.0 };
+    let pixel_floor = if options.observation == ObservationKind::Ideal { 2.0 * options.ideal_noise_px } else { 0.0 };
     let t_loop = Instant::now();
     let mut bias = None;
     for step in 0..=options.max_steps {
@@ -213,8 +213,8 @@ fn measure(
     let usable = obs.features.len() >= options.min_dots;
     let source = match (usable, options.observation) {
         (false, _) => Source::Fallback,
-        (true, Observation::Ideal) => Source::Ideal,
-        (true, Observation::Rendered) => Source::Detected,
+        (true, ObservationKind::Ideal) => Source::Ideal,
+        (true, ObservationKind::Rendered) => Source::Detected,
     };
     let base_from_tool = sim.robot().base_from_tool(&q).map_err(SimError::from)?;
     let fk = plan.fk(&base_from_tool);
