@@ -166,14 +166,20 @@ impl CameraModel {
         Ok(())
     }
 
-    /// The course camera: 1280 x 1024 pixels, `fx = fy = 1500`, `cx = 640`,
-    /// `cy = 512`, no distortion, no skew.
-    pub fn course_default() -> Self {
+    /// A preset: an SXGA machine-vision camera, 1280 x 1024 pixels, `fx = fy = 1500`, the
+    /// principal point at (640, 512), no distortion, no skew (the default camera of
+    /// [`crate::scene::Scene::builder`], and the course's).
+    pub fn sxga_1500px() -> Self {
         Self {
             size: ImageSize { width: 1280, height: 1024 },
             intrinsics: Intrinsics { fx: 1500.0, fy: 1500.0, cx: 640.0, cy: 512.0, skew: 0.0 },
             lens: Lens::default(),
         }
+    }
+
+    /// The course camera ([`CameraModel::sxga_1500px`]).
+    pub fn course_default() -> Self {
+        Self::sxga_1500px()
     }
 
     /// The course camera ([`CameraModel::course_default`]).

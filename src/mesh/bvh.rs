@@ -4,7 +4,7 @@
 //! re-laid as the classic GPU layout: each inner node stores *both* children's boxes, so a
 //! traversal tests two boxes per visit, descends into the nearer child and pushes the farther one
 //! (Aila and Laine, "Understanding the Efficiency of Ray Traversal on GPUs", HPG 2009). The
-//! shader (`shaders/render.wgsl`, `mesh_hit`) walks the same nodes in f32; [`MeshBvh::cast`]
+//! shader (`shaders/objects.wgsl`, `mesh_hit`) walks the same nodes in f32; [`MeshBvh::cast`]
 //! is its f64 twin and [`cast_brute`] the brute-force check of both.
 //!
 //! Ray-triangle test: Möller and Trumbore, "Fast, minimum storage ray-triangle intersection",

@@ -16,7 +16,7 @@ use crate::target::{CellLattice, DotStyle, SPathDots, Target};
 pub const TILE_PX: u32 = 8;
 
 /// The shader's lens variants: its `LENS_MODEL` and `LENS_TILT` pipeline constants
-/// (`shaders/render.wgsl`), indexed by [`lens_variant`].
+/// (`shaders/entries.wgsl`), indexed by [`lens_variant`].
 pub const LENS_VARIANTS: [(f64, bool); 4] = [(0.0, false), (0.0, true), (1.0, false), (2.0, false)];
 
 /// The index in [`LENS_VARIANTS`] of a lens: OpenCV, OpenCV with a tilted sensor, fisheye,

@@ -1,7 +1,7 @@
 //! The GPU renderer: the only module that names wgpu.
 //!
 //! [`GpuContext`] opens a headless device (Vulkan, i.e. lavapipe on machines without a GPU; GL
-//! llvmpipe as fallback). [`Renderer`] runs `shaders/render.wgsl`, one compute invocation per pixel,
+//! llvmpipe as fallback). [`Renderer`] runs the shaders (`shaders/*.wgsl`), one compute invocation per pixel,
 //! which inverts the lens distortion per pixel, casts rays at the exact target geometry and
 //! box-filters each pixel (analytic coverage or supersampling). `post` applies blur, noise and
 //! quantisation on the CPU, deterministically.

@@ -16,7 +16,19 @@ use super::gpu_scene::{
 use super::{GreyImage, RenderError};
 use crate::scene::Scene;
 
-const SHADER: &str = concat!(include_str!("../../shaders/render.wgsl"), include_str!("../../shaders/objects.wgsl"));
+/// The shader, assembled from its files in this order (one WGSL module; `shaders/bindings.wgsl`
+/// declares the bindings and the uniform `Params` every other file uses).
+pub(crate) const SHADER: &str = concat!(
+    include_str!("../../shaders/bindings.wgsl"),
+    include_str!("../../shaders/arithmetic.wgsl"),
+    include_str!("../../shaders/lens.wgsl"),
+    include_str!("../../shaders/planar.wgsl"),
+    include_str!("../../shaders/coded.wgsl"),
+    include_str!("../../shaders/coverage.wgsl"),
+    include_str!("../../shaders/s_path.wgsl"),
+    include_str!("../../shaders/entries.wgsl"),
+    include_str!("../../shaders/objects.wgsl"),
+);
 /// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
 /// S-path tiles without dots, coded boards (the cell lattice), then the planar kinds with views
 /// (defocus, motion: `gpu_scene::scene_pass_kind`).
@@ -109,7 +121,7 @@ impl Renderer {
             Some(m) => wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(m)),
             None => wgpu::ShaderSource::Wgsl(SHADER.into()),
         };
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("render.wgsl"), source });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("synthcam shaders"), source });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("synthcam"),
             entries: &[

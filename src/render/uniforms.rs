@@ -1,8 +1,8 @@
-//! `#[repr(C)]` uniform structs mirroring the WGSL structs of `shaders/render.wgsl`.
+//! `#[repr(C)]` uniform structs mirroring the WGSL structs of `shaders/bindings.wgsl`.
 
 use bytemuck::{Pod, Zeroable};
 
-/// Mirrors WGSL `Params` in `shaders/render.wgsl` (all fields are 16-byte vectors).
+/// Mirrors WGSL `Params` in `shaders/bindings.wgsl` (all fields are 16-byte vectors).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, Default, PartialEq)]
 pub struct Params {
@@ -59,8 +59,43 @@ pub struct Params {
 
 #[cfg(test)]
 mod tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::Params;
+    use crate::render::renderer::SHADER;
+
+    /// `Params`'s fields as the Rust struct lays them out: (name, byte offset).
+    fn rust_layout() -> Vec<(&'static str, usize)> {
+        macro_rules! fields {
+            ($($f:ident),*) => { vec![$((stringify!($f), offset_of!(Params, $f))),*] };
+        }
+        fields!(size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet)
+    }
+
+    /// WGSL struct `name`'s members (name, byte offset) and size, from naga's reflection of the
+    /// assembled shader.
+    fn wgsl_layout(source: &str, name: &str) -> (Vec<(String, usize)>, usize) {
+        let module = wgpu::naga::front::wgsl::parse_str(source).unwrap_or_else(|e| panic!("{}", e.emit_to_string(source)));
+        let ty = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(name)).map(|(_, t)| &t.inner);
+        let Some(wgpu::naga::TypeInner::Struct { members, span }) = ty else { panic!("no struct {name} in the shader") };
+        (members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize)).collect(), *span as usize)
+    }
+
     #[test]
-    fn params_is_22_vec4() {
-        assert_eq!(std::mem::size_of::<super::Params>(), 22 * 16);
+    fn params_matches_the_shader_by_name_and_offset() {
+        let (wgsl, span) = wgsl_layout(SHADER, "Params");
+        let rust: Vec<(String, usize)> = rust_layout().into_iter().map(|(n, o)| (n.to_string(), o)).collect();
+        assert_eq!(rust, wgsl, "Params (src/render/uniforms.rs) and the shader's `struct Params` (shaders/bindings.wgsl) differ");
+        assert_eq!(size_of::<Params>(), span);
+    }
+
+    #[test]
+    fn the_layout_check_sees_two_fields_swapped() {
+        // the shader with `intr` and `intr2` declared the other way round
+        let (intr, intr2) = ("    intr: vec4<f32>,", "    intr2: vec4<f32>,");
+        assert!(SHADER.contains(intr) && SHADER.contains(intr2));
+        let swapped = SHADER.replacen(intr, "SWAP", 1).replacen(intr2, intr, 1).replacen("SWAP", intr2, 1);
+        let rust: Vec<(String, usize)> = rust_layout().into_iter().map(|(n, o)| (n.to_string(), o)).collect();
+        assert_ne!(rust, wgsl_layout(&swapped, "Params").0);
     }
 }

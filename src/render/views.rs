@@ -1,4 +1,4 @@
-//! The shader's views (`shaders/render.wgsl`, binding 7): per view of [`crate::scene::views`], the
+//! The shader's views (`shaders/bindings.wgsl`, binding 7): per view of [`crate::scene::views`], the
 //! plane homography from the pixel's pinhole ray to the target plane.
 //!
 //! For a view with aperture point `a` and focus distance `F`, the ray of pinhole direction `d`

@@ -1,5 +1,5 @@
-//! [`Scene::builder`]: a scene in a few lines, with the course's camera and a default chessboard
-//! until told otherwise, validated on [`SceneBuilder::build`].
+//! [`Scene::builder`]: a scene in a few lines, with a preset camera ([`CameraModel::sxga_1500px`])
+//! and a default chessboard until told otherwise, validated on [`SceneBuilder::build`].
 
 use nalgebra::Isometry3;
 
@@ -30,11 +30,11 @@ pub struct SceneBuilder {
 }
 
 impl Scene {
-    /// A [`SceneBuilder`]: the course camera, a default 9 x 7 chessboard facing the camera at
-    /// 0.5 m, noise-free 8-bit rendering.
+    /// A [`SceneBuilder`]: the preset camera [`CameraModel::sxga_1500px`], a default 9 x 7
+    /// chessboard facing the camera at 0.5 m ([`Facing::default`]), noise-free 8-bit rendering.
     pub fn builder() -> SceneBuilder {
         SceneBuilder {
-            camera: CameraModel::course(),
+            camera: CameraModel::sxga_1500px(),
             target: Target::Chessboard(Chessboard::default()),
             cam_from_target: None,
             facing: Facing::default(),

@@ -9,7 +9,7 @@
 //! image to plane is treated as projective within one sub-square (edges straight); its error
 //! falls as `subdivisions^-2` (measured by the property test at 4 vs 8 subdivisions).
 //!
-//! This is written apart from the GPU renderer (`shaders/render.wgsl`) and from the point-sampled
+//! This is written apart from the GPU renderer (the shaders (`shaders/*.wgsl`)) and from the point-sampled
 //! reference ([`super::reference`]): it shares only the camera model and the target description,
 //! so it can check every pixel of the shader's closed-form coverage paths.
 

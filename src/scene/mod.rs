@@ -1,7 +1,7 @@
 //! A pure description of one image to render: camera, target, pose and render settings.
 //!
 //! No wgpu and no file I/O here: [`mod@file`] parses scene text (TOML or JSON) that the CLI has read,
-//! [`trace`] is the exact CPU ray caster (the twin of `shaders/render.wgsl`), [`mod@reference`] the
+//! [`trace`] is the exact CPU ray caster (the twin of the shaders (`shaders/*.wgsl`)), [`mod@reference`] the
 //! brute-force supersampling CPU renderer used to check the GPU, [`exact`] the exact (polygon-clipped)
 //! box filter of planar targets, [`scanline`] a converged scan-line box filter of any target, and [`truth`] the labels written next
 //! to every image.

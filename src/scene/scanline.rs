@@ -16,7 +16,7 @@
 //! levels at 256 rows on the sphere's horizontal outline, measured before this rule).
 //! Other pixels take their centre sample.
 //!
-//! This is written apart from the GPU renderer's coverage code (`shaders/render.wgsl`): it shares
+//! This is written apart from the GPU renderer's coverage code (the shaders (`shaders/*.wgsl`)): it shares
 //! only the geometry's ray caster. It checks what [`super::exact`] cannot: the S-path's sphere,
 //! beads and painted caps. It is slow (seconds per 320 x 256 S-path image) and meant for tests.
 

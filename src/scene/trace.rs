@@ -1,4 +1,4 @@
-//! Exact CPU ray caster: the f64 twin of `shaders/render.wgsl`.
+//! Exact CPU ray caster: the f64 twin of the shaders (`shaders/*.wgsl`).
 //!
 //! A sample at pixel position `q_px` is unprojected exactly (Newton inversion of the distortion,
 //! [`crate::camera::Distortion::undistort`]), the ray is intersected with the exact target geometry

@@ -11,7 +11,7 @@
 //! - The marker [`Dictionary`] tables of both.
 //!
 //! Intensities are grey levels in [0, 255] (linear, before noise and quantisation).
-//! The plane colour functions here are the CPU twins of the ones in `shaders/render.wgsl`.
+//! The plane colour functions here are the CPU twins of the ones in `shaders/planar.wgsl` and `shaders/coded.wgsl`.
 
 pub mod aprilgrid;
 pub mod aruco;

@@ -39,7 +39,7 @@ fn random_charuco_scene(rng: &mut ChaCha8Rng) -> Scene {
 }
 
 /// The renderer's fine pass is exact up to this many lattice cells per axis in a pixel
-/// (`MAX_CELLS` in shaders/render.wgsl), supersampled beyond.
+/// (`MAX_CELLS` in shaders/coverage.wgsl), supersampled beyond.
 const MAX_CELLS: usize = 6;
 
 /// How many lattice lines cross the bounding box of pixel (x, y)'s footprint on the board, along
