@@ -24,7 +24,7 @@
 //     the sphere and the pixel's dots), adaptive Simpson across the lines (from `samples`).
 // Mirrors: src/scene/trace.rs (CPU, f64). Uniform layout: src/render/uniforms.rs `Params`.
 //
-// One WGSL module in nine files, joined in this order by src/render/renderer.rs (`SHADER`):
+// One WGSL module in nine files, joined in this order by src/render/shader.rs (`SHADER`):
 // bindings (this: bindings, the uniform `Params`, the current view), arithmetic (exact-order
 // sums), lens (the per-pixel lens inversion and its Jacobian), planar (plane colours), coded
 // (the cell lattice of ChArUco and AprilGrid boards), coverage (exact pixel coverage), s_path,

@@ -1,5 +1,5 @@
 // ---------------------------------------------------------------- objects (meshes)
-// The last of the shader files (src/render/renderer.rs `SHADER` concatenates them). The user's meshes, each
+// The last of the shader files (src/render/shader.rs `SHADER` concatenates them). The user's meshes, each
 // an instance of a mesh whose BVH and triangles live in `objs` (src/render/objects.rs lays it out):
 //   instance i (at P.obj.y + 5 i): rows 0..2 the affine map from the camera frame to the mesh
 //     frame (object_from_cam / scale: xyz = matrix row, w = offset); row 3 = (node offset,

@@ -26,7 +26,6 @@ import numpy as np
 from . import _synthcam
 from ._synthcam import (
     SynthcamError,
-    Sim,
     __version__,
     adapter,
     load_image,
@@ -34,9 +33,52 @@ from ._synthcam import (
 )
 from .dataset import Dataset, Sample
 from .poses import facing, pose, rotation_from_rvec
-from .results import Calibration, CalibratedView, Detection, Pose, Truth
+from .results import Calibration, CalibratedView, Detection, Observation, Pose, Truth
 
 _Text = Union[str, Dict[str, Any]]
+
+
+class Sim:
+    """A robot, a camera on its tool and a target in the loop: ``observe()`` renders the camera's
+    view and detects the target (an ``Observation``), ``command(qdot, dt_s)`` moves the arm. The
+    simulator runs on its own thread; every call releases the GIL. ``scenario``: a scenario file's
+    text or dict, or a built-in name ("ur5e_chessboard", "course"); default "ur5e_chessboard"."""
+
+    def __init__(self, scenario: Optional[_Text] = None, base_dir: Optional[Union[str, "PathLike[str]"]] = None) -> None:
+        self._sim = _synthcam.Sim(scenario, base_dir)
+
+    def observe(self, image: bool = False) -> Observation:
+        """Render and detect at the current joints (``image=True`` keeps the frame)."""
+        return Observation.from_dict(self._sim.observe(image))
+
+    def observe_goal(self, image: bool = False) -> Observation:
+        """What the camera sees from the scenario's goal pose."""
+        return Observation.from_dict(self._sim.observe_goal(image))
+
+    def command(self, qdot: Sequence[float], dt_s: float = 0.1) -> None:
+        """Move the joints at ``qdot`` (rad/s) for ``dt_s`` seconds (limits enforced)."""
+        self._sim.command(qdot, dt_s)
+
+    def set_joints(self, q: Sequence[float]) -> None:
+        self._sim.set_joints(q)
+
+    def project(self, q: Sequence[float]) -> np.ndarray:
+        """The model's pixels of every feature at joints ``q`` (NaN where not seen)."""
+        return self._sim.project(q)
+
+    def close(self) -> None:
+        self._sim.close()
+
+    @property
+    def info(self) -> Dict[str, Any]:
+        return self._sim.info
+
+    @property
+    def dof(self) -> int:
+        return self._sim.dof
+
+    def __repr__(self) -> str:
+        return repr(self._sim)
 
 
 def render(scene: _Text, base_dir: Optional[Union[str, "PathLike[str]"]] = None) -> Tuple[np.ndarray, Truth]:
@@ -72,6 +114,7 @@ __all__ = [
     "CalibratedView",
     "Dataset",
     "Detection",
+    "Observation",
     "Pose",
     "Truth",
     "Sample",

@@ -201,3 +201,49 @@ class Calibration(_DictView):
             converged=bool(d["converged"]),
             raw=d,
         )
+
+
+def _pose_of_rows(rows: Any) -> Pose:
+    m = np.asarray(rows, dtype=float).reshape(4, 4)
+    return Pose(m[:3, :3].copy(), m[:3, 3].copy())
+
+
+@dataclass(frozen=True)
+class Observation(_DictView):
+    """One step of ``Sim``: the features detected in the rendered frame, the arm's joints, and the
+    truth (poses, every feature's exact pixel)."""
+
+    frame: int
+    time_s: float
+    q_rad: Array
+    ids: npt.NDArray[np.int64]
+    """The id of each detected feature (an index into the target's features)."""
+    pixels_px: Array
+    """(N, 2): the detected pixels, OpenCV's convention."""
+    note: Optional[str]
+    render_ms: float
+    detect_ms: float
+    cam_from_target: Pose
+    world_from_cam: Pose
+    truth_px: Array
+    """(features, 2): every feature's exact pixel (NaN where it is not seen)."""
+    image: Optional[np.ndarray]
+    raw: Dict[str, Any] = field(repr=False, compare=False)
+
+    @staticmethod
+    def from_dict(d: Mapping[str, Any]) -> "Observation":
+        return Observation(
+            frame=int(d["frame"]),
+            time_s=float(d["time_s"]),
+            q_rad=np.asarray(d["q_rad"], dtype=float),
+            ids=np.asarray(d["ids"], dtype=np.int64),
+            pixels_px=np.asarray(d["pixels_px"], dtype=float).reshape(-1, 2),
+            note=d.get("note"),
+            render_ms=float(d["render_ms"]),
+            detect_ms=float(d["detect_ms"]),
+            cam_from_target=_pose_of_rows(d["cam_from_target"]),
+            world_from_cam=_pose_of_rows(d["world_from_cam"]),
+            truth_px=np.asarray(d["truth_px"], dtype=float).reshape(-1, 2),
+            image=d.get("image"),
+            raw=dict(d),
+        )

@@ -35,6 +35,17 @@ def test_observation_and_model():
     np.testing.assert_allclose(sim.project(obs["q_rad"]), obs["truth_px"], atol=1e-9)
     sim.command([0.01] * 6, 0.1)
     assert sim.observe()["time_s"] == pytest.approx(0.1)
+    # typed: the same observation as attributes, the poses as Pose
+    typed = sim.observe()
+    assert isinstance(typed, synthcam.Observation) and isinstance(typed.cam_from_target, synthcam.Pose)
+    assert typed.pixels_px.shape == (len(typed.ids), 2) and typed.q_rad.shape == (6,)
+    assert np.sqrt(((typed.pixels_px - typed.truth_px[typed.ids]) ** 2).sum(axis=1).mean()) < 0.05
+    # world_from_cam and cam_from_target compose to a fixed world_from_target as the arm moves
+    sim.command([0.02, -0.01, 0.01, 0.0, 0.01, 0.0], 0.1)
+    moved = sim.observe()
+    a, b = typed.world_from_cam @ typed.cam_from_target, moved.world_from_cam @ moved.cam_from_target
+    assert np.abs(a.matrix() - b.matrix()).max() < 1e-9
+    assert np.abs(typed.world_from_cam.matrix() - moved.world_from_cam.matrix()).max() > 1e-4
 
 
 def test_sim_bad_input():

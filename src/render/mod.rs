@@ -16,6 +16,7 @@ mod object_pass;
 pub(crate) mod objects;
 pub(crate) mod post;
 pub mod renderer;
+mod shader;
 pub(crate) mod uniforms;
 pub mod views;
 

@@ -13,22 +13,10 @@ use super::context::{BackendChoice, GpuContext};
 use super::gpu_scene::{
     gpu_scene, lens_variant, scene_pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, OBJECTS_KIND, PASS_KINDS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX,
 };
+use super::shader::SHADER;
 use super::{GreyImage, RenderError};
 use crate::scene::Scene;
 
-/// The shader, assembled from its files in this order (one WGSL module; `shaders/bindings.wgsl`
-/// declares the bindings and the uniform `Params` every other file uses).
-pub(crate) const SHADER: &str = concat!(
-    include_str!("../../shaders/bindings.wgsl"),
-    include_str!("../../shaders/arithmetic.wgsl"),
-    include_str!("../../shaders/lens.wgsl"),
-    include_str!("../../shaders/planar.wgsl"),
-    include_str!("../../shaders/coded.wgsl"),
-    include_str!("../../shaders/coverage.wgsl"),
-    include_str!("../../shaders/s_path.wgsl"),
-    include_str!("../../shaders/entries.wgsl"),
-    include_str!("../../shaders/objects.wgsl"),
-);
 /// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
 /// S-path tiles without dots, coded boards (the cell lattice), then the planar kinds with views
 /// (defocus, motion: `gpu_scene::scene_pass_kind`).

@@ -62,7 +62,7 @@ mod tests {
     use std::mem::{offset_of, size_of};
 
     use super::Params;
-    use crate::render::renderer::SHADER;
+    use crate::render::shader::SHADER;
 
     /// `Params`'s fields as the Rust struct lays them out: (name, byte offset).
     fn rust_layout() -> Vec<(&'static str, usize)> {
