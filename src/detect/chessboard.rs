@@ -25,7 +25,7 @@ use complete::complete;
 pub use complete::CompleteParams;
 use erosion::{min_filter, EROSION_RADII_PX};
 use order::{orient, polygon_area, to_rows};
-pub(crate) use refine::inside_window;
+pub(crate) use refine::fit_half_window;
 use refine::refine_all;
 use trust::even_steps;
 pub use trust::{corners_to_leave_out, MAX_STEP_RATIO, OUTLIER_SIGMA_FACTOR, TRUSTED_CORNER_PX};

@@ -31,6 +31,10 @@ use super::super::markers::MarkerParams;
 use super::super::saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};
 use super::super::{GreyWindow, ImageF32};
 
+/// Fit window of a completed corner: this fraction of the local step, as the refinement of
+/// found grids (`ChessboardParams::window_frac`'s default).
+const WINDOW_FRAC: f64 = 0.4;
+
 /// What the validating fit must show, as fractions of the local grid step or of the fitted
 /// amplitude (dimensionless, so they hold at any image scale and exposure).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -215,8 +219,8 @@ fn validated<I: GreyWindow>(cx: &Ctx<'_, I>, g: &Grid, i: i32, j: i32) -> Option
 /// The corner near the guess `pred`: the saddle fit, else a pair of dark quads.
 fn validated_at<I: GreyWindow>(cx: &Ctx<'_, I>, pred: Point2<f64>, step: f64, (si, sj): (Vector2<f64>, Vector2<f64>), expect: i8) -> Option<Point2<f64>> {
     let p = cx.p;
-    let hw = ((0.4 * step).floor() as usize).clamp(2, cx.refine.half_window.max(2));
-    let fp = SaddleFitParams { half_window: super::inside_window(cx.img, pred, hw), max_shift_px: p.max_shift_frac * step, ..*cx.refine };
+    let half_window = super::fit_half_window(cx.img, pred, step, WINDOW_FRAC, cx.refine.half_window);
+    let fp = SaddleFitParams { half_window, max_shift_px: p.max_shift_frac * step, ..*cx.refine };
     if let Ok(fit) = refine_saddle(cx.img, pred, si, sj, &fp) {
         if fit_is_corner(&fit, si, sj, expect, p) {
             return Some(fit.point);

@@ -31,8 +31,7 @@ pub(super) fn refine_all(
             step = step.min((p - at(r - 1, c)).norm());
         }
         let wanted = (params.window_frac * step).floor() as usize;
-        let hw = wanted.clamp(2, params.refine.half_window.max(2));
-        let fp = SaddleFitParams { half_window: inside_window(img, p, hw), ..params.refine };
+        let fp = SaddleFitParams { half_window: fit_half_window(img, p, step, params.window_frac, params.refine.half_window), ..params.refine };
         match refine_saddle(img, p, d_row, d_col, &fp) {
             // a window wider than the geometry allows holds parts of the neighbouring corners
             Ok(f) => (f.point, true, f.rms_residual, if wanted >= 2 { f.position_sigma_px } else { f64::INFINITY }),
@@ -56,9 +55,16 @@ pub(super) fn refine_all(
     }
 }
 
+/// The saddle fit's half-window at `p` for a local grid step `step`: `frac` of the step (2 to
+/// `max_hw` pixels), kept inside the image ([`inside_window`]). One rule for the refinement of
+/// found grids and the validation of completed corners.
+pub(crate) fn fit_half_window(img: &impl GreyWindow, p: Point2<f64>, step: f64, frac: f64, max_hw: usize) -> usize {
+    inside_window(img, p, ((frac * step).floor() as usize).clamp(2, max_hw.max(2)))
+}
+
 /// The fit half-window `hw` at `p`, shrunk (to no less than 2) so the window stays inside the
 /// image: a corner a few pixels from the border is fitted on what the image holds of it.
-pub(crate) fn inside_window(img: &impl GreyWindow, p: Point2<f64>, hw: usize) -> usize {
+fn inside_window(img: &impl GreyWindow, p: Point2<f64>, hw: usize) -> usize {
     let (cx, cy) = (p.x.round(), p.y.round());
     if !(cx.is_finite() && cy.is_finite()) {
         return hw;

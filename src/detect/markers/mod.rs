@@ -334,24 +334,22 @@ fn decode_all<I: Samples + ?Sized>(img: &I, quads: &[quads::Quad], set: &MarkerS
 
 /// [`DetectError::EmptyImage`] or [`DetectError::BadBuffer`] for an unusable image.
 pub(crate) fn check_image(img: &ImageF32) -> Result<(), DetectError> {
-    if img.width == 0 || img.height == 0 {
-        return Err(DetectError::EmptyImage { width: img.width, height: img.height });
-    }
-    let expected = img.width.saturating_mul(img.height);
-    if img.data.len() != expected {
-        return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
-    }
-    Ok(())
+    check_buffer(img.width, img.height, img.data.len())
 }
 
 /// [`check_image`] of 8-bit samples.
 pub(crate) fn check_image_u8(img: &ImageU8) -> Result<(), DetectError> {
-    if img.width == 0 || img.height == 0 {
-        return Err(DetectError::EmptyImage { width: img.width, height: img.height });
+    check_buffer(img.width, img.height, img.data.len())
+}
+
+/// A `width x height` image held in `len` samples: not empty, and one sample per pixel.
+fn check_buffer(width: usize, height: usize, len: usize) -> Result<(), DetectError> {
+    if width == 0 || height == 0 {
+        return Err(DetectError::EmptyImage { width, height });
     }
-    let expected = img.width.saturating_mul(img.height);
-    if img.data.len() != expected {
-        return Err(DetectError::BadBuffer { expected, actual: img.data.len() });
+    let expected = width.saturating_mul(height);
+    if len != expected {
+        return Err(DetectError::BadBuffer { expected, actual: len });
     }
     Ok(())
 }
