@@ -10,6 +10,7 @@ from typing import Any, Dict, Iterator, List, NamedTuple
 import numpy as np
 
 from ._synthcam import SynthcamError, load_image
+from .results import Truth
 
 
 class Sample(NamedTuple):
@@ -17,8 +18,9 @@ class Sample(NamedTuple):
 
     image: np.ndarray
     """(H, W) uint8 or uint16 (16-bit specs), (H, W, 3) for colour output."""
-    truth: Dict[str, Any]
-    """The truth JSON: camera, cam_from_target, every feature's exact pixel and visibility."""
+    truth: Truth
+    """The truth labels (the truth JSON as a ``Truth``: camera, cam_from_target, every feature's
+    exact pixel and visibility; ``truth["key"]`` answers from the JSON)."""
     entry: Dict[str, Any]
     """The manifest line: k, file, sha256, truth, seed, pose."""
 
@@ -42,7 +44,7 @@ class Dataset:
         entry = self.entries[i]
         image = load_image(os.path.join(self.path, entry["file"]))
         with open(os.path.join(self.path, entry["truth"]), encoding="utf-8") as f:
-            truth = json.load(f)
+            truth = Truth.from_dict(json.load(f))
         return Sample(image, truth, entry)
 
     def __iter__(self) -> Iterator[Sample]:

@@ -28,6 +28,7 @@ def test_dataset_yields_every_image_with_its_truth(dataset_dir):
         assert image.shape == (truth["camera"]["height"], truth["camera"]["width"]) == (240, 320)
         found = synthcam.detect(image, "chessboard:6x4")
         truth_px = np.array([f["pixel_px"] for f in truth["features"]])
+        assert isinstance(truth, synthcam.Truth) and np.array_equal(truth.pixels_px, truth_px)
         if found["found"]:
             errors.append(np.sqrt(((found["points_px"] - truth_px) ** 2).sum(axis=1).mean()))
     print(f"{len(errors)} of 6 found, corner RMS vs truth max {max(errors):.4f} px")
