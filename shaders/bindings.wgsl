@@ -55,6 +55,11 @@ struct Params {
     sheet: vec4<f32>,    // planar targets: the printed sheet in the plane, x0, y0, x1, y1 (metres)
 };
 
+// Pass kinds the shader tells apart by `P.size.z` (src/render/gpu_scene.rs `CHESSBOARD_KIND`,
+// `CODED_KIND`; the test `render::uniforms::tests::shader_kinds_are_the_rust_ones` compares them).
+const KIND_CHESSBOARD: u32 = 0u;
+const KIND_CODED: u32 = 4u;
+
 @group(0) @binding(0) var<uniform> P: Params;
 // Output values, one per work item (coarse: 64 per tile of the work list; fine: one per pixel).
 @group(0) @binding(1) var<storage, read_write> out_vals: array<f32>;

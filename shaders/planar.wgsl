@@ -22,7 +22,7 @@ fn grid_value(x: f32, y: f32) -> f32 {
 }
 
 fn plane_value(b: vec2<f32>) -> f32 {
-    if (P.size.z == 4u) { return coded_value(b.x, b.y); }
-    return select(grid_value(b.x, b.y), chess_value(b.x, b.y), P.size.z == 0u);
+    if (P.size.z == KIND_CODED) { return coded_value(b.x, b.y); }
+    return select(grid_value(b.x, b.y), chess_value(b.x, b.y), P.size.z == KIND_CHESSBOARD);
 }
 

@@ -49,11 +49,14 @@ pub struct GpuScene {
     pub views: Vec<[f32; 4]>,
 }
 
+/// The chessboard's pass kind ([`pass_kind`]; the shader's `KIND_CHESSBOARD`).
+pub const CHESSBOARD_KIND: usize = 0;
 /// The S-path's pass kind ([`pass_kind`]).
 pub const SPATH_KIND: usize = 2;
 /// The pass kind of the S-path's tiles that no dot reaches (the sphere's outline only).
 pub const SPATH_LIMB_KIND: usize = 3;
-/// The pass kind of coded boards (ChArUco): shaded on their cell lattice.
+/// The pass kind of coded boards (ChArUco, AprilGrid): shaded on their cell lattice (the
+/// shader's `KIND_CODED`).
 pub const CODED_KIND: usize = 4;
 /// Number of pass kinds: the five above, the planar ones with views (chessboard, dot grid,
 /// coded boards: [`VIEWS_KIND`] + 0, 1, 2) and the objects' ([`OBJECTS_KIND`]).
@@ -67,7 +70,7 @@ pub const VIEWS_KIND: usize = 5;
 /// chessboard 0, dot grid 1, S-path [`SPATH_KIND`], coded boards [`CODED_KIND`].
 pub fn pass_kind(target: &Target) -> usize {
     match target {
-        Target::Chessboard(_) => 0,
+        Target::Chessboard(_) => CHESSBOARD_KIND,
         Target::DotGrid(_) => 1,
         Target::SPath(_) => SPATH_KIND,
         Target::Charuco(_) | Target::AprilGrid(_) => CODED_KIND,

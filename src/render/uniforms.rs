@@ -81,6 +81,26 @@ mod tests {
         (members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize)).collect(), *span as usize)
     }
 
+    /// The value of the shader's `const name: u32`.
+    fn wgsl_u32_const(source: &str, name: &str) -> Option<u32> {
+        let module = wgpu::naga::front::wgsl::parse_str(source).ok()?;
+        let (_, c) = module.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name))?;
+        match module.global_expressions[c.init] {
+            wgpu::naga::Expression::Literal(wgpu::naga::Literal::U32(v)) => Some(v),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn shader_kinds_are_the_rust_ones() {
+        use crate::render::gpu_scene::{CHESSBOARD_KIND, CODED_KIND};
+        assert_eq!(wgsl_u32_const(SHADER, "KIND_CHESSBOARD"), Some(CHESSBOARD_KIND as u32));
+        assert_eq!(wgsl_u32_const(SHADER, "KIND_CODED"), Some(CODED_KIND as u32));
+        // the check reads the shader: a changed value fails it
+        let changed = SHADER.replacen("const KIND_CODED: u32 = 4u;", "const KIND_CODED: u32 = 5u;", 1);
+        assert_ne!(wgsl_u32_const(&changed, "KIND_CODED"), Some(CODED_KIND as u32));
+    }
+
     #[test]
     fn params_matches_the_shader_by_name_and_offset() {
         let (wgsl, span) = wgsl_layout(SHADER, "Params");
