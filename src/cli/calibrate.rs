@@ -189,6 +189,7 @@ fn export_files<'a>(args: &'a CalibrateArgs, cam: &synthcam::camera::CameraModel
 /// Run `calibrate`.
 pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be a positive number of metres, got {}", args.square);
+    // before detecting any image (the library's views_from_detections refuses it too, afterwards)
     anyhow::ensure!(
         args.target.board_points_m(args.square).is_some(),
         "calibrate takes a chessboard, ChArUco or AprilGrid target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO, aprilgrid:NXxNY:tag36h11:SPACING)"

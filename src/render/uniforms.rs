@@ -65,9 +65,9 @@ mod tests {
     use crate::render::shader::SHADER;
 
     /// `Params`'s fields as the Rust struct lays them out: (name, byte offset).
-    fn rust_layout() -> Vec<(&'static str, usize)> {
+    fn rust_layout() -> Vec<(String, usize)> {
         macro_rules! fields {
-            ($($f:ident),*) => { vec![$((stringify!($f), offset_of!(Params, $f))),*] };
+            ($($f:ident),*) => { vec![$((stringify!($f).to_string(), offset_of!(Params, $f))),*] };
         }
         fields!(size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet)
     }
@@ -104,8 +104,7 @@ mod tests {
     #[test]
     fn params_matches_the_shader_by_name_and_offset() {
         let (wgsl, span) = wgsl_layout(SHADER, "Params");
-        let rust: Vec<(String, usize)> = rust_layout().into_iter().map(|(n, o)| (n.to_string(), o)).collect();
-        assert_eq!(rust, wgsl, "Params (src/render/uniforms.rs) and the shader's `struct Params` (shaders/bindings.wgsl) differ");
+        assert_eq!(rust_layout(), wgsl, "Params (src/render/uniforms.rs) and the shader's `struct Params` (shaders/bindings.wgsl) differ");
         assert_eq!(size_of::<Params>(), span);
     }
 
@@ -115,7 +114,6 @@ mod tests {
         let (intr, intr2) = ("    intr: vec4<f32>,", "    intr2: vec4<f32>,");
         assert!(SHADER.contains(intr) && SHADER.contains(intr2));
         let swapped = SHADER.replacen(intr, "SWAP", 1).replacen(intr2, intr, 1).replacen("SWAP", intr2, 1);
-        let rust: Vec<(String, usize)> = rust_layout().into_iter().map(|(n, o)| (n.to_string(), o)).collect();
-        assert_ne!(rust, wgsl_layout(&swapped, "Params").0);
+        assert_ne!(rust_layout(), wgsl_layout(&swapped, "Params").0);
     }
 }

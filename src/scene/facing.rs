@@ -62,8 +62,7 @@ impl Facing {
         if self.distance_m <= 0.0 {
             return Err(SceneError::InvalidField { field: "facing.distance_m".into(), reason: format!("must be positive, got {}", self.distance_m) });
         }
-        let pts = target.feature_points_m();
-        let centre = pts.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / pts.len().max(1) as f64;
+        let centre = target.feature_centre_m().coords;
         let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), self.roll_deg.to_radians())
             * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), self.tilt_y_deg.to_radians())
             * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), self.tilt_x_deg.to_radians());

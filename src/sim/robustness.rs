@@ -194,9 +194,7 @@ pub fn snr_at(model: &SensorModel, grey: f64) -> f64 {
 
 /// Mean camera-frame point of the target's features.
 fn centre_cam(scene: &Scene) -> Point3<f64> {
-    let pts = scene.target.feature_points_m();
-    let n = pts.len().max(1) as f64;
-    Point3::from(pts.iter().map(|p| (scene.cam_from_target * p).coords).sum::<Vector3<f64>>() / n)
+    scene.cam_from_target * scene.target.feature_centre_m()
 }
 
 /// Depth of the board centre, metres.

@@ -132,6 +132,13 @@ impl Target {
         }
     }
 
+    /// The mean of [`Target::feature_points_m`] in the target frame (metres): the point a
+    /// `Facing` pose puts on the optical axis.
+    pub fn feature_centre_m(&self) -> Point3<f64> {
+        let pts = self.feature_points_m();
+        Point3::from(pts.iter().map(|p| p.coords).sum::<nalgebra::Vector3<f64>>() / pts.len().max(1) as f64)
+    }
+
     /// The kind of feature the target labels.
     pub fn feature_kind(&self) -> FeatureKind {
         match self {
