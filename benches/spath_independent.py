@@ -7,7 +7,7 @@ the planar S (assets/s_path/planar_s.csv) centred, half-scaled, mapped onto the 
 c = (0, 0, 0.5) m, r = 0.5 m by inverse stereographic projection, resampled to 101 points equally
 spaced in chord length by not-a-knot cubic splines (shared/spec/course-scenario.md 3.4). Each path
 point P carries a flat dark cap, the sphere points within CHORD distance 6 mm of P (first dot
-10 mm; src/target/s_path_dots.rs). Greys as synthcam's defaults: dots 20, sphere 225, background
+10 mm; crates/core/src/target/s_path_dots.rs). Greys as synthcam's defaults: dots 20, sphere 225, background
 90. Poses: the course's desired cam_from_target (R rows [[0,-1,0],[0,0,1],[-1,0,0]], t
 [0,-0.55,1.8] m) orbited about the sphere centre by 0-15 deg about a random axis, then moved in
 the camera frame by 0.1-0.2 m in a random direction; poses whose sphere outline leaves the image

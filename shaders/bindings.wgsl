@@ -22,9 +22,9 @@
 //     outline in closed form (caps), integrated along scan lines sampled also inside each near
 //     dot's chord and next to the outline, crossings bisected on exact rays (nearest hit among
 //     the sphere and the pixel's dots), adaptive Simpson across the lines (from `samples`).
-// Mirrors: src/scene/trace.rs (CPU, f64). Uniform layout: src/render/uniforms.rs `Params`.
+// Mirrors: crates/scene/src/trace.rs (CPU, f64). Uniform layout: crates/render/src/uniforms.rs `Params`.
 //
-// One WGSL module in nine files, joined in this order by src/render/shader.rs (`SHADER`):
+// One WGSL module in nine files, joined in this order by crates/render/src/shader.rs (`SHADER`):
 // bindings (this: bindings, the uniform `Params`, the current view), arithmetic (exact-order
 // sums), lens (the per-pixel lens inversion and its Jacobian), planar (plane colours), coded
 // (the cell lattice of ChArUco and AprilGrid boards), coverage (exact pixel coverage), s_path,
@@ -55,7 +55,7 @@ struct Params {
     sheet: vec4<f32>,    // planar targets: the printed sheet in the plane, x0, y0, x1, y1 (metres)
 };
 
-// Pass kinds the shader tells apart by `P.size.z` (src/render/gpu_scene.rs `CHESSBOARD_KIND`,
+// Pass kinds the shader tells apart by `P.size.z` (crates/render/src/gpu_scene.rs `CHESSBOARD_KIND`,
 // `CODED_KIND`; the test `render::uniforms::tests::shader_kinds_are_the_rust_ones` compares them).
 const KIND_CHESSBOARD: u32 = 0u;
 const KIND_CODED: u32 = 4u;
@@ -71,7 +71,7 @@ const KIND_CODED: u32 = 4u;
 // Coarse pass: 1 where the pixel needs the fine pass.
 @group(0) @binding(6) var<storage, read_write> out_hard: array<u32>;
 // Planar targets: the views a pixel integrates (exposure time and aperture samples, per row under
-// a rolling shutter), each the three rows of its plane homography H (src/render/views.rs).
+// a rolling shutter), each the three rows of its plane homography H (crates/render/src/views.rs).
 @group(0) @binding(7) var<storage, read> views: array<vec4<f32>>;
 
 // The homography of the view being shaded (set_view): rows of H, (X, Y, W) = H d.

@@ -1,6 +1,6 @@
 // ---------------------------------------------------------------- coded boards (cell lattice)
 // Every edge of a coded board (ChArUco: squares, marker borders and bits) lies on one lattice,
-// the same along x and y (src/target/lattice.rs CellLattice): periods of P.lat.x from P.lat.y,
+// the same along x and y (crates/core/src/target/lattice.rs CellLattice): periods of P.lat.x from P.lat.y,
 // each cut at P.lat.z and then every P.lat.w; sub-interval 0 is [0, lat.z), the last ends at the
 // period's end. Global index g = period * P.board.z + sub; the board holds g in
 // [0, P.board.x) x [0, P.board.y) and spans [lat.y, lat2.x) x [lat.y, lat2.y). Dark cells: bit

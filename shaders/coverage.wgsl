@@ -6,7 +6,7 @@
 // pixel); its area inside S follows from Green's theorem: the sum over the eight boundary lines
 // (four of S, four of the rectangle) of the part of each line inside the other seven. A dot-grid
 // disc is the ellipse it images to, mapped onto the unit circle. The CPU reference
-// src/scene/exact.rs computes the same areas independently, in f64, by polygon clipping.
+// crates/scene/src/exact.rs computes the same areas independently, in f64, by polygon clipping.
 
 // The board line {board coordinate `axis` = v} in pixel offsets d: board coordinate >= v where
 // dot(l.xy, d) >= l.z. (The affine footprint would put the centre's pc for v in the normal.)

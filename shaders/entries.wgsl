@@ -43,7 +43,7 @@ fn view_line_area(ray: Ray, y: u32, s: u32, axis: u32, v: f32) -> f32 {
 }
 
 // Boards of cells with views. Every view's footprint lies within the first view's, grown by the
-// views' spread (P.vw.z, pixels; src/scene/views.rs) through the board Jacobian, plus 10 %. No
+// views' spread (P.vw.z, pixels; crates/scene/src/views.rs) through the board Jacobian, plus 10 %. No
 // line in that region: every view sees one cell. One line: the mean over the views of each
 // view's exact half-plane coverage of it (the two cells beside it are the same for every view).
 // Otherwise each view's own coarse value (cells_coarse), hard when any view's is. The loops run
@@ -144,7 +144,7 @@ fn fine_item(gid: vec3<u32>) -> vec3<u32> {
 
 // The fine value of a planar target's pixel at q: cells_fine (chessboard, coded board) or grid_fine (`kind` is a
 // literal at each call, so the compiler keeps one). A fisheye far off its axis bends the rays across the pixel
-// (src/render/bend.rs): the mean of its sub-pixels, each with its own ray (a sub-pixel beyond the
+// (crates/render/src/bend.rs): the mean of its sub-pixels, each with its own ray (a sub-pixel beyond the
 // lens's reach or the plane's horizon: background).
 fn planar_fine(q: vec2<f32>, kind: u32) -> f32 {
     uniform_view();

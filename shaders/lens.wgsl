@@ -5,7 +5,7 @@
 override LENS_MODEL: u32 = 0u;
 override LENS_TILT: bool = false;
 
-// Three models (LENS_MODEL; src/render/gpu_scene.rs LENS_VARIANTS): 0 OpenCV (camera::Distortion:
+// Three models (LENS_MODEL; crates/render/src/gpu_scene.rs LENS_VARIANTS): 0 OpenCV (camera::Distortion:
 // rational radial, tangential, thin prism, tilt) and 2 Double Sphere (camera::DoubleSphere) behind
 // distort / distort_jac, with rays (xu, 1); 1 OpenCV fisheye (camera::Fisheye) in fisheye_ray, with
 // unit rays at any angle it reaches.

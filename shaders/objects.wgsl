@@ -1,24 +1,24 @@
 // ---------------------------------------------------------------- objects (meshes)
-// The last of the shader files (src/render/shader.rs `SHADER` concatenates them). The user's meshes, each
-// an instance of a mesh whose BVH and triangles live in `objs` (src/render/objects.rs lays it out):
+// The last of the shader files (crates/render/src/shader.rs `SHADER` concatenates them). The user's meshes, each
+// an instance of a mesh whose BVH and triangles live in `objs` (crates/render/src/objects.rs lays it out):
 //   instance i (at P.obj.y + 5 i): rows 0..2 the affine map from the camera frame to the mesh
 //     frame (object_from_cam / scale: xyz = matrix row, w = offset); row 3 = (node offset,
 //     triangle offset, texture offset, texture width) as u32 bits; row 4 = (albedo, texture
 //     height as u32 bits, flags: bit 0 head light, 0).
 //   node (4 rows): (lo0, child0), (hi0, child1), (lo1, 0), (hi1, 0); a child with bit 31 set is
-//     a leaf, a run of up to 4 triangle rows (src/mesh/bvh.rs).
+//     a leaf, a run of up to 4 triangle rows (crates/core/src/mesh/bvh.rs).
 //   triangle (4 rows): (v0, albedo: >= 0 its material, -1 the instance's, -2 textured),
 //     (e1, uv0.x), (e2, uv0.y), (uv1, uv2).
 //   texture: per row, the prefix sums of its texels (width + 1 each), four per row of objs.
 // Every ray is the camera ray of the existing per-pixel lens inversion (pixel_ray), so objects
 // are exact under every lens model. Targets and objects occlude each other by ray parameter:
 // the target sheet (P.sheet, in its plane P.plane) is at t = c / (n . d).
-// Mirrors: src/scene/objects.rs (CPU, f64).
+// Mirrors: crates/scene/src/objects.rs (CPU, f64).
 
 @group(0) @binding(8) var<storage, read> objs: array<vec4<f32>>;
 
 const LEAF_BIT: u32 = 0x80000000u;
-// Traversal stack; the CPU refuses meshes whose hierarchy is deeper (src/render/objects.rs).
+// Traversal stack; the CPU refuses meshes whose hierarchy is deeper (crates/render/src/objects.rs).
 const MESH_STACK: u32 = 48u;
 const NO_OBJECT: u32 = 0xffffffffu;
 
@@ -55,7 +55,7 @@ fn hit_triangle(tri_base: u32, k: u32, o: vec3<f32>, d: vec3<f32>, best: MeshHit
     return best;
 }
 
-// A leaf child: LEAF_BIT | (count - 1) << 27 | first triangle row (src/mesh/bvh.rs leaf_run).
+// A leaf child: LEAF_BIT | (count - 1) << 27 | first triangle row (crates/core/src/mesh/bvh.rs leaf_run).
 fn leaf_first(c: u32) -> u32 { return c & 0x7ffffffu; }
 fn leaf_end(c: u32) -> u32 { return (c & 0x7ffffffu) + ((c >> 27u) & 0xfu) + 1u; }
 
@@ -238,7 +238,7 @@ fn hit_point_value(h: MeshHit, d_cam: vec3<f32>) -> f32 {
 // ---- coarse pass: one ray per pixel centre. The value (the object's shade, its texture
 // box-filtered over the pixel's footprint) and a class (0 no object in front, else instance + 1,
 // and for textured triangles bit 30 and the triangle in bits 8..29) go back; the CPU compares each pixel's class and value with its neighbours'
-// (src/render/object_pass.rs) and sends the pixels on an edge to the fine pass.
+// (crates/render/src/object_pass.rs) and sends the pixels on an edge to the fine pass.
 const TEXTURED_CLASS: u32 = 0x40000000u;
 
 // The mean texture over the footprint whose corners (top-left, top-right, bottom-left,

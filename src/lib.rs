@@ -59,27 +59,20 @@
 
 #![deny(missing_docs)]
 
-pub mod calib;
-pub mod camera;
+// The layers, one crate each (ARCHITECTURE.md), re-exported under their module names.
+pub use synthcam_core::{camera, math, mesh, robot, target};
+pub use synthcam_detect as detect;
+pub use synthcam_geometry::{calib, handeye, pnp, servo};
 #[cfg(feature = "render")]
-pub mod dataset;
-pub mod detect;
+pub use synthcam_io::{dataset, report};
+#[cfg(feature = "render")]
+pub use synthcam_render as render;
+pub use synthcam_scene as scene;
+#[cfg(feature = "render")]
+pub use synthcam_sim as sim;
+
 pub mod error;
-pub mod handeye;
-pub mod math;
-pub mod mesh;
-pub mod pnp;
 pub mod prelude;
-#[cfg(feature = "render")]
-pub mod render;
-#[cfg(feature = "render")]
-pub mod report;
-pub mod robot;
-pub mod scene;
-pub mod servo;
-#[cfg(feature = "render")]
-pub mod sim;
-pub mod target;
 
 pub use error::Error;
 /// The image types of the API.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the ArUco / AprilTag code tables synthcam embeds (src/target/aruco.rs).
+"""Writes the ArUco / AprilTag code tables synthcam embeds (crates/core/src/target/aruco.rs).
 
 Source: OpenCV's predefined dictionaries (modules/objdetect/src/aruco/predefined_dictionaries.hpp,
 Apache-2.0; the AprilTag families there come from the AprilTag library, BSD-2-Clause), read through

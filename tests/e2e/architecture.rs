@@ -1,18 +1,24 @@
-//! Layering rules, enforced by reading the sources: only `render` names wgpu; only `dataset`,
-//! `report` and the CLI touch the filesystem; no module imports a layer above it.
+//! Layering rules. The layers are crates (`crates/*`, ARCHITECTURE.md), so the compiler refuses an
+//! import of a crate that is not a dependency; these tests keep the dependencies themselves in
+//! order (a crate may depend only on crates below it), keep wgpu in the renderer and the
+//! filesystem in `io` and the command line, and keep files and functions small.
 //!
-//! Layers, lowest first: `math` -> `camera` / `target` / `robot` / `mesh` -> `scene` -> `detect` / `calib` /
-//! `pnp` / `handeye` / `servo` -> `render` -> `sim` -> `dataset` -> `report` -> `cli`.
+//! Crates, lowest first: `core` (math, camera, target, robot, mesh) -> `scene` -> `detect` ->
+//! `geometry` (calib, pnp, handeye, servo) -> `render` -> `sim` -> `io` (dataset, report) -> the
+//! `synthcam` facade and its command line (`src/`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Every layer, lowest first.
-const ORDER: [&str; 16] =
-    ["math", "camera", "target", "robot", "mesh", "scene", "detect", "calib", "pnp", "handeye", "servo", "render", "sim", "dataset", "report", "cli"];
-/// Layers that may read or write files.
-const FILE_LAYERS: [&str; 4] = ["dataset", "report", "cli", "main"];
+/// Every layer crate (`crates/<name>`, package `synthcam-<name>`), lowest first.
+const ORDER: [&str; 7] = ["core", "scene", "detect", "geometry", "render", "sim", "io"];
+/// Crates (and the facade's `cli` / `main`) that may read or write files.
+const FILE_LAYERS: [&str; 3] = ["io", "cli", "main"];
 
-fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for e in std::fs::read_dir(dir).expect("read_dir").flatten() {
         let p = e.path();
         if p.is_dir() {
@@ -23,47 +29,58 @@ fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
     }
 }
 
-fn module_of(path: &Path, src: &Path) -> String {
-    let rel = path.strip_prefix(src).expect("under src");
-    rel.components().next().map(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs").to_string()).unwrap_or_default()
+/// Every source file of the workspace but the Python bindings, with its layer: the crate's name
+/// under `crates/`, the top-level module (`cli`, `main`, `error`, `prelude`, `lib`) under `src/`.
+fn sources() -> Vec<(String, PathBuf)> {
+    let mut out = Vec::new();
+    for name in ORDER {
+        let mut files = Vec::new();
+        rust_files(&root().join("crates").join(name).join("src"), &mut files);
+        out.extend(files.into_iter().map(|f| (name.to_string(), f)));
+    }
+    let src = root().join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    for f in files {
+        let rel = f.strip_prefix(&src).expect("under src");
+        let top = rel.components().next().map(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs").to_string()).unwrap_or_default();
+        out.push((top, f));
+    }
+    out
 }
 
-/// The rules broken by `text`, the source of a file of layer `module` (`is_test_module` for
+/// The rules broken by `text`, the source of a file of layer `layer` (`is_test_module` for
 /// `tests.rs` files, which may read reference data).
-fn violations(module: &str, text: &str, is_test_module: bool) -> Vec<String> {
+fn violations(layer: &str, text: &str, is_test_module: bool) -> Vec<String> {
     let code: String = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
     let body = code.split("#[cfg(test)]").next().unwrap_or("");
     let mut out = Vec::new();
-    if module != "render" && code.contains("wgpu::") {
+    if layer != "render" && code.contains("wgpu::") {
         out.push("names wgpu".to_string());
     }
-    if !FILE_LAYERS.contains(&module) && !is_test_module {
+    if !FILE_LAYERS.contains(&layer) && !is_test_module {
         for needle in ["std::fs", "File::create", "File::open"] {
             if body.contains(needle) {
                 out.push(format!("uses {needle}"));
             }
         }
     }
-    if let Some(rank) = ORDER.iter().position(|p| *p == module) {
-        for higher in &ORDER[rank + 1..] {
-            if code.contains(&format!("crate::{higher}::")) || code.contains(&format!("crate::{higher}}}")) || code.contains(&format!("crate::{higher};")) {
-                out.push(format!("(layer {module}) imports crate::{higher}"));
-            }
-        }
-    }
     out
+}
+
+/// The synthcam crates a manifest depends on (`[dependencies]` only: `synthcam-<name>`).
+fn layer_dependencies(manifest: &str) -> Vec<String> {
+    let deps = manifest.split("[dependencies]").nth(1).unwrap_or("").split("\n[").next().unwrap_or("");
+    deps.lines().filter_map(|l| l.trim().strip_prefix("synthcam-")).map(|l| l.chars().take_while(|c| c.is_alphanumeric()).collect()).collect()
 }
 
 #[test]
 fn layering_rules_hold() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
     let mut broken = Vec::new();
-    for f in files {
+    for (layer, f) in sources() {
         let text = std::fs::read_to_string(&f).expect("read");
         let is_test_module = f.file_name().is_some_and(|n| n == "tests.rs");
-        for v in violations(&module_of(&f, &src), &text, is_test_module) {
+        for v in violations(&layer, &text, is_test_module) {
             broken.push(format!("{}: {v}", f.display()));
         }
     }
@@ -71,24 +88,37 @@ fn layering_rules_hold() {
 }
 
 #[test]
-fn every_top_level_module_has_a_layer() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    for e in std::fs::read_dir(&src).expect("read_dir").flatten() {
-        let name = e.file_name().to_string_lossy().trim_end_matches(".rs").to_string();
-        // lib, error and prelude sit above every layer: they re-export or wrap them all
-        let known = ORDER.contains(&name.as_str()) || ["lib", "main", "error", "prelude"].contains(&name.as_str());
-        assert!(known, "src/{name} is in no layer of tests/e2e/architecture.rs");
+fn each_crate_depends_only_on_crates_below_it() {
+    for (rank, name) in ORDER.iter().enumerate() {
+        let manifest = std::fs::read_to_string(root().join("crates").join(name).join("Cargo.toml")).expect("manifest");
+        for dep in layer_dependencies(&manifest) {
+            let dep_rank = ORDER.iter().position(|o| *o == dep);
+            assert!(dep_rank.is_some_and(|r| r < rank), "synthcam-{name} depends on synthcam-{dep}, which is not below it in {ORDER:?}");
+        }
     }
 }
 
 #[test]
-fn the_checker_catches_forbidden_imports() {
-    assert_eq!(violations("detect", "use crate::render::Renderer;\n", false), vec!["(layer detect) imports crate::render"]);
-    assert_eq!(violations("sim", "use crate::dataset::write_atomic;\n", false), vec!["(layer sim) imports crate::dataset"]);
-    assert_eq!(violations("camera", "let t = std::fs::read(p);\n", false), vec!["uses std::fs"]);
+fn every_crate_and_top_level_module_has_a_layer() {
+    for e in std::fs::read_dir(root().join("crates")).expect("read_dir").flatten() {
+        let name = e.file_name().to_string_lossy().to_string();
+        assert!(ORDER.contains(&name.as_str()), "crates/{name} is in no layer of tests/e2e/architecture.rs");
+    }
+    for e in std::fs::read_dir(root().join("src")).expect("read_dir").flatten() {
+        let name = e.file_name().to_string_lossy().trim_end_matches(".rs").to_string();
+        // the facade: the command line, and lib, error and prelude, which re-export or wrap every layer
+        assert!(["lib", "main", "error", "prelude", "cli"].contains(&name.as_str()), "src/{name} belongs in a crate under crates/");
+    }
+}
+
+#[test]
+fn the_checkers_catch_what_they_guard() {
+    assert_eq!(violations("core", "let t = std::fs::read(p);\n", false), vec!["uses std::fs"]);
     assert_eq!(violations("scene", "let d: wgpu::Device;\n", false), vec!["names wgpu"]);
-    assert!(violations("report", "use crate::sim::servo_run::ServoTrace;\nlet t = std::fs::read(p);\n", false).is_empty());
-    assert!(violations("detect", "// use crate::render::Renderer;\n", false).is_empty());
+    assert!(violations("io", "let t = std::fs::read(p);\n", false).is_empty());
+    assert!(violations("detect", "// let d: wgpu::Device;\n", false).is_empty());
+    let manifest = "[package]\nname = \"x\"\n\n[dependencies]\nsynthcam-core.workspace = true\nsynthcam-render = { workspace = true }\nimage = 1\n\n[dev-dependencies]\nsynthcam-io = 1\n";
+    assert_eq!(layer_dependencies(manifest), vec!["core", "render"]);
 }
 
 /// Lines of every function in `text` longer than `max` lines: (name, lines). A function starts
@@ -120,13 +150,10 @@ const LONG_FUNCTIONS: [(&str, &str, usize); 0] = [];
 
 #[test]
 fn files_and_functions_stay_small() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
     let (mut broken, mut seen) = (Vec::new(), Vec::new());
-    for f in files {
+    for (_, f) in sources() {
         let text = std::fs::read_to_string(&f).expect("read");
-        let rel = f.strip_prefix(&src).expect("under src").to_string_lossy().replace('\\', "/");
+        let rel = f.strip_prefix(root()).expect("under the root").to_string_lossy().replace('\\', "/");
         let n = text.lines().count();
         if n > 400 {
             broken.push(format!("{rel}: {n} lines (at most 400)"));

@@ -1,0 +1,362 @@
+//! Indexing S-path dots by the path's known 3-D shape.
+//!
+//! The chain from the start dot ([`super::s_path_order`]) indexes the dots only up to the first
+//! stretch it cannot bridge, and not at all when the start dot is hidden. The path's points are
+//! known in 3-D (the course's S on its sphere), so a labelled stretch fixes a projective camera:
+//!
+//! 1. *Seed*: the chain from the start dot when there is one; otherwise chains grown from any dot
+//!    ([`anonymous_chains`], longest first), each tried at every index offset and in both
+//!    directions. A direct linear transform (DLT) from its dots to the path points gives a
+//!    reprojection RMS per labelling; the best must be small and clearly better than the runner-up
+//!    (the S is nearly point-symmetric, so the reversed labelling is the usual runner-up).
+//!    When no whole chain labels unambiguously, windows of 15 chain dots are labelled and grown
+//!    (`search_windows`), and the grown labelling that fits best wins if no disagreeing one
+//!    comes close.
+//! 2. *Grow*: project all path points with the fitted camera, keep those on the side of the sphere
+//!    the camera sees, match each to the nearest detected dot within a fraction of the local
+//!    projected spacing (one dot per point, nearest pairs first), refit, repeat until stable; then
+//!    fill in the points next to the labelled ones from DLTs fitted to their nearest labelled
+//!    stretch (`extend_locally`: lens distortion bends the image of a long path away from any
+//!    single projective camera).
+//! 3. *Check*: drop blobs far larger than their path neighbours (dots merged into one blob) and
+//!    dots whose reprojection residual jumps against their neighbours' (`drop_outliers`).
+//!
+//! 4. *Strays*: where the strict chains leave dots unplaced, all of this runs again on chains
+//!    grown for dots that stray from the nominal path ([`ChainGrowth::Strays`], up to a fifth of
+//!    the spacing: 5 mm on the course's target), with each chain's open index increments decided
+//!    by the path's shape for every placement along the path before the placements are ranked
+//!    (`label`, `resolve`), a short start chain ruling out the labellings of the other chains
+//!    that contradict its first steps, or the two longest chains labelling each other (`strays`).
+//! 5. *Stepped over*: an unplaced dot between the dots of two consecutive indices takes the
+//!    index, the stretch after it moving up by one (`skipped`). Blobs that are no measurement
+//!    ([`unmeasured()`]) are left to the caller.
+//!
+//! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera.
+//!
+//! Reference: Hartley and Zisserman, *Multiple View Geometry*, 2nd ed., section 7.1 (normalised
+//! DLT for camera resectioning).
+
+use nalgebra::{Point2, Point3};
+
+use super::dots::Dot;
+use super::s_path_order::{anonymous_chains, indexed, start_chain, start_dot_chain, ChainGrowth, IndexedDot, SPathOrderParams, MAX_SKIP};
+use super::DetectError;
+use dlt::Dlt;
+pub use residuals::{path_residuals, PathResidual};
+pub use unmeasured::{unmeasured, MERGED_SPREAD, START_RADIUS_RATIO};
+
+mod checks;
+mod dlt;
+mod label;
+mod residuals;
+mod resolve;
+mod skipped;
+mod strays;
+mod unmeasured;
+use checks::{drop_merged, drop_outliers};
+use label::{label_chain, labellings};
+use resolve::{chain_labels, resolve_steps, Head};
+use synthcam_core::target::SPath;
+
+/// Parameters of [`index_s_path`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SPathFitParams {
+    /// Chain growing and acceptance (start dot, tolerances, minimum chain and share).
+    pub order: SPathOrderParams,
+    /// Fewest dots of a chain to try labellings on.
+    pub min_seed: usize,
+    /// Largest reprojection RMS of an accepted seed labelling, pixels.
+    pub max_seed_rms_px: f64,
+    /// The runner-up labelling's RMS must exceed the best's by this factor.
+    pub ambiguity_ratio: f64,
+    /// Matching radius around a projected point, as a fraction of the projected spacing there.
+    pub match_fraction: f64,
+    /// A dot whose reprojection residual differs from its path neighbours' by more is dropped, px.
+    pub max_local_deviation_px: f64,
+}
+
+impl Default for SPathFitParams {
+    fn default() -> Self {
+        Self { order: SPathOrderParams::default(), min_seed: 10, max_seed_rms_px: 4.0, ambiguity_ratio: 2.5, match_fraction: 0.4, max_local_deviation_px: 1.5 }
+    }
+}
+
+/// (path index, dot index) pairs.
+type Labels = Vec<(usize, usize)>;
+
+/// The path points and dot centres of labelled pairs.
+fn correspondences(labels: &[(usize, usize)], dots: &[Dot], path: &SPath) -> (Vec<Point3<f64>>, Vec<Point2<f64>>) {
+    (labels.iter().map(|&(i, _)| path.points_m[i]).collect(), labels.iter().map(|&(_, j)| dots[j].centre_px).collect())
+}
+
+/// Dots per window of [`search_windows`].
+const WINDOW: usize = 15;
+/// Labellings grown per window.
+const TOP_PER_WINDOW: usize = 3;
+/// Chains searched.
+const CHAINS_SEARCHED: usize = 3;
+
+/// When no whole chain labels unambiguously (a chain that bridged wrongly somewhere, strong lens
+/// distortion over a long stretch): windows of [`WINDOW`] consecutive chain dots, their few best
+/// labellings each grown over all dots; among the grown labellings placing at least 80 % as many
+/// dots as the best, the one with the lowest reprojection RMS wins (a labelling off by one index
+/// places as many dots, but fits them worse).
+fn search_windows(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Option<Labels> {
+    let mut grown: Vec<(usize, f64, Labels)> = Vec::new();
+    for chain in chains.iter().take(CHAINS_SEARCHED) {
+        let starts = (0..chain.len().saturating_sub(WINDOW - 1)).step_by(WINDOW / 2);
+        for s in starts {
+            for (rms, labels) in labellings(&chain[s..s + WINDOW], dots, path).into_iter().take(TOP_PER_WINDOW) {
+                if rms > params.max_seed_rms_px {
+                    continue;
+                }
+                let g = extend_locally(dots, path, grow(dots, path, labels, params), params);
+                if let Some(r) = fit_rms(dots, path, &g) {
+                    grown.push((g.len(), r, g));
+                }
+            }
+        }
+    }
+    let most = grown.iter().map(|g| g.0).max()?;
+    grown.retain(|g| g.0 * 5 >= most * 4 && g.1 <= params.max_seed_rms_px);
+    // Unambiguous: every labelling that disagrees with the best on most of its dots fits worse
+    // by the ambiguity ratio (an arc of clutter fits many stretches of the S about equally).
+    let (_, best_rms, best, rival) = best_and_rival(grown)?;
+    log::debug!("s-path window search: best {} dots at RMS {best_rms:.3} px, rival RMS {rival:.3} px", best.len());
+    (rival > params.ambiguity_ratio * best_rms.max(0.05)).then_some(best)
+}
+
+/// Grown labellings (dots placed, RMS px, labels): the one that fits best, and the lowest RMS
+/// of those that disagree with it on most of their dots (infinite when none does).
+fn best_and_rival(mut grown: Vec<(usize, f64, Labels)>) -> Option<(usize, f64, Labels, f64)> {
+    grown.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (placed, rms, best) = grown.first()?.clone();
+    let rival = grown.iter().skip(1).filter(|g| !mostly_agree(&best, &g.2)).map(|g| g.1).fold(f64::INFINITY, f64::min);
+    Some((placed, rms, best, rival))
+}
+
+/// Does labelling `other` give most of its dots the index `best` gives them?
+fn mostly_agree(best: &[(usize, usize)], other: &[(usize, usize)]) -> bool {
+    let index_of: std::collections::HashMap<usize, usize> = best.iter().map(|&(i, j)| (j, i)).collect();
+    2 * other.iter().filter(|&&(i, j)| index_of.get(&j) == Some(&i)).count() >= other.len()
+}
+
+/// Reprojection RMS of the DLT fitted to labelled dots.
+fn fit_rms(dots: &[Dot], path: &SPath, labels: &[(usize, usize)]) -> Option<f64> {
+    let (world, image) = correspondences(labels, dots, path);
+    Dlt::fit(&world, &image).map(|d| d.rms(&world, &image))
+}
+
+/// Match projected path points to dots: (path index, dot) pairs, nearest first, one each.
+fn match_projection(dlt: &Dlt, dots: &[Dot], path: &SPath, fraction: f64) -> Vec<(usize, usize)> {
+    let centre = dlt.centre();
+    let proj: Vec<Option<Point2<f64>>> = (0..path.len())
+        .map(|i| {
+            let x = path.points_m[i];
+            // Dots on the far side of the sphere are hidden.
+            let facing = centre.is_none_or(|c| path.normal_at(i).dot(&(c - x)) > 0.0);
+            if facing {
+                dlt.project(&x)
+            } else {
+                None
+            }
+        })
+        .collect();
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for (i, q) in proj.iter().enumerate() {
+        let Some(q) = q else { continue };
+        let tol = fraction * dlt.spacing_at(path, i, q);
+        for (j, d) in dots.iter().enumerate() {
+            let e = (d.centre_px - q).norm();
+            if e <= tol {
+                pairs.push((e, i, j));
+            }
+        }
+    }
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (mut point_used, mut dot_used) = (vec![false; path.len()], vec![false; dots.len()]);
+    let mut out = Vec::new();
+    for (_, i, j) in pairs {
+        if !point_used[i] && !dot_used[j] {
+            point_used[i] = true;
+            dot_used[j] = true;
+            out.push((i, j));
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Share of the labelled pairs [`Dlt::fit_trimmed`] refits to.
+const TRIM_KEEP: f64 = 0.8;
+
+/// Fit to labelled pairs (trimmed), then alternate projection matching and refitting until stable.
+fn grow(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
+    for _ in 0..6 {
+        let (world, image) = correspondences(&labels, dots, path);
+        let Some(dlt) = Dlt::fit_trimmed(&world, &image) else { break };
+        let next = match_projection(&dlt, dots, path, params.match_fraction);
+        if next.len() < labels.len() || next == labels {
+            break;
+        }
+        labels = next;
+    }
+    labels
+}
+
+/// Labelled dots a local prediction is fitted to: the nearest along the path.
+const LOCAL_FIT: usize = 15;
+/// Farthest a local prediction reaches beyond the labelled dots, in path steps.
+const LOCAL_REACH: usize = 3;
+
+/// Where path point `i` should appear, from a DLT fitted to the [`LOCAL_FIT`] labelled dots
+/// nearest to it along the path, and the matching radius there: `fraction` of the projected
+/// spacing, at most `fraction` of 1.5 times the image distance of the nearest labelled pair of
+/// path neighbours. `None` when the point faces away from the camera or the fit fails.
+fn predict_locally(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, i: usize, fraction: f64) -> Option<(Point2<f64>, f64)> {
+    let mut near: Vec<(usize, usize)> = labels.to_vec();
+    near.sort_by_key(|&(k, _)| k.abs_diff(i));
+    near.truncate(LOCAL_FIT);
+    let (world, image) = correspondences(&near, dots, path);
+    let dlt = Dlt::fit(&world, &image)?;
+    // No visibility test here: a short stretch of the sphere is nearly planar, and its DLT's
+    // camera centre is poorly determined.
+    let q = dlt.project(&path.points_m[i])?;
+    let projected = dlt.spacing_at(path, i, &q);
+    let observed =
+        near.iter().filter_map(|&(k, j)| near.iter().find(|&&(k2, _)| k2 == k + 1).map(|&(_, j2)| (dots[j2].centre_px - dots[j].centre_px).norm())).next()?;
+    Some((q, fraction * projected.min(1.5 * observed)))
+}
+
+/// Fill in path points next to the labelled ones (up to [`LOCAL_REACH`] steps beyond) by local
+/// prediction, frontier by frontier: where lens distortion bends the image of the path away from
+/// any single projective camera, each prediction comes from the nearest labelled stretch.
+fn extend_locally(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
+    let (mut point_used, mut dot_used) = (vec![false; path.len()], vec![false; dots.len()]);
+    for &(i, j) in &labels {
+        point_used[i] = true;
+        dot_used[j] = true;
+    }
+    let mut tried = vec![false; path.len()];
+    loop {
+        // The unlabelled, untried points nearest (along the path) to a labelled one, within reach.
+        let dist = |i: usize| labels.iter().map(|&(k, _)| k.abs_diff(i)).min().unwrap_or(usize::MAX);
+        let Some(d_min) = (0..path.len()).filter(|&i| !point_used[i] && !tried[i]).map(dist).min() else { break };
+        if d_min > LOCAL_REACH {
+            break;
+        }
+        let frontier: Vec<usize> = (0..path.len()).filter(|&i| !point_used[i] && !tried[i] && dist(i) == d_min).collect();
+        let mut added = Vec::new();
+        for i in frontier {
+            tried[i] = true;
+            let Some((q, tol)) = predict_locally(&labels, dots, path, i, params.match_fraction) else { continue };
+            let best = dots.iter().enumerate().filter(|(j, _)| !dot_used[*j]).map(|(j, d)| (j, (d.centre_px - q).norm())).min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((j, _)) = best.filter(|b| b.1 <= tol) {
+                point_used[i] = true;
+                dot_used[j] = true;
+                added.push((i, j));
+            }
+        }
+        if !added.is_empty() {
+            labels.extend(added);
+            // New labels open new frontiers: points tried before may now be within reach again.
+            tried.iter_mut().for_each(|t| *t = false);
+        }
+    }
+    labels.sort_unstable();
+    labels
+}
+
+/// Start dots recognised at this share of `start_area_ratio` are tried last: at the course's
+/// distances a 10 mm cap covers only about 1.7 times the area of its 6 mm neighbours.
+const RELAXED_START: f64 = 0.8;
+
+/// The last resort before giving up: the chain from the start dot, however short of the whole
+/// path, with the start dot recognised at [`RELAXED_START`] of the usual area ratio. Where dots
+/// stray from the nominal path, a jittered chain's labellings all fit about equally (a projective
+/// camera absorbs a shift along a smooth curve), and the start dot is what fixes them; the chain
+/// stops where the curve-following growth loses the jittered dots, the projection does the rest.
+fn relaxed_start_seed(dots: &[Dot], path: &SPath, order: &SPathOrderParams, params: &SPathFitParams) -> Option<Labels> {
+    let relaxed = SPathOrderParams { start_area_ratio: RELAXED_START * order.start_area_ratio, ..*order };
+    let chain = start_dot_chain(dots, &relaxed).ok().filter(|c| c.len() >= params.min_seed)?;
+    let chain = if order.growth == ChainGrowth::Strays { resolve_steps(dots, path, chain, &[], Head::StartDot) } else { chain };
+    log::debug!("s-path relaxed start chain: {} dots", chain.len());
+    Some(chain_labels(&chain))
+}
+
+/// The labelling placing more dots (`first` on a tie), or the one there is.
+fn more_placed(first: Option<Labels>, second: Option<Labels>) -> Option<Labels> {
+    match (first, second) {
+        (Some(a), Some(b)) => Some(if b.len() > a.len() { b } else { a }),
+        (a, b) => a.or(b),
+    }
+}
+
+/// Is the labelling free of index gaps longer than [`MAX_SKIP`]? A fallback labelling from the
+/// start dot alone is trusted only then: where dots stray far from the nominal curve, the far
+/// part of the path can be placed one index off beyond a stretch it failed to match.
+fn without_gaps(labels: &[(usize, usize)]) -> bool {
+    let mut idx: Vec<usize> = labels.iter().map(|l| l.0).collect();
+    idx.sort_unstable();
+    idx.windows(2).all(|w| w[1] - w[0] <= MAX_SKIP)
+}
+
+/// Index the S-path's dots: the start chain or a labelled chain, grown by projecting the known
+/// path (see the module docs). Chains grow strictly first ([`ChainGrowth::Strict`]); where that
+/// leaves detected dots unplaced they grow again with [`ChainGrowth::Strays`] (or only so, when
+/// `params.order.growth` asks for it), and the labelling placing more dots wins, the strict one
+/// on a tie.
+///
+/// # Errors
+/// [`DetectError::NotFound`] when no stretch of dots can be labelled unambiguously, or the result
+/// holds too few of the detected dots.
+pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Vec<IndexedDot>, DetectError> {
+    let order = SPathOrderParams { points: path.len(), ..params.order };
+    let need = order.needed(dots.len());
+    let strict = (order.growth == ChainGrowth::Strict).then(|| place_labels(dots, path, params, &order)).flatten();
+    // A strict labelling that places every dot stands; otherwise the one placing more wins
+    // (strict on a tie): strict growth misses stray dots, and can take a short stray step's
+    // successor for two steps and count one index too many from there on, placing fewer dots.
+    let labels = match strict {
+        Some(l) if l.len() == dots.len() => Some(l),
+        strict => more_placed(strict, place_labels(dots, path, params, &SPathOrderParams { growth: ChainGrowth::Strays, ..order })),
+    };
+    let Some(labels) = labels.map(|l| skipped::join_split(dots, skipped::insert_skipped(dots, l, path.len()))) else {
+        return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
+    };
+    if labels.len() < need {
+        return Err(DetectError::NotFound { reason: format!("{} of {} dots placed on the S-path (at least {need} needed)", labels.len(), dots.len()) });
+    }
+    Ok(indexed(dots, &labels))
+}
+
+/// The labelling of [`index_s_path`] with chains grown as `order.growth` says; `None` where no
+/// stretch of dots could be placed.
+fn place_labels(dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPathOrderParams) -> Option<Labels> {
+    let need = order.needed(dots.len());
+    let strays = order.growth == ChainGrowth::Strays;
+    let place = |seed: Labels| {
+        let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
+        drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px)
+    };
+    // Chain indices from the start dot are 0 and up.
+    let label_start = |c: Vec<(i64, usize)>| if strays { strays::label_start_chain(&c, dots, path, params, need) } else { chain_labels(&c) };
+    if let Some(seed) = start_chain(dots, order).ok().filter(|c| c.len() >= params.min_seed).map(label_start) {
+        return Some(place(seed));
+    }
+    let chains = anonymous_chains(dots, order, params.min_seed);
+    let by_chain = match strays {
+        true => strays::label_chains(&chains, dots, path, params, order),
+        false => chains.iter().find_map(|c| label_chain(c, dots, path, params, false, &[], false)),
+    };
+    let by_shape = by_chain.or_else(|| search_windows(&chains, dots, path, params)).map(place);
+    match by_shape {
+        Some(l) if l.len() >= need => Some(l),
+        // Where the shape fell short, the start dot's own chain competes (see
+        // relaxed_start_seed); the labelling placing more dots wins.
+        short => more_placed(short, relaxed_start_seed(dots, path, order, params).map(place).filter(|l| without_gaps(l))),
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,283 @@
+//! Scene to GPU inputs: the uniform block and, for the S-path, the dots (camera frame) and their
+//! 16x16-pixel tile lists. Pure CPU code, f64 to f32 at the last step.
+
+use nalgebra::{Point2, Vector3};
+use rayon::prelude::*;
+
+use synthcam_core::camera::{CameraModel, Lens};
+
+use super::uniforms::Params;
+use super::RenderError;
+use synthcam_core::target::{CellLattice, DotStyle, SPathDots, Target};
+use synthcam_scene::trace::dot_bbox_px;
+use synthcam_scene::Scene;
+
+/// Tile edge, pixels. Fixed at 8: the shader's coarse pass runs one 8 x 8 workgroup per tile.
+pub const TILE_PX: u32 = 8;
+
+/// The shader's lens variants: its `LENS_MODEL` and `LENS_TILT` pipeline constants
+/// (`shaders/entries.wgsl`), indexed by [`lens_variant`].
+pub const LENS_VARIANTS: [(f64, bool); 4] = [(0.0, false), (0.0, true), (1.0, false), (2.0, false)];
+
+/// The index in [`LENS_VARIANTS`] of a lens: OpenCV, OpenCV with a tilted sensor, fisheye,
+/// Double Sphere.
+pub fn lens_variant(lens: &Lens) -> usize {
+    match lens {
+        Lens::OpenCv(d) => usize::from(d.has_tilt()),
+        Lens::Fisheye(_) => 2,
+        Lens::DoubleSphere(_) => 3,
+    }
+}
+
+/// Everything the compute pass reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GpuScene {
+    /// Uniform block.
+    pub params: Params,
+    /// The pipeline variant of the scene's lens ([`lens_variant`]).
+    pub lens_variant: usize,
+    /// Dots: centre (camera frame, metres) and radius.
+    pub dots: Vec<[f32; 4]>,
+    /// Per tile, the start of its list in `tile_items` (`tiles + 1` entries).
+    pub tile_start: Vec<u32>,
+    /// Dot indices per tile (S-path); coded boards: the dark-cell bits of the lattice
+    /// ([`synthcam_core::target::CellLattice::dark_bits`]).
+    pub tile_items: Vec<u32>,
+    /// Per tile, its grey level when the whole tile is one flat region, else -1.
+    pub tile_flat: Vec<f32>,
+    /// Planar targets: the views' homographies, three rows each (`super::views`).
+    pub views: Vec<[f32; 4]>,
+}
+
+/// The chessboard's pass kind ([`pass_kind`]; the shader's `KIND_CHESSBOARD`).
+pub const CHESSBOARD_KIND: usize = 0;
+/// The S-path's pass kind ([`pass_kind`]).
+pub const SPATH_KIND: usize = 2;
+/// The pass kind of the S-path's tiles that no dot reaches (the sphere's outline only).
+pub const SPATH_LIMB_KIND: usize = 3;
+/// The pass kind of coded boards (ChArUco, AprilGrid): shaded on their cell lattice (the
+/// shader's `KIND_CODED`).
+pub const CODED_KIND: usize = 4;
+/// Number of pass kinds: the five above, the planar ones with views (chessboard, dot grid,
+/// coded boards: [`VIEWS_KIND`] + 0, 1, 2) and the objects' ([`OBJECTS_KIND`]).
+pub const PASS_KINDS: usize = 9;
+/// The pass kind of the objects (meshes), run after the target's (`shaders/objects.wgsl`).
+pub const OBJECTS_KIND: usize = 8;
+/// The first pass kind with views ([`scene_pass_kind`]).
+pub const VIEWS_KIND: usize = 5;
+
+/// The pass kind of a target (the shader's `P.size.z`, a row of the renderer's entry points):
+/// chessboard 0, dot grid 1, S-path [`SPATH_KIND`], coded boards [`CODED_KIND`].
+pub fn pass_kind(target: &Target) -> usize {
+    match target {
+        Target::Chessboard(_) => CHESSBOARD_KIND,
+        Target::DotGrid(_) => 1,
+        Target::SPath(_) => SPATH_KIND,
+        Target::Charuco(_) | Target::AprilGrid(_) => CODED_KIND,
+    }
+}
+
+/// The pass kind of a scene: [`pass_kind`], or for a planar target integrated over views
+/// (defocus, motion) its views kind (`VIEWS_KIND` + chessboard 0, dot grid 1, coded 2).
+pub fn scene_pass_kind(scene: &Scene) -> usize {
+    let kind = pass_kind(&scene.target);
+    if !scene.render.effects.needs_views() {
+        return kind;
+    }
+    match kind {
+        0 | 1 => VIEWS_KIND + kind,
+        CODED_KIND => VIEWS_KIND + 2,
+        k => k,
+    }
+}
+
+/// Build the GPU inputs of `scene`; `grid` must belong to `scene.camera`.
+///
+/// # Errors
+/// [`RenderError::Degenerate`] when the target plane contains the camera centre (seen edge-on).
+pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, RenderError> {
+    let cam = &scene.camera;
+    let (w, h) = (cam.size.width, cam.size.height);
+    let k = &cam.intrinsics;
+    let tiles_x = w.div_ceil(TILE_PX);
+    let tiles_y = h.div_ceil(TILE_PX);
+    let mut p = Params {
+        size: [w, h, pass_kind(&scene.target) as u32, scene.render.samples],
+        tiles: [tiles_x, tiles_y, 0, 0],
+        intr: [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32],
+        ..Default::default()
+    };
+    lens_params(&mut p, cam, grid.split_radii);
+    // A coded board's lattice, built once per frame for the uniforms and the flat tiles.
+    let lattice = scene.target.lattice();
+    let view_set = synthcam_scene::views::view_set(scene);
+    let mut views = Vec::new();
+    let (mut dots, tile_start, mut tile_items) = match &scene.target {
+        Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) => {
+            let bits = planar_params(&mut p, scene, lattice.as_ref())?;
+            views = super::views::gpu_views(&view_set)?;
+            if let [h0, h1, h2, ..] = views[..] {
+                (p.h0, p.h1, p.h2) = (h0, h1, h2);
+            }
+            p.vw = [view_set.samples, u32::from(view_set.per_row), (view_set.spread_px.min(1e30) as f32).to_bits(), 0];
+            (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], bits)
+        }
+        Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
+    };
+    let tile_flat = super::flat::classify_tiles(scene, grid, (tiles_x, tiles_y), &tile_start, lattice.as_ref(), &view_set);
+    // Storage buffers may not be empty.
+    if dots.is_empty() {
+        dots.push([0.0; 4]);
+    }
+    if tile_items.is_empty() {
+        tile_items.push(0);
+    }
+    if views.is_empty() {
+        views.push([0.0; 4]);
+    }
+    Ok(GpuScene { params: p, lens_variant: lens_variant(&cam.lens), dots, tile_start, tile_items, tile_flat, views })
+}
+
+/// The lens model's uniforms (see `Params`); `split` from [`super::bend::split_radii`].
+fn lens_params(p: &mut Params, cam: &CameraModel, split: [f64; 2]) {
+    let r2_max = cam.lens.max_radius().map_or(1e30, |r| (r * r) as f32);
+    p.intr2 = [cam.intrinsics.skew as f32, r2_max, if cam.lens.is_identity() { 0.0 } else { 1.0 }, 0.0];
+    let a = cam.lens.params().map(|v| v as f32);
+    p.dist0 = [a[0], a[1], a[2], a[3]];
+    p.tilt0 = [1.0, 0.0, 0.0, 0.0];
+    p.tilt1 = [0.0, 1.0, 0.0, 0.0];
+    p.tilt2 = [0.0, 0.0, 1.0, 0.0];
+    match cam.lens {
+        Lens::OpenCv(d) => {
+            p.dist1 = [a[4], a[5], a[6], a[7]];
+            p.dist2 = [a[8], a[9], a[10], a[11]];
+            if d.has_tilt() {
+                let t = synthcam_core::camera::distortion::tilt::matrix(d.tau_x, d.tau_y);
+                p.tilt0 = [t[(0, 0)] as f32, t[(0, 1)] as f32, t[(0, 2)] as f32, 0.0];
+                p.tilt1 = [t[(1, 0)] as f32, t[(1, 1)] as f32, t[(1, 2)] as f32, 0.0];
+                p.tilt2 = [t[(2, 0)] as f32, t[(2, 1)] as f32, t[(2, 2)] as f32, 0.0];
+            }
+        }
+        Lens::Fisheye(f) => p.dist1 = [f.theta_max() as f32, split[0].min(1e30) as f32, split[1].min(1e30) as f32, 0.0],
+        Lens::DoubleSphere(_) => {}
+    }
+}
+
+/// The board's or grid's parameters (chessboard, dot grid, coded boards); for a coded board (its
+/// `lattice`) its dark-cell bits. The plane homographies are the views' (`super::views`).
+fn planar_params(p: &mut Params, scene: &Scene, lattice: Option<&CellLattice>) -> Result<Vec<u32>, RenderError> {
+    match &scene.target {
+        Target::Chessboard(b) => {
+            p.board = [b.squares[0] as f32, b.squares[1] as f32, b.square_m as f32, b.margin_m as f32];
+            p.grey = [b.dark as f32, b.light as f32, b.margin as f32, b.background as f32];
+        }
+        Target::DotGrid(g) => {
+            p.board = [g.n as f32, g.edge_m as f32, g.dot_radius_m as f32, g.margin_m as f32];
+            p.grey = [g.dark as f32, g.light as f32, g.light as f32, g.background as f32];
+        }
+        Target::Charuco(_) | Target::AprilGrid(_) => {
+            let (Some(l), Some((look, _))) = (lattice, scene.target.coded_look()) else { return Ok(Vec::new()) };
+            p.board = [l.cells[0] as f32, l.cells[1] as f32, l.per_period as f32, look.margin_m as f32];
+            p.grey = [look.dark as f32, look.light as f32, look.margin as f32, look.background as f32];
+            p.lat = [l.period_m as f32, l.origin_m as f32, l.first_m as f32, l.cell_m as f32];
+            p.lat2 = [l.end_m(0) as f32, l.end_m(1) as f32, l.min_cell_m() as f32, 0.0];
+            return Ok(l.dark_bits.clone());
+        }
+        Target::SPath(_) => {}
+    }
+    Ok(Vec::new())
+}
+
+/// The S-path's parameters, its dots in the camera frame, and per tile the dots whose footprint
+/// reaches it (`tile_start` offsets into `tile_items`).
+fn s_path_params(p: &mut Params, scene: &Scene, s: &SPathDots, (tiles_x, tiles_y): (u32, u32)) -> (Vec<[f32; 4]>, Vec<u32>, Vec<u32>) {
+    let (w, h) = (scene.camera.size.width, scene.camera.size.height);
+    p.tiles[2] = match s.style {
+        DotStyle::Bead => 0,
+        DotStyle::Disc => 1,
+    };
+    let c = scene.cam_from_target * s.path.sphere_center_m;
+    p.sphere = [c.x as f32, c.y as f32, c.z as f32, s.path.sphere_radius_m as f32];
+    p.grey = [s.dark as f32, s.light as f32, s.light as f32, s.background as f32];
+    let mut dots = Vec::new();
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
+    for (i, pt) in s.path.points_m.iter().enumerate() {
+        let pc = scene.cam_from_target * pt;
+        dots.push([pc.x as f32, pc.y as f32, pc.z as f32, s.dot_radius(i) as f32]);
+        let Some(bb) = dot_bbox_px(scene, pt, s.dot_radius(i), 2.0) else { continue };
+        if bb[2] < -0.5 || bb[3] < -0.5 || bb[0] > f64::from(w) || bb[1] > f64::from(h) {
+            continue;
+        }
+        let tx0 = (bb[0].max(0.0) / f64::from(TILE_PX)) as u32;
+        let ty0 = (bb[1].max(0.0) / f64::from(TILE_PX)) as u32;
+        let tx1 = ((bb[2].max(0.0) / f64::from(TILE_PX)) as u32).min(tiles_x - 1);
+        let ty1 = ((bb[3].max(0.0) / f64::from(TILE_PX)) as u32).min(tiles_y - 1);
+        for ty in ty0..=ty1 {
+            for tx in tx0..=tx1 {
+                lists[(ty * tiles_x + tx) as usize].push(i as u32);
+            }
+        }
+    }
+    let mut tile_start = vec![0u32; (tiles_x * tiles_y + 1) as usize];
+    let mut tile_items = Vec::new();
+    for (t, l) in lists.iter().enumerate() {
+        tile_start[t + 1] = tile_start[t] + l.len() as u32;
+        tile_items.extend_from_slice(l);
+    }
+    (dots, tile_start, tile_items)
+}
+
+/// Rays (camera frame, [`CameraModel::unproject_ray`]) through the corners of the tile grid, `(tiles_x + 1) x (tiles_y + 1)`,
+/// row-major; `None` where the distortion cannot be inverted. Depends only on the camera, so a
+/// renderer computes it once per camera (like an undistortion map).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TileCornerRays {
+    /// The camera the rays belong to.
+    pub camera: CameraModel,
+    rays: Vec<Option<Vector3<f64>>>,
+    /// [`super::bend::split_radii`] of the camera.
+    split_radii: [f64; 2],
+}
+
+impl TileCornerRays {
+    /// Unproject every tile corner of `camera`'s image.
+    pub fn new(camera: &CameraModel) -> Self {
+        let tx = camera.size.width.div_ceil(TILE_PX) + 1;
+        let ty = camera.size.height.div_ceil(TILE_PX) + 1;
+        let (w, h) = (f64::from(camera.size.width), f64::from(camera.size.height));
+        let (rays, split_radii) = rayon::join(
+            || {
+                (0..tx * ty)
+                    .into_par_iter()
+                    .map(|k| {
+                        let x = (f64::from((k % tx) * TILE_PX) - 0.5).min(w - 0.5);
+                        let y = (f64::from((k / tx) * TILE_PX) - 0.5).min(h - 0.5);
+                        camera.unproject_ray(&Point2::new(x, y)).ok()
+                    })
+                    .collect()
+            },
+            || super::bend::split_radii(camera),
+        );
+        Self { camera: *camera, rays, split_radii }
+    }
+
+    /// The four corner rays of tile (tx, ty), or `None` if one is missing.
+    pub(super) fn tile(&self, tx: u32, ty: u32) -> Option<[Vector3<f64>; 4]> {
+        let c = self.corners(tx, ty);
+        Some([c[0]?, c[1]?, c[2]?, c[3]?])
+    }
+
+    fn corners(&self, tx: u32, ty: u32) -> [Option<Vector3<f64>>; 4] {
+        let stride = self.camera.size.width.div_ceil(TILE_PX) + 1;
+        let at = |x: u32, y: u32| self.rays.get((y * stride + x) as usize).copied().flatten();
+        [at(tx, ty), at(tx + 1, ty), at(tx + 1, ty + 1), at(tx, ty + 1)]
+    }
+
+    /// Whether tile (tx, ty) lies wholly outside the lens's valid region: no corner has a ray and
+    /// the region is an ellipse in the image (fisheye, Double Sphere: a disc of distorted radii),
+    /// convex and hundreds of pixels across, so it cannot reach a pixel centre of the tile (half a
+    /// pixel inside its edges) between corners outside it.
+    pub(super) fn beyond_lens(&self, tx: u32, ty: u32) -> bool {
+        matches!(self.camera.lens, Lens::Fisheye(_) | Lens::DoubleSphere(_)) && self.corners(tx, ty).iter().all(Option::is_none)
+    }
+}

@@ -1,0 +1,391 @@
+//! The compute pipelines and their orchestration.
+//!
+//! llvmpipe runs every branch of a shader under a lane mask, so work is skipped by not dispatching
+//! it: the CPU fills the tiles that hold no edge (see `gpu_scene`); the *coarse* pass runs
+//! one 8 x 8 workgroup per remaining tile and flags the pixels that need more than one ray or one
+//! closed-form coverage; the *fine* pass runs one invocation per flagged pixel. Values come back
+//! in work-list order and the CPU scatters them into the image.
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
+use super::context::{BackendChoice, GpuContext};
+use super::gpu_scene::{
+    gpu_scene, lens_variant, scene_pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, OBJECTS_KIND, PASS_KINDS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX,
+};
+use super::shader::SHADER;
+use super::{GreyImage, RenderError};
+use synthcam_scene::Scene;
+
+/// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
+/// S-path tiles without dots, coded boards (the cell lattice), then the planar kinds with views
+/// (defocus, motion: `gpu_scene::scene_pass_kind`).
+const ENTRY_POINTS: [[&str; 2]; PASS_KINDS] = [
+    ["cs_coarse_chessboard", "cs_fine_chessboard"],
+    ["cs_coarse_dot_grid", "cs_fine_dot_grid"],
+    ["cs_coarse_spath", "cs_fine_spath"],
+    ["cs_coarse_spath_limb", "cs_fine_spath"],
+    ["cs_coarse_coded", "cs_fine_coded"],
+    ["cs_coarse_chessboard_views", "cs_fine_chessboard_views"],
+    ["cs_coarse_dot_grid_views", "cs_fine_dot_grid_views"],
+    ["cs_coarse_coded_views", "cs_fine_coded_views"],
+    ["cs_coarse_objects", "cs_fine_objects"],
+];
+/// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
+const MAX_GROUPS_X: u64 = 65535;
+
+/// A GPU renderer bound to one device. Safe to share between threads (frames are serialised).
+///
+/// Pipelines are compiled on first use: a process that renders one chessboard compiles the
+/// chessboard's two entry points, not all seven (on lavapipe each costs LLVM time at start-up).
+#[derive(Debug)]
+pub struct Renderer {
+    ctx: GpuContext,
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    /// Per target kind, coarse / fine, lens variant (`gpu_scene::LENS_VARIANTS`).
+    pipelines: [[[OnceLock<wgpu::ComputePipeline>; LENS_VARIANTS.len()]; 2]; PASS_KINDS],
+    layout: wgpu::BindGroupLayout,
+    uniform: wgpu::Buffer,
+    buffers: Mutex<Buffers>,
+    corner_rays: Mutex<Option<Arc<TileCornerRays>>>,
+    /// The meshes' GPU rows of the last scene with objects (`super::objects`).
+    pub(super) mesh_rows: Mutex<Option<Arc<super::objects::MeshRows>>>,
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
+/// Workgroup counts covering `groups` along x then y.
+fn grid(groups: u64) -> (u32, u32) {
+    let groups = groups.max(1);
+    (groups.min(MAX_GROUPS_X) as u32, groups.div_ceil(MAX_GROUPS_X) as u32)
+}
+
+impl Renderer {
+    /// A renderer on the default headless adapter (Vulkan, then GL: [`GpuContext::new_headless`]).
+    ///
+    /// # Errors
+    /// No adapter or device.
+    pub fn headless() -> Result<Self, RenderError> {
+        Self::with_backend(BackendChoice::Auto)
+    }
+
+    /// A renderer on a device of the chosen backend ([`GpuContext::with_backend`]). The shader
+    /// is parsed on another thread while the device opens (on lavapipe, loading LLVM takes some
+    /// 30 ms and parsing the WGSL 10 ms).
+    ///
+    /// # Errors
+    /// No adapter or device.
+    pub fn with_backend(choice: BackendChoice) -> Result<Self, RenderError> {
+        let parsing = std::thread::spawn(|| wgpu::naga::front::wgsl::parse_str(SHADER).ok());
+        let ctx = GpuContext::with_backend(choice)?;
+        Ok(Self::with_parsed(ctx, parsing.join().ok().flatten()))
+    }
+
+    /// Render `scene` and label it: the image and its truth ([`synthcam_scene::truth_labels`]).
+    ///
+    /// # Errors
+    /// As [`Renderer::render`].
+    pub fn render_with_truth(&self, scene: &Scene) -> Result<(GreyImage, synthcam_scene::TruthLabels), RenderError> {
+        Ok((self.render(scene)?, synthcam_scene::truth_labels(scene)))
+    }
+
+    /// Compile the shader on `ctx`; each pipeline is built on first use.
+    pub fn new(ctx: GpuContext) -> Self {
+        Self::with_parsed(ctx, None)
+    }
+
+    /// [`Renderer::new`] with the shader already parsed (`None`: wgpu parses it).
+    fn with_parsed(ctx: GpuContext, parsed: Option<wgpu::naga::Module>) -> Self {
+        let device = &ctx.device;
+        let source = match parsed {
+            Some(m) => wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(m)),
+            None => wgpu::ShaderSource::Wgsl(SHADER.into()),
+        };
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("synthcam shaders"), source });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("synthcam"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+                    count: None,
+                },
+                storage_entry(1, false),
+                storage_entry(2, true),
+                storage_entry(3, true),
+                storage_entry(4, true),
+                storage_entry(5, true),
+                storage_entry(6, false),
+                storage_entry(7, true),
+                storage_entry(8, true),
+            ],
+        });
+        let pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("synthcam"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("params"),
+            size: std::mem::size_of::<super::uniforms::Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            ctx,
+            module,
+            pipeline_layout,
+            pipelines: Default::default(),
+            layout,
+            uniform,
+            buffers: Mutex::new(Buffers::default()),
+            corner_rays: Mutex::new(None),
+            mesh_rows: Mutex::new(None),
+        }
+    }
+
+    /// The pipeline of pass `kind` (coarse or fine) for lens `variant`, compiled on first use.
+    fn pipeline(&self, kind: usize, fine: bool, variant: usize) -> &wgpu::ComputePipeline {
+        self.pipelines[kind][usize::from(fine)][variant].get_or_init(|| {
+            let entry = ENTRY_POINTS[kind][usize::from(fine)];
+            let t0 = std::time::Instant::now();
+            let (model, tilt) = LENS_VARIANTS[variant];
+            let constants = [("LENS_MODEL", model), ("LENS_TILT", f64::from(u8::from(tilt)))];
+            let p = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&self.pipeline_layout),
+                module: &self.module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+                cache: None,
+            });
+            log::debug!("pipeline {entry} compiled in {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+            p
+        })
+    }
+
+    /// The device this renderer runs on.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    fn corner_rays(&self, scene: &Scene) -> Result<Arc<TileCornerRays>, RenderError> {
+        let mut cache = self.corner_rays.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
+        Ok(match cache.as_ref() {
+            Some(g) if g.camera == scene.camera => g.clone(),
+            _ => {
+                let g = Arc::new(TileCornerRays::new(&scene.camera));
+                *cache = Some(g.clone());
+                g
+            }
+        })
+    }
+
+    /// One compute pass over `items` work items, then read back `vals` (f32) and, for coarse
+    /// passes, the hard flags (u32).
+    pub(super) fn run_pass(&self, bufs: &mut Buffers, gs: &GpuScene, kind: usize, fine: bool, work: &[u32]) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
+        let t0 = std::time::Instant::now();
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        let mut params = gs.params;
+        params.tiles[3] = work.len() as u32;
+        let (groups, outputs) = if fine {
+            let g = (work.len() as u64).div_ceil(64);
+            (g, g * 64)
+        } else {
+            (work.len() as u64, work.len() as u64 * 64)
+        };
+        let out_bytes = outputs * 4;
+        // Storage buffers beyond the device's binding limit would fail validation (a panic in
+        // wgpu's default error handler): refuse them (rolling-shutter views are rows x samples).
+        let max_bytes = device.limits().max_storage_buffer_binding_size;
+        if out_bytes.max((gs.views.len() * 16) as u64).max((gs.tile_items.len() * 4) as u64) > max_bytes {
+            return Err(RenderError::TooLarge { width: gs.params.size[0], height: gs.params.size[1], max_bytes });
+        }
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
+        let dots = bufs.dots.get(device, "dots", (gs.dots.len() * 16) as u64, STORAGE_DST);
+        queue.write_buffer(dots, 0, bytemuck::cast_slice(&gs.dots));
+        let tile_start = bufs.tile_start.get(device, "tile_start", (gs.tile_start.len() * 4) as u64, STORAGE_DST);
+        queue.write_buffer(tile_start, 0, bytemuck::cast_slice(&gs.tile_start));
+        let tile_items = bufs.tile_items.get(device, "tile_items", (gs.tile_items.len() * 4) as u64, STORAGE_DST);
+        queue.write_buffer(tile_items, 0, bytemuck::cast_slice(&gs.tile_items));
+        let work_buf = bufs.work.get(device, "work", (work.len() * 4) as u64, STORAGE_DST);
+        queue.write_buffer(work_buf, 0, bytemuck::cast_slice(work));
+        let views = bufs.views.get(device, "views", (gs.views.len() * 16) as u64, STORAGE_DST);
+        queue.write_buffer(views, 0, bytemuck::cast_slice(&gs.views));
+        let objs = bufs.objs.get(device, "objs", 16, STORAGE_DST);
+        let vals = bufs.vals.get(device, "vals", out_bytes, STORAGE_SRC);
+        let hard = bufs.hard.get(device, "hard", out_bytes, STORAGE_SRC);
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("synthcam"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: vals.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: dots.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: tile_start.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: tile_items.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: work_buf.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: hard.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: views.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: objs.as_entire_binding() },
+            ],
+        });
+        let staging_vals = bufs.staging_vals.get(device, "staging_vals", out_bytes, READBACK);
+        let staging_hard = bufs.staging_hard.get(device, "staging_hard", out_bytes, READBACK);
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(if fine { "fine" } else { "coarse" }), timestamp_writes: None });
+            pass.set_pipeline(self.pipeline(kind, fine, gs.lens_variant));
+            pass.set_bind_group(0, &bind, &[]);
+            let (gx, gy) = grid(groups);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        enc.copy_buffer_to_buffer(vals, 0, staging_vals, 0, out_bytes);
+        if !fine {
+            enc.copy_buffer_to_buffer(hard, 0, staging_hard, 0, out_bytes);
+        }
+        queue.submit([enc.finish()]);
+        let n = if fine { work.len() } else { outputs as usize };
+        let (v, h) = read_back(device, staging_vals, (!fine).then_some(staging_hard), out_bytes, n)?;
+        log::debug!("pass kind {kind} fine {fine}: {} items in {:.2} ms", work.len(), t0.elapsed().as_secs_f64() * 1e3);
+        Ok((v, h))
+    }
+
+    /// Render the geometry of `scene` (no blur, no noise): grey levels as f32, row-major.
+    ///
+    /// # Errors
+    /// Invalid scene, degenerate view, or a device failure.
+    pub fn render_linear(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
+        scene.validate()?;
+        std::thread::scope(|scope| {
+            self.compile_ahead(scope, scene);
+            self.render_valid(scene)
+        })
+    }
+
+    /// Start building, on threads of `scope`, the pipelines `scene` needs that are not built
+    /// yet: on lavapipe each takes tens of milliseconds of shader compilation (27 and 41 ms for
+    /// the chessboard's coarse and fine passes), which then overlap each other and the CPU's
+    /// layout of the scene instead of following one another.
+    fn compile_ahead<'s>(&'s self, scope: &'s std::thread::Scope<'s, '_>, scene: &Scene) {
+        let variant = lens_variant(&scene.camera.lens);
+        let kind = scene_pass_kind(scene);
+        let limb = (kind == SPATH_KIND).then_some((SPATH_LIMB_KIND, false));
+        let objects = if scene.objects.is_empty() { Vec::new() } else { vec![(OBJECTS_KIND, false), (OBJECTS_KIND, true)] };
+        for (kind, fine) in [(kind, false), (kind, true)].into_iter().chain(limb).chain(objects) {
+            if self.pipelines[kind][usize::from(fine)][variant].get().is_none() {
+                scope.spawn(move || {
+                    self.pipeline(kind, fine, variant);
+                });
+            }
+        }
+    }
+
+    /// [`Renderer::render_linear`] of a validated scene.
+    fn render_valid(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
+        let grid_rays = self.corner_rays(scene)?;
+        let mut gs: GpuScene = gpu_scene(scene, &grid_rays)?;
+        let mut bufs = self.buffers.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
+        if !scene.objects.is_empty() {
+            self.upload_objects(&mut bufs, &mut gs, scene)?;
+        }
+        let (w, h) = (scene.camera.size.width, scene.camera.size.height);
+        let (tiles_x, _) = (gs.params.tiles[0], gs.params.tiles[1]);
+        let mut img = vec![0.0f32; w as usize * h as usize];
+        let kind = scene_pass_kind(scene);
+        // Work lists per pass kind: S-path tiles without dots get the cheaper limb-only pass.
+        let mut work: [Vec<u32>; PASS_KINDS] = Default::default();
+        for (t, v) in gs.tile_flat.iter().enumerate() {
+            let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
+            if *v >= 0.0 {
+                for y in ty * TILE_PX..((ty + 1) * TILE_PX).min(h) {
+                    let row = y as usize * w as usize;
+                    img[row + (tx * TILE_PX) as usize..row + ((tx + 1) * TILE_PX).min(w) as usize].fill(*v);
+                }
+            } else {
+                let has_dots = gs.tile_start[t + 1] > gs.tile_start[t];
+                let k = if kind == SPATH_KIND && !has_dots { SPATH_LIMB_KIND } else { kind };
+                work[k].push(tx | (ty << 16));
+            }
+        }
+        let mut fine_work = Vec::new();
+        for (k, list) in work.iter().enumerate().filter(|(_, l)| !l.is_empty()) {
+            let (vals, hard) = self.run_pass(&mut bufs, &gs, k, false, list)?;
+            for (j, packed) in list.iter().enumerate() {
+                let (tx, ty) = (packed & 0xffff, packed >> 16);
+                for ly in 0..TILE_PX {
+                    for lx in 0..TILE_PX {
+                        let (x, y) = (tx * TILE_PX + lx, ty * TILE_PX + ly);
+                        if x >= w || y >= h {
+                            continue;
+                        }
+                        let slot = j * 64 + (ly * TILE_PX + lx) as usize;
+                        img[y as usize * w as usize + x as usize] = vals[slot];
+                        if hard[slot] != 0 {
+                            fine_work.push(x | (y << 16));
+                        }
+                    }
+                }
+            }
+        }
+        log::debug!("{:?} coarse tiles per pass kind, {} fine pixels", work.each_ref().map(Vec::len), fine_work.len());
+        if !fine_work.is_empty() {
+            let (vals, _) = self.run_pass(&mut bufs, &gs, kind, true, &fine_work)?;
+            for (packed, v) in fine_work.iter().zip(vals) {
+                img[(packed >> 16) as usize * w as usize + (packed & 0xffff) as usize] = v;
+            }
+        }
+        if !scene.objects.is_empty() {
+            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays), &mut img)?;
+        }
+        Ok(img)
+    }
+}
+
+/// Map the staging buffers (values, and the hard flags when given), wait for the device and copy
+/// out the first `n` words of each.
+fn read_back(
+    device: &wgpu::Device,
+    staging_vals: &wgpu::Buffer,
+    staging_hard: Option<&wgpu::Buffer>,
+    out_bytes: u64,
+    n: usize,
+) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
+    let mut slices = vec![staging_vals.slice(..out_bytes)];
+    if let Some(h) = staging_hard {
+        slices.push(h.slice(..out_bytes));
+    }
+    let (tx, rx) = std::sync::mpsc::channel();
+    for s in &slices {
+        let tx = tx.clone();
+        s.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+    }
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Device(e.to_string()))?;
+    for _ in &slices {
+        rx.recv().map_err(|e| RenderError::Device(e.to_string()))?.map_err(|e| RenderError::Device(e.to_string()))?;
+    }
+    let read = |s: &wgpu::BufferSlice<'_>| -> Result<Vec<u8>, RenderError> {
+        let view = s.get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
+        Ok(view[..n * 4].to_vec())
+    };
+    let v: Vec<f32> = bytemuck::pod_collect_to_vec(&read(&slices[0])?);
+    let h: Vec<u32> = match slices.get(1) {
+        Some(s) => bytemuck::pod_collect_to_vec(&read(s)?),
+        None => Vec::new(),
+    };
+    drop(slices);
+    staging_vals.unmap();
+    if let Some(h) = staging_hard {
+        h.unmap();
+    }
+    Ok((v, h))
+}

@@ -1,0 +1,97 @@
+//! Numeric fields of the render settings and camera effects by their scene-file names
+//! (`sensor.exposure_s`, `optics.f_number`, `motion.twist.3`, ...), so that a dataset spec can
+//! sample each from a range per image (`[ranges]`, [`synthcam_io::dataset`]).
+
+use super::{RenderSettings, SceneError};
+
+/// The field names [`set_field`] takes.
+pub const FIELDS: [&str; 22] = [
+    "render.noise_sigma",
+    "render.blur_sigma_px",
+    "sensor.exposure_s",
+    "sensor.photons_per_s_at_255",
+    "sensor.quantum_efficiency",
+    "sensor.dark_current_e_per_s",
+    "sensor.read_noise_e",
+    "sensor.prnu",
+    "sensor.dsnu_e",
+    "sensor.gain_dn_per_e",
+    "optics.f_number",
+    "optics.focus_distance_m",
+    "optics.psf_sigma_px",
+    "optics.vignetting.0",
+    "motion.exposure_s",
+    "motion.line_delay_s",
+    "motion.twist.0",
+    "motion.twist.1",
+    "motion.twist.2",
+    "motion.twist.3",
+    "motion.twist.4",
+    "motion.twist.5",
+];
+
+fn missing(field: &str, table: &str) -> SceneError {
+    SceneError::InvalidField {
+        field: field.into(),
+        reason: format!("a range for it needs a `[{table}]` table (with a thin lens for f_number and focus_distance_m)"),
+    }
+}
+
+/// Set `field` of `render` to `value` (validate the settings afterwards).
+///
+/// # Errors
+/// An unknown field, or a field of a `[sensor]` or thin lens the settings do not have.
+pub fn set_field(render: &mut RenderSettings, field: &str, value: f64) -> Result<(), SceneError> {
+    if !FIELDS.contains(&field) {
+        return Err(unknown(field));
+    }
+    let linked_exposure = render.effects.sensor.is_some_and(|s| s.exposure_s == render.effects.motion.exposure_s);
+    let fx = &mut render.effects;
+    let sensor = fx.sensor.as_mut();
+    let lens = fx.optics.thin_lens.as_mut();
+    let slot: &mut f64 = match field {
+        "render.noise_sigma" => &mut render.noise_sigma,
+        "render.blur_sigma_px" => &mut render.blur_sigma_px,
+        "optics.psf_sigma_px" => &mut fx.optics.psf_sigma_px,
+        "optics.vignetting.0" => &mut fx.optics.vignetting[0],
+        "motion.exposure_s" => &mut fx.motion.exposure_s,
+        "motion.line_delay_s" => &mut fx.motion.line_delay_s,
+        f if f.starts_with("motion.twist.") => {
+            let i: usize = f["motion.twist.".len()..].parse().ok().filter(|i| *i < 6).ok_or_else(|| unknown(f))?;
+            &mut fx.motion.twist[i]
+        }
+        f if f.starts_with("optics.") => {
+            let lens = lens.ok_or_else(|| missing(f, "optics"))?;
+            match f {
+                "optics.f_number" => &mut lens.f_number,
+                "optics.focus_distance_m" => &mut lens.focus_distance_m,
+                _ => return Err(unknown(f)),
+            }
+        }
+        f if f.starts_with("sensor.") => {
+            let s = sensor.ok_or_else(|| missing(f, "sensor"))?;
+            match f {
+                "sensor.exposure_s" => &mut s.exposure_s,
+                "sensor.photons_per_s_at_255" => &mut s.photons_per_s_at_255,
+                "sensor.quantum_efficiency" => &mut s.quantum_efficiency,
+                "sensor.dark_current_e_per_s" => &mut s.dark_current_e_per_s,
+                "sensor.read_noise_e" => &mut s.read_noise_e,
+                "sensor.prnu" => &mut s.prnu,
+                "sensor.dsnu_e" => &mut s.dsnu_e,
+                "sensor.gain_dn_per_e" => &mut s.gain_dn_per_e,
+                _ => return Err(unknown(f)),
+            }
+        }
+        f => return Err(unknown(f)),
+    };
+    *slot = value;
+    // A motion that took the sensor's exposure keeps following it.
+    if field == "sensor.exposure_s" && linked_exposure {
+        render.effects.motion.exposure_s = value;
+    }
+    Ok(())
+}
+
+fn unknown(field: &str) -> SceneError {
+    SceneError::InvalidField { field: format!("ranges.{field}"), reason: format!("no such numeric field; expected one of {}", FIELDS.join(", ")) }
+}

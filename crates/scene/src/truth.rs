@@ -1,0 +1,353 @@
+//! Truth labels written next to every image.
+//!
+//! For every feature: its point in the target frame, its projected pixel (CPU camera model, the
+//! same one the shader mirrors), whether it is in front of the camera and inside the image, and for
+//! dots the expected centroid and area of the rendered blob.
+//!
+//! **Blob centroid.** Under perspective and distortion the image of a dot's centre is not the
+//! centroid of the dot's image (the bias is up to ~0.2 px). The blob is the set of image points
+//! whose ray sees this dot first (occlusion by the sphere and by other beads included), clipped to
+//! the image. Two centroids are labelled: `centroid_px`, the intensity-weighted centroid of the
+//! box-filtered rendered blob (sum over pixels of coverage x pixel centre, / area), which is what an
+//! intensity-centroid detector measures on the noise-free image; and `area_centroid_px`, the centroid
+//! of the continuous region (they differ by the pixel discretisation of the boundary).
+//! Both come from exact ray casting ([`Tracer`]): every pixel of the
+//! dot's conservative bounding box is probed at a 3 x 3 grid of points; pixels whose probes all see
+//! the dot count as whole pixels (centroid at the pixel centre), pixels whose probes disagree are
+//! integrated along `CENTROID_LINES` scan lines with bisected crossings (exact up to features
+//! narrower than 1/32 px along a line), and so is every probe-free pixel next to
+//! a pixel with coverage, flooding outwards (a sliver thinner than the probes' half-pixel spacing
+//! is followed from where it is wider).
+
+use nalgebra::Point2;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::file::CameraSpec;
+use super::scanline::pixel_moments;
+use super::trace::{dot_bbox_px, Tracer};
+use super::{RenderSettings, Scene};
+use synthcam_core::math::so3::rvec_from_rotation;
+use synthcam_core::target::{FeatureKind, Target};
+
+/// Scan lines per boundary pixel of a blob (see [`super::scanline::pixel_moments`]).
+pub const CENTROID_LINES: u32 = 16;
+/// Samples per scan line, ends included (spacing 1/32 px).
+pub const CENTROID_LINE_SAMPLES: u32 = 33;
+/// Bisection steps per crossing (2^-21 px).
+pub const CENTROID_BISECTIONS: u32 = 16;
+
+/// Pose as written to JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct PoseLabel {
+    /// Rotation matrix rows of `cam_from_target`.
+    #[serde(rename = "R")]
+    pub r: [[f64; 3]; 3],
+    /// Rodrigues vector of the same rotation, radians.
+    pub rvec: [f64; 3],
+    /// Translation, metres.
+    pub t_m: [f64; 3],
+}
+
+/// Truth of one feature.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct FeatureLabel {
+    /// Index in the target's documented order.
+    pub id: usize,
+    /// Point in the target frame, metres.
+    pub point_target_m: [f64; 3],
+    /// Projection through the full camera model, pixels (OpenCV convention).
+    pub pixel_px: [f64; 2],
+    /// Depth in the camera frame (its z), metres: negative behind the camera plane, where a
+    /// fisheye that reaches beyond 90 degrees still sees.
+    pub depth_m: f64,
+    /// On the side of the camera its lens sees: z > 0, or within a fisheye's reach
+    /// ([`synthcam_core::camera::Projection::in_front`]).
+    pub in_front: bool,
+    /// Projected pixel inside the image.
+    pub in_image: bool,
+    /// In front, inside the image, not hidden by an object (`occluded`) and (for dots) at
+    /// least partly unoccluded by the target itself.
+    pub visible: bool,
+    /// An object ([`super::objects`]) lies between the camera and the feature point (exact ray
+    /// cast to the point); written only when true.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub occluded: bool,
+    /// Dots: intensity-weighted centroid of the rendered (box-filtered) blob, pixels: what an
+    /// intensity-centroid detector measures on the noise-free image. `None` when nothing is rendered.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub centroid_px: Option<[f64; 2]>,
+    /// Dots: centroid of the continuous blob region (differs from `centroid_px` by the pixel
+    /// discretisation of the boundary).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub area_centroid_px: Option<[f64; 2]>,
+    /// Dots: area of the rendered blob, pixels^2.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub area_px: Option<f64>,
+    /// Truth under the camera effects (rolling shutter, motion, defocus;
+    /// [`super::effect_truth`]); empty without them.
+    #[serde(default, skip_serializing_if = "super::effect_truth::EffectLabel::is_empty")]
+    pub effects: super::effect_truth::EffectLabel,
+}
+
+/// Truth file contents.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct TruthLabels {
+    /// Format version.
+    pub version: u32,
+    /// Pixel convention in words.
+    pub pixel_convention: String,
+    /// Camera.
+    pub camera: CameraSpec,
+    /// `cam_from_target`.
+    pub cam_from_target: PoseLabel,
+    /// Target kind ("chessboard", "dot-grid", "s-path", "charuco").
+    pub target_kind: String,
+    /// "corner" or "dot".
+    pub feature_kind: FeatureKind,
+    /// Chessboard (and ChArUco) inner corners `[cols, rows]` or dot-grid `[n, n]`; S-path `[101, 1]`;
+    /// AprilGrid `[4, tags]` (four corners per tag).
+    pub grid: [u32; 2],
+    /// Render settings.
+    pub render: RenderLabel,
+    /// Features in the target's order.
+    pub features: Vec<FeatureLabel>,
+    /// Coded boards: every marker, by id.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub markers: Vec<MarkerLabel>,
+}
+
+/// Truth of one marker of a coded board.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct MarkerLabel {
+    /// Marker id in its dictionary.
+    pub id: u32,
+    /// Its corners' projections, pixels: ChArUco top-left, top-right, bottom-right, bottom-left
+    /// in the board frame (OpenCV's `getObjPoints()`); AprilGrid Kalibr's order (bottom-left,
+    /// bottom-right, top-right, top-left on the page: feature ids `4 k .. 4 k + 3`).
+    pub corners_px: [[f64; 2]; 4],
+    /// Every corner in front of the camera and inside the image.
+    pub visible: bool,
+}
+
+/// Render settings as written to JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct RenderLabel {
+    /// Sub-samples per axis for brute-force pixels.
+    pub samples: u32,
+    /// Noise sigma, grey levels.
+    pub noise_sigma: f64,
+    /// Blur sigma, pixels.
+    pub blur_sigma_px: f64,
+    /// Seed.
+    pub seed: u64,
+    /// Bit depth.
+    pub bit_depth: u8,
+    /// The EMVA 1288 sensor, when one is simulated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<synthcam_core::camera::sensor::SensorModel>,
+    /// Motion during the exposure, when anything moves.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<super::motion::Motion>,
+    /// Optics, when not the ideal pinhole.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub optics: Option<synthcam_core::camera::optics::Optics>,
+}
+
+impl From<RenderSettings> for RenderLabel {
+    fn from(r: RenderSettings) -> Self {
+        let motion = (!r.effects.motion.is_still()).then_some(r.effects.motion);
+        let optics = (r.effects.optics != synthcam_core::camera::optics::Optics::default()).then_some(r.effects.optics);
+        Self {
+            samples: r.samples,
+            noise_sigma: r.noise_sigma,
+            blur_sigma_px: r.blur_sigma_px,
+            seed: r.seed,
+            bit_depth: r.bit_depth,
+            sensor: r.effects.sensor,
+            motion,
+            optics,
+        }
+    }
+}
+
+/// A dot's rendered blob.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Blob {
+    /// Area, pixels^2.
+    pub area_px: f64,
+    /// Centroid of the box-filtered image: sum over pixels of coverage x pixel centre, / area.
+    pub centroid_px: [f64; 2],
+    /// Centroid of the continuous region.
+    pub area_centroid_px: [f64; 2],
+}
+
+/// Area and centroids of the rendered blob of dot `id` (see module docs). `candidates` (ascending,
+/// including `id`) are the dots that can cover any of `bbox`'s pixels.
+pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates: &[usize]) -> Option<Blob> {
+    let size = tracer.scene().camera.size;
+    let x0 = bbox[0].floor().max(0.0) as i64;
+    let y0 = bbox[1].floor().max(0.0) as i64;
+    let x1 = (bbox[2].ceil() as i64).min(i64::from(size.width) - 1);
+    let y1 = (bbox[3].ceil() as i64).min(i64::from(size.height) - 1);
+    if x1 < x0 || y1 < y0 {
+        return None;
+    }
+    let (bw, bh) = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
+    let sees = |u: f64, v: f64| tracer.trace_px_among(&Point2::new(u, v), candidates).feature == Some(id);
+    // Probe hits per pixel of the box, then exact integration where the probes disagree and,
+    // flooding outwards, in every probe-free pixel next to a pixel with coverage (thin slivers
+    // between the probes).
+    let mut hits = vec![0u8; bw * bh];
+    for (k, h) in hits.iter_mut().enumerate() {
+        let (xf, yf) = ((x0 + (k % bw) as i64) as f64, (y0 + (k / bw) as i64) as f64);
+        for j in [-0.5, 0.0, 0.5] {
+            for i in [-0.5, 0.0, 0.5] {
+                *h += u8::from(sees(xf + i, yf + j));
+            }
+        }
+    }
+    let mut queued = vec![false; bw * bh];
+    let mut queue: Vec<usize> = (0..bw * bh).filter(|&k| hits[k] > 0).collect();
+    queue.iter().for_each(|&k| queued[k] = true);
+    let (mut area, mut su, mut sv) = (0.0, 0.0, 0.0);
+    let (mut pu, mut pv) = (0.0, 0.0);
+    while let Some(k) = queue.pop() {
+        let (bx, by) = (k % bw, k / bw);
+        let (xf, yf) = ((x0 + bx as i64) as f64, (y0 + by as i64) as f64);
+        let covered = if hits[k] == 9 {
+            su += xf;
+            sv += yf;
+            1.0
+        } else {
+            let inside = |u: f64, v: f64| f64::from(u8::from(sees(u, v)));
+            let [c, mu, mv] = pixel_moments(&inside, xf, yf, CENTROID_LINES, CENTROID_LINE_SAMPLES, CENTROID_BISECTIONS);
+            su += mu;
+            sv += mv;
+            c
+        };
+        area += covered;
+        pu += covered * xf;
+        pv += covered * yf;
+        if covered > 0.0 && hits[k] < 9 {
+            for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+                let (nx, ny) = (bx as i64 + dx, by as i64 + dy);
+                if (0..bw as i64).contains(&nx) && (0..bh as i64).contains(&ny) {
+                    let n = ny as usize * bw + nx as usize;
+                    if !queued[n] {
+                        queued[n] = true;
+                        queue.push(n);
+                    }
+                }
+            }
+        }
+    }
+    (area > 0.0).then(|| Blob { area_px: area, centroid_px: [pu / area, pv / area], area_centroid_px: [su / area, sv / area] })
+}
+
+/// Compute the truth labels of `scene`.
+pub fn truth_labels(scene: &Scene) -> TruthLabels {
+    let tracer = Tracer::new(scene);
+    let pts = scene.target.feature_points_m();
+    let kind = scene.target.feature_kind();
+    let radius = |i: usize| match &scene.target {
+        Target::DotGrid(g) => g.dot_radius_m,
+        Target::SPath(s) => s.dot_radius(i),
+        Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => 0.0,
+    };
+    // Each blob only needs the dots whose boxes overlap its own (conservative: a dot without a
+    // box, partly behind the camera, is always a candidate).
+    let boxes: Vec<Option<[f64; 4]>> =
+        if kind == FeatureKind::Dot { pts.iter().enumerate().map(|(i, p)| dot_bbox_px(scene, p, radius(i), 1.5)).collect() } else { Vec::new() };
+    let overlapping = |id: usize, bb: &[f64; 4]| -> Vec<usize> {
+        boxes
+            .iter()
+            .enumerate()
+            .filter(|(j, b)| *j == id || b.is_none_or(|b| b[0] <= bb[2] && bb[0] <= b[2] && b[1] <= bb[3] && bb[1] <= b[3]))
+            .map(|(j, _)| j)
+            .collect()
+    };
+    let features = pts
+        .par_iter()
+        .enumerate()
+        .map(|(id, p)| {
+            let p_cam = scene.cam_from_target * p;
+            let proj = scene.camera.project(&p_cam);
+            let occluded = super::objects::occluded(&scene.objects, &p_cam);
+            let mut label = FeatureLabel {
+                id,
+                point_target_m: [p.x, p.y, p.z],
+                pixel_px: [proj.pixel_px.x, proj.pixel_px.y],
+                depth_m: p_cam.z,
+                in_front: proj.in_front,
+                in_image: proj.in_image,
+                visible: proj.visible() && !occluded,
+                occluded,
+                centroid_px: None,
+                area_px: None,
+                area_centroid_px: None,
+                effects: super::effect_truth::effect_label(scene, p),
+            };
+            if kind == FeatureKind::Dot {
+                let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));
+                if let Some(b) = blob {
+                    label.area_px = Some(b.area_px);
+                    label.centroid_px = Some(b.centroid_px);
+                    label.area_centroid_px = Some(b.area_centroid_px);
+                } else {
+                    label.visible = false;
+                }
+            }
+            label
+        })
+        .collect();
+    let rot = scene.cam_from_target.rotation.to_rotation_matrix();
+    let m = rot.matrix();
+    let rvec = rvec_from_rotation(&rot);
+    let t = scene.cam_from_target.translation.vector;
+    TruthLabels {
+        version: 1,
+        pixel_convention: "OpenCV: the centre of the top-left pixel is (0, 0), u right, v down".into(),
+        camera: CameraSpec::from_model(&scene.camera),
+        cam_from_target: PoseLabel {
+            r: [[m[(0, 0)], m[(0, 1)], m[(0, 2)]], [m[(1, 0)], m[(1, 1)], m[(1, 2)]], [m[(2, 0)], m[(2, 1)], m[(2, 2)]]],
+            rvec: [rvec.x, rvec.y, rvec.z],
+            t_m: [t.x, t.y, t.z],
+        },
+        target_kind: scene.target.kind_name().into(),
+        feature_kind: kind,
+        grid: grid_of(&scene.target),
+        render: scene.render.into(),
+        features,
+        markers: marker_labels(scene),
+    }
+}
+
+/// The truth's `grid` of a target.
+fn grid_of(target: &Target) -> [u32; 2] {
+    match target {
+        Target::Chessboard(b) => b.inner_corner_count(),
+        Target::DotGrid(g) => [g.n, g.n],
+        Target::SPath(s) => [s.path.points_m.len() as u32, 1],
+        Target::Charuco(c) => [c.board.squares[0] - 1, c.board.squares[1] - 1],
+        Target::AprilGrid(g) => [4, g.grid.tags[0] * g.grid.tags[1]],
+    }
+}
+
+/// The markers of a coded board, projected.
+fn marker_labels(scene: &Scene) -> Vec<MarkerLabel> {
+    let markers: Vec<(u32, [nalgebra::Point3<f64>; 4])> = match &scene.target {
+        Target::Charuco(c) => c.board.markers().iter().map(|m| (m.id, m.corners_m)).collect(),
+        Target::AprilGrid(g) => (0..g.grid.tags[0] * g.grid.tags[1]).map(|k| (g.grid.first_id + k, g.grid.tag_corners_m(k))).collect(),
+        _ => return Vec::new(),
+    };
+    markers
+        .iter()
+        .map(|(id, corners_m)| {
+            let cam = corners_m.map(|q| scene.cam_from_target * q);
+            let p = cam.map(|q| scene.camera.project(&q));
+            let hidden = cam.iter().any(|q| super::objects::occluded(&scene.objects, q));
+            MarkerLabel { id: *id, corners_px: p.map(|p| [p.pixel_px.x, p.pixel_px.y]), visible: !hidden && p.iter().all(|p| p.visible()) }
+        })
+        .collect()
+}

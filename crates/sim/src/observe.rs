@@ -1,0 +1,170 @@
+//! Observing the S-path in the loop: render it from a camera pose, detect and order its dots, and
+//! estimate the pose from them with the bead-centroid correction.
+//!
+//! Bead centroids are not the projections of the path points (about half of each bead is inside
+//! the sphere: 1.4 px on average at the course's desired pose). [`pose_from_dots`] therefore
+//! corrects them with the model: the expected blob centroid minus the projected centre at the
+//! current pose estimate (computed by [`truth_labels`]) is subtracted from the detections and PnP
+//! is solved again.
+
+use std::time::Instant;
+
+use nalgebra::{Isometry3, Point2, Vector2};
+
+use synthcam_core::target::Target;
+use synthcam_detect::target::{detect, Detection, TargetSpec};
+use synthcam_detect::DetectError;
+use synthcam_geometry::pnp::{pnp_general, PnpError, PnpResult};
+use synthcam_render::{GreyImage, RenderError, Renderer};
+use synthcam_scene::truth::truth_labels;
+use synthcam_scene::Scene;
+
+/// Errors of one observation (a failed detection is not an error: see [`Observed::dots`]).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ObserveError {
+    /// The scene's target is not the S-path.
+    #[error("the scene's target is {0}, not the S-path")]
+    NotSPath(&'static str),
+    /// The renderer failed.
+    #[error("rendering: {0}")]
+    Render(#[from] RenderError),
+    /// The image could not be handed to the detector.
+    #[error("detection: {0}")]
+    Detect(#[from] DetectError),
+}
+
+/// Detected S-path dots: path index and pixel of each.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Dots {
+    /// Path index of every dot.
+    pub ids: Vec<usize>,
+    /// Pixel of every dot (the detector's blob centroid).
+    pub pixels_px: Vec<Point2<f64>>,
+}
+
+/// One rendered and detected frame.
+#[derive(Debug, Clone)]
+pub struct Observed {
+    /// The rendered image.
+    pub image: GreyImage,
+    /// The ordered dots, `None` when the S-path was not found (the detector's reason in `note`).
+    pub dots: Option<Dots>,
+    /// Why the S-path was not found.
+    pub note: Option<String>,
+    /// Render + readback time, milliseconds.
+    pub render_ms: f64,
+    /// Detection time (conversion, dots, ordering), milliseconds.
+    pub detect_ms: f64,
+}
+
+/// Render `scene` (an S-path scene) and detect its ordered dots.
+///
+/// # Errors
+/// Not an S-path scene, the renderer failed, or the image buffer was inconsistent.
+pub fn render_and_detect(renderer: &Renderer, scene: &Scene) -> Result<Observed, ObserveError> {
+    if !matches!(scene.target, Target::SPath(_)) {
+        return Err(ObserveError::NotSPath(scene.target.kind_name()));
+    }
+    let Timed { image, det, render_ms, detect_ms } = render_and_detect_target(renderer, scene)?;
+    let dots = match det.indices {
+        Some(ids) if det.found => Some(Dots { ids, pixels_px: det.points_px }),
+        _ => None,
+    };
+    Ok(Observed { image, dots, note: det.note, render_ms, detect_ms })
+}
+
+/// A rendered image, its detection and the time each took.
+#[derive(Debug, Clone)]
+pub struct Timed {
+    /// The rendered image.
+    pub image: GreyImage,
+    /// What the detector found.
+    pub det: Detection,
+    /// Render + readback, milliseconds.
+    pub render_ms: f64,
+    /// Conversion and detection, milliseconds.
+    pub detect_ms: f64,
+}
+
+/// Render `scene` and run the detector for its target ([`TargetSpec::for_target`]).
+///
+/// # Errors
+/// The renderer failed, or the image buffer was inconsistent.
+pub fn render_and_detect_target(renderer: &Renderer, scene: &Scene) -> Result<Timed, ObserveError> {
+    let t0 = Instant::now();
+    let image = renderer.render(scene)?;
+    let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let det = detect(&image.to_detector_image()?, &TargetSpec::for_target(&scene.target))?;
+    Ok(Timed { image, det, render_ms, detect_ms: t1.elapsed().as_secs_f64() * 1e3 })
+}
+
+/// The model's blob-centroid bias per path index at `scene`'s pose: blob centroid minus the
+/// projected dot centre (`None` where the dot is not seen).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CentroidBias {
+    /// The `cam_from_target` it was computed at.
+    pub at: Isometry3<f64>,
+    /// Bias per path index, pixels.
+    pub bias_px: Vec<Option<Vector2<f64>>>,
+}
+
+impl CentroidBias {
+    /// Compute the bias at `scene`'s pose (traces every dot's blob: tens to hundreds of ms).
+    pub fn at(scene: &Scene) -> Self {
+        let labels = truth_labels(scene);
+        let bias_px = labels.features.iter().map(|f| f.centroid_px.map(|c| Vector2::new(c[0] - f.pixel_px[0], c[1] - f.pixel_px[1]))).collect();
+        Self { at: scene.cam_from_target, bias_px }
+    }
+
+    /// Whether `cam_from_target` is within `mm` and `deg` of the pose this was computed at.
+    pub fn is_near(&self, cam_from_target: &Isometry3<f64>, mm: f64, deg: f64) -> bool {
+        let d = self.at.inverse() * cam_from_target;
+        d.translation.vector.norm() * 1e3 <= mm && d.rotation.angle().to_degrees() <= deg
+    }
+
+    /// The detected pixels minus the bias: estimates of the projections of the dot centres.
+    pub fn correct(&self, dots: &Dots) -> Vec<Point2<f64>> {
+        dots.ids.iter().zip(&dots.pixels_px).map(|(id, q)| self.bias_px.get(*id).copied().flatten().map_or(*q, |b| q - b)).collect()
+    }
+}
+
+/// PnP on detected dots with `rounds` rounds of the bead-centroid correction (0: plain PnP on the
+/// blob centroids). `scene` gives the camera, the target and the render settings; its pose is
+/// ignored. Returns the estimate and the corrected pixels.
+///
+/// # Errors
+/// PnP failed (too few dots, degenerate geometry).
+pub fn pose_from_dots(scene: &Scene, dots: &Dots, rounds: usize) -> Result<(PnpResult, Vec<Point2<f64>>), PnpError> {
+    let points = dot_points(scene, dots);
+    let mut est = pnp_general(&scene.camera, &points, &dots.pixels_px)?;
+    let mut used = dots.pixels_px.clone();
+    for _ in 0..rounds {
+        used = CentroidBias::at(&Scene { cam_from_target: est.cam_from_target, ..scene.clone() }).correct(dots);
+        est = pnp_general(&scene.camera, &points, &used)?;
+    }
+    Ok((est, used))
+}
+
+/// PnP on detected dots corrected by a cached bias, recomputed only when the plain PnP pose has
+/// moved more than 5 mm or 1 degree from where the cache was computed (the bias changes by
+/// ~1e-3 px per mm at the course's distances). For loops, where most steps barely move.
+///
+/// # Errors
+/// PnP failed.
+pub fn pose_from_dots_cached(scene: &Scene, dots: &Dots, cache: &mut Option<CentroidBias>) -> Result<PnpResult, PnpError> {
+    let points = dot_points(scene, dots);
+    let plain = pnp_general(&scene.camera, &points, &dots.pixels_px)?;
+    let stale = cache.as_ref().is_none_or(|c| !c.is_near(&plain.cam_from_target, 5.0, 1.0));
+    if stale {
+        *cache = Some(CentroidBias::at(&Scene { cam_from_target: plain.cam_from_target, ..scene.clone() }));
+    }
+    let corrected = cache.as_ref().map_or_else(|| dots.pixels_px.clone(), |c| c.correct(dots));
+    pnp_general(&scene.camera, &points, &corrected)
+}
+
+fn dot_points(scene: &Scene, dots: &Dots) -> Vec<nalgebra::Point3<f64>> {
+    let all = scene.target.feature_points_m();
+    dots.ids.iter().map(|i| all[*i]).collect()
+}
