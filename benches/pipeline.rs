@@ -7,6 +7,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
 use synthcam::calib::{calibrate, CalibParams, View};
+use synthcam::course::servo_run::{run_servo, HandEyeSource, ServoOptions, ServoScenario};
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
 use synthcam::render::{GpuContext, Renderer};
@@ -15,9 +16,9 @@ use synthcam::robot::{base_from_tool, Joints};
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::Scene;
 use synthcam::servo::{ibvs_step, image_jacobian, pbvs_error, pbvs_step, IbvsParams, PbvsParams};
-use synthcam::sim::handeye_run::ObservationKind;
+use synthcam::sim::controller::Law;
 use synthcam::sim::observe::{pose_from_dots, render_and_detect};
-use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
+use synthcam::sim::sensor::ObservationKind;
 
 fn renderer() -> Renderer {
     match GpuContext::new_headless() {
@@ -84,7 +85,7 @@ fn bench_servo(c: &mut Criterion) {
     let dots = seen.dots.unwrap_or_else(|| panic!("S-path not found"));
     let (x, wb) = variant_a();
     let q = Joints::from_row_slice(&[0.1, 1.6, 3.5, 3.0, 2.0, 0.0]);
-    let pts = synthcam::target::course_s_path().points_m;
+    let pts = synthcam::target::spherical_s().points_m;
     let cam = s_path.camera;
     let cw = (wb * base_from_tool(&q) * x).inverse();
     let measured: Vec<Point2<f64>> = pts.iter().map(|p| cam.project_unchecked(&(cw * p))).collect();

@@ -55,10 +55,18 @@ struct Params {
     sheet: vec4<f32>,    // planar targets: the printed sheet in the plane, x0, y0, x1, y1 (metres)
 };
 
-// Pass kinds the shader tells apart by `P.size.z` (crates/render/src/gpu_scene.rs `CHESSBOARD_KIND`,
-// `CODED_KIND`; the test `render::uniforms::tests::shader_kinds_are_the_rust_ones` compares them).
+// Pass kinds (crates/render/src/gpu_scene.rs `PassKind`; the test
+// `uniforms::tests::shader_kinds_are_the_rust_ones` compares them): the target's kind is `P.size.z`,
+// the pipeline's is the `PASS_KIND` override constant (shaders/entries.wgsl).
 const KIND_CHESSBOARD: u32 = 0u;
+const KIND_DOT_GRID: u32 = 1u;
+const KIND_SPATH: u32 = 2u;
+const KIND_SPATH_LIMB: u32 = 3u;
 const KIND_CODED: u32 = 4u;
+const KIND_CHESSBOARD_VIEWS: u32 = 5u;
+const KIND_DOT_GRID_VIEWS: u32 = 6u;
+const KIND_CODED_VIEWS: u32 = 7u;
+const KIND_OBJECTS: u32 = 8u;
 
 @group(0) @binding(0) var<uniform> P: Params;
 // Output values, one per work item (coarse: 64 per tile of the work list; fine: one per pixel).

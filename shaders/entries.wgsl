@@ -13,7 +13,7 @@ fn uniform_view() {
 // points (`*_views`): llvmpipe runs both sides of a branch, so the sharp passes hold no loop.
 fn planar_coarse_views(px: vec3<u32>, kind: u32) -> Coarse {
     let ray = pixel_ray(vec2<f32>(f32(px.x), f32(px.y)));
-    if (kind != 1u) { return cells_coarse_views(ray, px.y, kind == 4u); }
+    if (kind != KIND_DOT_GRID) { return cells_coarse_views(ray, px.y, kind == KIND_CODED); }
     var out: Coarse;
     out.value = 0.0;
     out.hard = false;
@@ -106,26 +106,45 @@ fn write_coarse(wg: vec3<u32>, lid: vec3<u32>, c: Coarse) {
     out_hard[slot] = select(0u, 1u, c.hard);
 }
 
+// The pass kind of this pipeline (KIND_*, shaders/bindings.wgsl), set when the renderer creates it
+// (crates/render/src/gpu_scene.rs `PassKind`). A constant at compile time, so each pipeline keeps
+// the branch of its own kind only (llvmpipe would otherwise run every branch under a lane mask).
+override PASS_KIND: u32 = 0u;
+
+// The planar target kind of a planar pass kind (chessboard 0, dot grid 1, coded boards 4), with or
+// without views: an override too, so that it is a constant at compile time.
+override PLANAR_KIND: u32 = select(select(PASS_KIND, PASS_KIND - KIND_CHESSBOARD_VIEWS, PASS_KIND >= KIND_CHESSBOARD_VIEWS), KIND_CODED, PASS_KIND == KIND_CODED_VIEWS);
+
+// Coarse pass of the sharp planar targets (chessboard, dot grid, coded boards). The passes with views
+// have their own entry points: lavapipe compiles every function an entry point reaches before it
+// drops the branches a constant rules out, so one entry for both costs start-up time.
 @compute @workgroup_size(8, 8, 1)
-fn cs_coarse_chessboard(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+fn cs_coarse_planar(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
     uniform_view();
-    write_coarse(wg, lid, cells_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), false));
+    let ray = pixel_ray(vec2<f32>(f32(px.x), f32(px.y)));
+    if (PLANAR_KIND == KIND_DOT_GRID) {
+        write_coarse(wg, lid, grid_coarse(ray));
+    } else {
+        write_coarse(wg, lid, cells_coarse(ray, PLANAR_KIND == KIND_CODED));
+    }
 }
 
+// Coarse pass of the planar targets with views (defocus, motion).
 @compute @workgroup_size(8, 8, 1)
-fn cs_coarse_dot_grid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
-    let px = coarse_pixel(wg, lid);
-    uniform_view();
-    write_coarse(wg, lid, grid_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y)))));
+fn cs_coarse_planar_views(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    write_coarse(wg, lid, planar_coarse_views(coarse_pixel(wg, lid), PLANAR_KIND));
 }
 
+// Coarse pass of the S-path's tiles with dots.
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_spath(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
     write_coarse(wg, lid, spath_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), px.z));
 }
 
+// Coarse pass of the S-path's tiles that no dot reaches (the sphere's outline only; its own entry
+// point for the reason above); their hard pixels go to cs_fine_spath.
 @compute @workgroup_size(8, 8, 1)
 fn cs_coarse_spath_limb(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let px = coarse_pixel(wg, lid);
@@ -177,72 +196,28 @@ fn planar_fine_view(q: vec2<f32>, kind: u32) -> f32 {
 
 // The fine value of pass kind `kind` (a literal at each call) along `r`.
 fn planar_fine_ray(r: Ray, kind: u32) -> f32 {
-    if (kind == 4u) { return cells_fine(r, true); }
-    if (kind == 0u) { return cells_fine(r, false); }
+    if (kind == KIND_CODED) { return cells_fine(r, true); }
+    if (kind == KIND_CHESSBOARD) { return cells_fine(r, false); }
     return grid_fine(r);
 }
 
+// Fine pass of the sharp planar targets.
 @compute @workgroup_size(64, 1, 1)
-fn cs_fine_chessboard(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn cs_fine_planar(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), 0u);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), PLANAR_KIND);
 }
 
+// Fine pass of the planar targets with views.
 @compute @workgroup_size(64, 1, 1)
-fn cs_fine_dot_grid(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn cs_fine_planar_views(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), 1u);
+    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine_views(vec2<f32>(f32(it.x), f32(it.y)), PLANAR_KIND);
 }
 
+// Fine pass of the S-path (both of its coarse kinds).
 @compute @workgroup_size(64, 1, 1)
 fn cs_fine_spath(@builtin(global_invocation_id) gid: vec3<u32>) {
     let it = fine_item(gid);
     out_vals[gid.y * 65535u * 64u + gid.x] = spath_fine(pixel_ray(vec2<f32>(f32(it.x), f32(it.y))), it.z);
-}
-
-@compute @workgroup_size(8, 8, 1)
-fn cs_coarse_coded(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
-    let px = coarse_pixel(wg, lid);
-    uniform_view();
-    write_coarse(wg, lid, cells_coarse(pixel_ray(vec2<f32>(f32(px.x), f32(px.y))), true));
-}
-
-@compute @workgroup_size(64, 1, 1)
-fn cs_fine_coded(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine(vec2<f32>(f32(it.x), f32(it.y)), 4u);
-}
-
-// With views (defocus, motion): pass kinds 5, 6, 7 (chessboard, dot grid, coded boards).
-@compute @workgroup_size(8, 8, 1)
-fn cs_coarse_chessboard_views(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
-    write_coarse(wg, lid, planar_coarse_views(coarse_pixel(wg, lid), 0u));
-}
-
-@compute @workgroup_size(64, 1, 1)
-fn cs_fine_chessboard_views(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine_views(vec2<f32>(f32(it.x), f32(it.y)), 0u);
-}
-
-@compute @workgroup_size(8, 8, 1)
-fn cs_coarse_dot_grid_views(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
-    write_coarse(wg, lid, planar_coarse_views(coarse_pixel(wg, lid), 1u));
-}
-
-@compute @workgroup_size(64, 1, 1)
-fn cs_fine_dot_grid_views(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine_views(vec2<f32>(f32(it.x), f32(it.y)), 1u);
-}
-
-@compute @workgroup_size(8, 8, 1)
-fn cs_coarse_coded_views(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
-    write_coarse(wg, lid, planar_coarse_views(coarse_pixel(wg, lid), 4u));
-}
-
-@compute @workgroup_size(64, 1, 1)
-fn cs_fine_coded_views(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let it = fine_item(gid);
-    out_vals[gid.y * 65535u * 64u + gid.x] = planar_fine_views(vec2<f32>(f32(it.x), f32(it.y)), 4u);
 }

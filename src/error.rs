@@ -50,11 +50,11 @@ pub enum Error {
     /// The course's hand-eye experiment.
     #[cfg(feature = "render")]
     #[error(transparent)]
-    HandEyeRun(#[from] crate::sim::handeye_run::HandEyeRunError),
+    HandEyeRun(#[from] crate::course::handeye_run::HandEyeRunError),
     /// The course's servo loop.
     #[cfg(feature = "render")]
     #[error(transparent)]
-    ServoRun(#[from] crate::sim::servo_run::ServoRunError),
+    ServoRun(#[from] crate::course::servo_run::ServoRunError),
     /// Dataset specs.
     #[cfg(feature = "render")]
     #[error(transparent)]

@@ -61,6 +61,8 @@
 
 // The layers, one crate each (ARCHITECTURE.md), re-exported under their module names.
 pub use synthcam_core::{camera, math, mesh, robot, target};
+#[cfg(feature = "render")]
+pub use synthcam_course as course;
 pub use synthcam_detect as detect;
 pub use synthcam_geometry::{calib, handeye, pnp, servo};
 #[cfg(feature = "render")]

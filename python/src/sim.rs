@@ -50,7 +50,7 @@ struct Info {
 fn scenario_text(name_or_text: &str) -> String {
     match name_or_text {
         "ur5e_chessboard" => synthcam::sim::UR5E_CHESSBOARD.to_owned(),
-        "course" => synthcam::sim::COURSE.to_owned(),
+        "course" => synthcam::course::SCENARIO.to_owned(),
         other => other.to_owned(),
     }
 }

@@ -94,7 +94,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         time_scene(&renderer, name, scene, args.frames)?;
     }
     if let Some(steps) = args.servo_steps {
-        use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
+        use synthcam::course::servo_run::{run_servo, HandEyeSource, ServoOptions, ServoScenario};
+        use synthcam::sim::controller::Law;
         let mut o = ServoOptions::new(Law::Ibvs);
         o.max_steps = steps;
         o.stop = None;

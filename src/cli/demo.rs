@@ -8,6 +8,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use nalgebra::Point2;
+use synthcam::course::servo_run::{run_servo, ServoOptions, ServoScenario};
 use synthcam::dataset::{encode_png, write_image_and_truth};
 use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
@@ -15,8 +16,8 @@ use synthcam::render::Renderer;
 use synthcam::report::doc::{Document, Table};
 use synthcam::scene::file::parse_scene;
 use synthcam::scene::truth::truth_labels;
-use synthcam::sim::handeye_run::ObservationKind;
-use synthcam::sim::servo_run::{run_servo, Law, ServoOptions, ServoScenario};
+use synthcam::sim::controller::Law;
+use synthcam::sim::sensor::ObservationKind;
 use synthcam::target::Target;
 
 /// Run the demo into `out`.
@@ -134,7 +135,7 @@ fn calibration(renderer: &Renderer, report: &mut Document) -> anyhow::Result<()>
 fn hand_eye(renderer: &Renderer, report: &mut Document) -> anyhow::Result<()> {
     // Hand-eye: the course's variant A, 5 views, rendered and detected S-path dots.
     let t0 = std::time::Instant::now();
-    let he = synthcam::sim::handeye_run::run_handeye(Some(renderer), synthcam::sim::handeye_run::ObservationKind::Rendered, &Default::default(), 5, 0)
+    let he = synthcam::course::handeye_run::run_handeye(Some(renderer), synthcam::sim::sensor::ObservationKind::Rendered, &Default::default(), 5, 0)
         .context("hand-eye experiment")?;
     let names = [
         "tool_from_cam (course linear)",

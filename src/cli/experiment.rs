@@ -5,12 +5,12 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use synthcam::calib::CalibModel;
+use synthcam::course::sweep::{run_sweep_with, SweepMode, SweepSetup};
 use synthcam::dataset::{encode_png, write_atomic};
 use synthcam::render::GreyImage;
 use synthcam::report::doc::Document;
 use synthcam::report::sweep::{csv, plot_png, table};
 use synthcam::sim::robustness::{Effect, RobustnessSetup, ViewImage};
-use synthcam::sim::sweep::{run_sweep_with, SweepMode, SweepSetup};
 
 /// Experiments.
 #[derive(Debug, clap::Subcommand)]

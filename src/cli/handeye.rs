@@ -5,9 +5,10 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use synthcam::course::handeye_run::{run_handeye, run_handeye_on};
 use synthcam::dataset::write_atomic;
 use synthcam::robot::Cell;
-use synthcam::sim::handeye_run::{run_handeye, run_handeye_on, ObservationKind};
+use synthcam::sim::sensor::ObservationKind;
 
 use super::scenario_file::ScenarioFile;
 

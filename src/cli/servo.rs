@@ -5,13 +5,14 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use synthcam::course::servo_run::{run_servo_on, HandEyeSource, ServoOptions, ServoScenario, ServoTrace};
 use synthcam::dataset::{encode_png, write_atomic};
 use synthcam::render::GreyImage;
 use synthcam::report::doc::Document;
 use synthcam::report::servo::{budget_table, contact_sheet, csv, error_png, path_png, singular_png, tracks_png};
-use synthcam::servo::{IbvsParams, InteractionFrom};
-use synthcam::sim::handeye_run::ObservationKind;
-use synthcam::sim::servo_run::{run_servo_on, HandEyeSource, Law, ServoOptions, ServoScenario, ServoTrace};
+use synthcam::servo::InteractionFrom;
+use synthcam::sim::controller::Law;
+use synthcam::sim::sensor::ObservationKind;
 use synthcam::sim::{RobotSpec, SimScenario};
 
 use super::scenario_file::ScenarioFile;
@@ -90,7 +91,7 @@ fn options(args: &ServoArgs, observation: ObservationKind) -> ServoOptions {
     o.observation = observation;
     o.seed = args.seed;
     if args.course {
-        o.ibvs = IbvsParams::course();
+        o.ibvs = synthcam::course::ibvs_params();
         o.max_steps = if law == Law::Pbvs { 30 } else { 200 };
         o.stop = None;
     }

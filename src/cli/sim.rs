@@ -9,9 +9,9 @@ use anyhow::Context;
 use synthcam::dataset::write_atomic;
 use synthcam::render::GreyImage;
 use synthcam::scene::Scene;
+use synthcam::sim::controller::Law;
 use synthcam::sim::open_run::{run_open, OpenRunOptions};
 use synthcam::sim::sensor::{Capture, IdealSensor, RenderedSensor, Sensor};
-use synthcam::sim::servo_run::Law;
 use synthcam::sim::{ScenarioSpec, Sim};
 
 /// Noise of the ideal projections, pixels (the course's).

@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 /// Every layer crate (`crates/<name>`, package `synthcam-<name>`), lowest first.
-const ORDER: [&str; 7] = ["core", "scene", "detect", "geometry", "render", "sim", "io"];
+const ORDER: [&str; 8] = ["core", "scene", "detect", "geometry", "render", "sim", "course", "io"];
 /// Crates (and the facade's `cli` / `main`) that may read or write files.
 const FILE_LAYERS: [&str; 3] = ["io", "cli", "main"];
 

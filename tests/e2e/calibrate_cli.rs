@@ -2,7 +2,7 @@
 
 use std::process::Command;
 
-use synthcam::sim::sweep::{run_sweep, SweepMode};
+use synthcam::course::sweep::{run_sweep, SweepMode};
 
 use crate::common::{bin, renderer};
 
@@ -77,7 +77,7 @@ fn calib_sweep_runs_in_both_modes() {
 fn calib_sweep_runs_with_any_lens_model() {
     use synthcam::calib::CalibModel;
     use synthcam::camera::{CameraModel, Fisheye, Lens};
-    use synthcam::sim::sweep::{run_sweep_with, SweepSetup};
+    use synthcam::course::sweep::{run_sweep_with, SweepSetup};
     // The course's poses through a fisheye lens of the course's focal length, its four
     // coefficients estimated with the intrinsics.
     let camera = CameraModel::pinhole(1280, 1024, 1500.0).with_lens(Lens::Fisheye(Fisheye { k: [0.3, -0.1, 0.0, 0.0] }));

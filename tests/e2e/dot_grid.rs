@@ -25,7 +25,7 @@ fn course_dot_grids_are_found_in_grid_order() {
             let rot = UnitQuaternion::from_axis_angle(&axis, rng.random_range(0.0..0.1 * std::f64::consts::PI));
             let t = Vector3::new(rng.random_range(-0.15..0.15), rng.random_range(-0.15..0.15), rng.random_range(3.0..6.0));
             let scene = Scene {
-                camera: CameraModel::course_default(),
+                camera: CameraModel::sxga_1500px(),
                 target: Target::DotGrid(grid),
                 cam_from_target: Isometry3::from_parts(Translation3::from(t), rot),
                 render: RenderSettings { noise_sigma: 1.0, seed: v, ..Default::default() },

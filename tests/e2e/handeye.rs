@@ -2,8 +2,9 @@
 //! Issue targets: tool_from_cam and base translation errors <= 1 mm, rotation (AX = XB solver)
 //! <= 0.05 degrees; median and worst over seeds.
 
+use synthcam::course::handeye_run::{run_handeye, HandEyeRunError};
 use synthcam::robot::Cell;
-use synthcam::sim::handeye_run::{run_handeye, HandEyeRunError, ObservationKind};
+use synthcam::sim::sensor::ObservationKind;
 
 use crate::common::renderer;
 

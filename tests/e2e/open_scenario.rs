@@ -127,9 +127,9 @@ fn sim_cli_runs_an_open_scenario_and_rejects_bad_input() {
 /// IBVS 0.049 px). Bounds about twice the measured figures.
 #[test]
 fn the_course_runs_as_an_open_scenario_with_the_course_figures() {
+    use synthcam::sim::controller::Law;
     use synthcam::sim::open_run::{run_open, OpenRunOptions};
-    use synthcam::sim::servo_run::Law;
-    let spec = ScenarioSpec::parse(synthcam::sim::COURSE).expect("course scenario parses");
+    let spec = ScenarioSpec::parse(synthcam::course::SCENARIO).expect("course scenario parses");
     let sc = spec.to_scenario().expect("valid");
     for law in [Law::Pbvs, Law::Ibvs] {
         let mut sim = sim(&spec, &sc);
@@ -149,7 +149,7 @@ fn the_course_runs_as_an_open_scenario_with_the_course_figures() {
         }
     }
     // Enforcing the IRB 1200's limits refuses the course's start (joint 3 at 3.5 rad > 70 deg).
-    let strict = ScenarioSpec::parse(&synthcam::sim::COURSE.replace("joint_limits = \"ignore\"", "")).expect("parses");
+    let strict = ScenarioSpec::parse(&synthcam::course::SCENARIO.replace("joint_limits = \"ignore\"", "")).expect("parses");
     let robot = strict.robot.build(&|_| Err("no files".into())).expect("robot");
     let err = Sim::new(strict.to_scenario().expect("valid"), robot, Box::new(IdealSensor::new(0.1, 0).expect("sensor"))).expect_err("start out of limits");
     assert!(err.to_string().contains("joint 2"), "{err}");
@@ -160,8 +160,8 @@ fn the_course_runs_as_an_open_scenario_with_the_course_figures() {
 /// (`assets/scenarios/ur5e_charuco.toml`, `ur5e_aprilgrid.toml`).
 #[test]
 fn coded_boards_run_hand_eye_and_pbvs_by_id() {
+    use synthcam::sim::controller::Law;
     use synthcam::sim::open_run::{run_open, OpenRunOptions};
-    use synthcam::sim::servo_run::Law;
     let scenarios =
         [("charuco", include_str!("../../assets/scenarios/ur5e_charuco.toml")), ("aprilgrid", include_str!("../../assets/scenarios/ur5e_aprilgrid.toml"))];
     for (name, text) in scenarios {

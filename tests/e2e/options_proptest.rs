@@ -3,14 +3,15 @@
 
 use image::GrayImage;
 use proptest::prelude::*;
+use synthcam::course::servo_run::{run_servo, HandEyeSource, ServoOptions, ServoScenario};
+use synthcam::course::sweep::run_sweep;
+use synthcam::course::sweep::SweepMode;
 use synthcam::dataset::generate::Shard;
 use synthcam::report::servo::{budget_table, contact_sheet, csv, error_png};
 use synthcam::report::sweep::plot_png;
+use synthcam::sim::controller::Law;
 use synthcam::sim::open_run::{run_open, OpenRunOptions};
 use synthcam::sim::sensor::IdealSensor;
-use synthcam::sim::servo_run::{run_servo, HandEyeSource, Law, ServoOptions, ServoScenario};
-use synthcam::sim::sweep::run_sweep;
-use synthcam::sim::sweep::SweepMode;
 use synthcam::sim::{ScenarioSpec, Sim};
 
 fn odd_f64() -> impl Strategy<Value = f64> {
@@ -29,7 +30,7 @@ proptest! {
     #[test]
     fn servo_options_never_panic(stall in 0usize..4, steps in 0usize..4, noise in odd_f64(), min_dots in 0usize..200, singular in odd_f64(), ibvs in any::<bool>()) {
         let mut o = ServoOptions::new(if ibvs { Law::Ibvs } else { Law::Pbvs });
-        o.observation = synthcam::sim::handeye_run::ObservationKind::Ideal;
+        o.observation = synthcam::sim::sensor::ObservationKind::Ideal;
         o.handeye = HandEyeSource::Truth;
         (o.stall_window, o.max_steps, o.ideal_noise_px, o.min_dots, o.singular_stop) = (stall, steps, noise, min_dots, singular);
         if let Ok(t) = run_servo(None, &ServoScenario::default(), &o, &mut |_, _| {}) {

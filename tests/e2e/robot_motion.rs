@@ -45,7 +45,7 @@ fn scenes_and_s_path_scenarios_refuse_follow_robot() {
     let scene = format!("{}\n[motion]\nfollow_robot = true\n", include_str!("../../assets/scenes/chessboard_k1.toml"));
     let err = synthcam::scene::file::parse_scene(&scene).expect_err("scene").to_string();
     assert!(err.contains("motion.follow_robot"), "{err}");
-    let course = format!("{}\n[motion]\nfollow_robot = true\nexposure_s = 0.01\n", synthcam::sim::COURSE);
+    let course = format!("{}\n[motion]\nfollow_robot = true\nexposure_s = 0.01\n", synthcam::course::SCENARIO);
     let err = ScenarioSpec::parse(&course).expect("parses").to_scenario().expect_err("S-path").to_string();
     assert!(err.contains("S-path"), "{err}");
 }

@@ -5,8 +5,9 @@
 
 use std::process::Command;
 
-use synthcam::sim::handeye_run::ObservationKind;
-use synthcam::sim::servo_run::{run_servo, Law, ServoOptions, ServoScenario, ServoStatus, ServoTrace};
+use synthcam::course::servo_run::{run_servo, ServoOptions, ServoScenario, ServoStatus, ServoTrace};
+use synthcam::sim::controller::Law;
+use synthcam::sim::sensor::ObservationKind;
 
 use crate::common::{bin, renderer};
 
@@ -25,7 +26,7 @@ fn run(law: Law, observation: ObservationKind) -> ServoTrace {
         s.pose_error_deg,
         s.pixel_rms_px,
         s.pixel_max_px,
-        t.steps.iter().filter(|s| s.source == synthcam::sim::servo_run::Source::Fallback).count(),
+        t.steps.iter().filter(|s| s.source == synthcam::course::servo_run::Source::Fallback).count(),
         t.loop_s
     );
     t
@@ -62,7 +63,7 @@ fn the_course_constant_gain_law_passes_the_shoulder_singularity_and_loses_the_ta
     // shoulder singularity at step ~20 and loses the S; the default damping (100 px^2) does not.
     let mut o = ServoOptions::new(Law::Ibvs);
     o.observation = ObservationKind::Ideal;
-    o.ibvs = synthcam::servo::IbvsParams::course();
+    o.ibvs = synthcam::course::ibvs_params();
     o.max_steps = 200;
     let t = run_servo(None, &ServoScenario::default(), &o, &mut |_, _| {}).expect("run");
     assert_eq!(t.status, ServoStatus::Stalled);

@@ -12,8 +12,8 @@ use super::dots::{find_dots, DotParams};
 use super::grid_order::order_grid;
 use super::s_path_fit::{index_s_path, path_residuals, unmeasured, PathResidual, SPathFitParams};
 use super::{DetectError, ImageF32, ImageU8};
-use synthcam_core::target::s_path::{build_s_path, course_planar_s};
-use synthcam_core::target::{course_s_path, AprilGrid, Charuco, Dictionary, SPath};
+use synthcam_core::target::s_path::{build_s_path, planar_s};
+use synthcam_core::target::{spherical_s, AprilGrid, Charuco, Dictionary, SPath};
 
 /// What to look for.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -255,7 +255,7 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
         }
         TargetSpec::SPath { points } => {
             let dots = find_dots(img, &DotParams::default())?;
-            let Some(path) = course_path(points) else {
+            let Some(path) = spherical_path(points) else {
                 return Err(DetectError::BadParams { reason: "the S-path needs at least 2 points" });
             };
             match index_s_path(&dots, &path, &SPathFitParams::default()) {
@@ -284,16 +284,16 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
     }
 }
 
-/// The course's S on its sphere, resampled to `points` points (cached for the course's 101).
-fn course_path(points: usize) -> Option<std::borrow::Cow<'static, SPath>> {
-    static COURSE: std::sync::OnceLock<SPath> = std::sync::OnceLock::new();
-    let course = COURSE.get_or_init(course_s_path);
-    if points == course.len() {
-        return Some(std::borrow::Cow::Borrowed(course));
+/// The S on its sphere ([`spherical_s`]), resampled to `points` points (cached for its own 101).
+fn spherical_path(points: usize) -> Option<std::borrow::Cow<'static, SPath>> {
+    static PATH: std::sync::OnceLock<SPath> = std::sync::OnceLock::new();
+    let path = PATH.get_or_init(spherical_s);
+    if points == path.len() {
+        return Some(std::borrow::Cow::Borrowed(path));
     }
-    let planar = course_planar_s().ok()?;
+    let planar = planar_s().ok()?;
     let points_m = build_s_path(&planar, points).ok()?;
-    Some(std::borrow::Cow::Owned(SPath { points_m, ..course.clone() }))
+    Some(std::borrow::Cow::Owned(SPath { points_m, ..path.clone() }))
 }
 
 /// [`detect`] on 8-bit samples, with identical results: the chessboard detector works on them

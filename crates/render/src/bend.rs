@@ -101,6 +101,6 @@ mod tests {
         // The bend grows towards the edge: small at 20 degrees, past the tolerance at 139.
         assert!(bend_px(&cam, Point2::new(319.5 + 45.0, 255.5)).expect("ray") < 0.5 * BEND_TOLERANCE_PX);
         assert!(bend_px(&cam, Point2::new(607.0, 244.0)).expect("ray") > 2.0 * BEND_TOLERANCE_PX);
-        assert_eq!(split_radii(&CameraModel::course_default()), [f64::INFINITY; 2]);
+        assert_eq!(split_radii(&CameraModel::sxga_1500px()), [f64::INFINITY; 2]);
     }
 }

@@ -49,45 +49,89 @@ pub struct GpuScene {
     pub views: Vec<[f32; 4]>,
 }
 
-/// The chessboard's pass kind ([`pass_kind`]; the shader's `KIND_CHESSBOARD`).
-pub const CHESSBOARD_KIND: usize = 0;
-/// The S-path's pass kind ([`pass_kind`]).
-pub const SPATH_KIND: usize = 2;
-/// The pass kind of the S-path's tiles that no dot reaches (the sphere's outline only).
-pub const SPATH_LIMB_KIND: usize = 3;
-/// The pass kind of coded boards (ChArUco, AprilGrid): shaded on their cell lattice (the
-/// shader's `KIND_CODED`).
-pub const CODED_KIND: usize = 4;
-/// Number of pass kinds: the five above, the planar ones with views (chessboard, dot grid,
-/// coded boards: [`VIEWS_KIND`] + 0, 1, 2) and the objects' ([`OBJECTS_KIND`]).
-pub const PASS_KINDS: usize = 9;
-/// The pass kind of the objects (meshes), run after the target's (`shaders/objects.wgsl`).
-pub const OBJECTS_KIND: usize = 8;
-/// The first pass kind with views ([`scene_pass_kind`]).
-pub const VIEWS_KIND: usize = 5;
+/// The renderer's passes, one per target kind (and per planar kind with views, and the objects'):
+/// each runs a coarse / fine pair of the shader's entry points ([`PassKind::entry_points`]: sharp
+/// planar, planar with views, S-path with its dotless tiles' own coarse entry, objects), the kind
+/// set per pipeline through the shader's `PASS_KIND` override constant. The discriminants are the
+/// shader's numbers (`KIND_*` in `shaders/bindings.wgsl`, compared by `uniforms`' naga test).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PassKind {
+    /// Chessboards (`KIND_CHESSBOARD`).
+    Chessboard = 0,
+    /// Dot grids (`KIND_DOT_GRID`).
+    DotGrid = 1,
+    /// The S-path's tiles with dots (`KIND_SPATH`).
+    SPath = 2,
+    /// The S-path's tiles that no dot reaches: the sphere's outline only (`KIND_SPATH_LIMB`).
+    SPathLimb = 3,
+    /// Coded boards (ChArUco, AprilGrid), shaded on their cell lattice (`KIND_CODED`).
+    Coded = 4,
+    /// Chessboards integrated over views (defocus, motion; `KIND_CHESSBOARD_VIEWS`).
+    ChessboardViews = 5,
+    /// Dot grids over views (`KIND_DOT_GRID_VIEWS`).
+    DotGridViews = 6,
+    /// Coded boards over views (`KIND_CODED_VIEWS`).
+    CodedViews = 7,
+    /// The objects (meshes), run after the target's (`shaders/objects.wgsl`).
+    Objects = 8,
+}
 
-/// The pass kind of a target (the shader's `P.size.z`, a row of the renderer's entry points):
-/// chessboard 0, dot grid 1, S-path [`SPATH_KIND`], coded boards [`CODED_KIND`].
-pub fn pass_kind(target: &Target) -> usize {
+impl PassKind {
+    /// Number of pass kinds.
+    pub const COUNT: usize = 9;
+    /// Every pass kind, in discriminant order.
+    pub const ALL: [PassKind; Self::COUNT] = [
+        PassKind::Chessboard,
+        PassKind::DotGrid,
+        PassKind::SPath,
+        PassKind::SPathLimb,
+        PassKind::Coded,
+        PassKind::ChessboardViews,
+        PassKind::DotGridViews,
+        PassKind::CodedViews,
+        PassKind::Objects,
+    ];
+
+    /// The shader's entry points of this pass, coarse then fine.
+    pub fn entry_points(self) -> [&'static str; 2] {
+        match self {
+            PassKind::SPath => ["cs_coarse_spath", "cs_fine_spath"],
+            PassKind::SPathLimb => ["cs_coarse_spath_limb", "cs_fine_spath"],
+            PassKind::Objects => ["cs_coarse_objects", "cs_fine_objects"],
+            PassKind::ChessboardViews | PassKind::DotGridViews | PassKind::CodedViews => ["cs_coarse_planar_views", "cs_fine_planar_views"],
+            PassKind::Chessboard | PassKind::DotGrid | PassKind::Coded => ["cs_coarse_planar", "cs_fine_planar"],
+        }
+    }
+
+    /// The kind integrated over views (defocus, motion): planar kinds only, others unchanged.
+    pub fn with_views(self) -> Self {
+        match self {
+            PassKind::Chessboard => PassKind::ChessboardViews,
+            PassKind::DotGrid => PassKind::DotGridViews,
+            PassKind::Coded => PassKind::CodedViews,
+            k => k,
+        }
+    }
+}
+
+/// The pass kind of a target (also the shader's `P.size.z`).
+pub fn pass_kind(target: &Target) -> PassKind {
     match target {
-        Target::Chessboard(_) => CHESSBOARD_KIND,
-        Target::DotGrid(_) => 1,
-        Target::SPath(_) => SPATH_KIND,
-        Target::Charuco(_) | Target::AprilGrid(_) => CODED_KIND,
+        Target::Chessboard(_) => PassKind::Chessboard,
+        Target::DotGrid(_) => PassKind::DotGrid,
+        Target::SPath(_) => PassKind::SPath,
+        Target::Charuco(_) | Target::AprilGrid(_) => PassKind::Coded,
     }
 }
 
 /// The pass kind of a scene: [`pass_kind`], or for a planar target integrated over views
-/// (defocus, motion) its views kind (`VIEWS_KIND` + chessboard 0, dot grid 1, coded 2).
-pub fn scene_pass_kind(scene: &Scene) -> usize {
+/// (defocus, motion) its views kind ([`PassKind::with_views`]).
+pub fn scene_pass_kind(scene: &Scene) -> PassKind {
     let kind = pass_kind(&scene.target);
-    if !scene.render.effects.needs_views() {
-        return kind;
-    }
-    match kind {
-        0 | 1 => VIEWS_KIND + kind,
-        CODED_KIND => VIEWS_KIND + 2,
-        k => k,
+    if scene.render.effects.needs_views() {
+        kind.with_views()
+    } else {
+        kind
     }
 }
 

@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use super::buffers::{Buffers, STORAGE_DST};
-use super::gpu_scene::{GpuScene, OBJECTS_KIND, TILE_PX};
+use super::gpu_scene::{GpuScene, PassKind, TILE_PX};
 use super::objects::{instance_rows, object_params, MeshRows};
 use super::{RenderError, Renderer};
 use synthcam_scene::Scene;
@@ -50,7 +50,7 @@ impl Renderer {
             return Ok(());
         }
         let (w, h) = (gs.params.size[0] as usize, gs.params.size[1] as usize);
-        let (vals, classes) = self.run_pass(bufs, gs, OBJECTS_KIND, false, tiles)?;
+        let (vals, classes) = self.run_pass(bufs, gs, PassKind::Objects, false, tiles)?;
         // Per pixel of the image: its class and value (pixels outside the tiles see no object;
         // where no object is in front, the value is the target passes').
         let mut class = vec![0u32; w * h];
@@ -82,7 +82,7 @@ impl Renderer {
         fine.sort_by_key(|p| p >> 31);
         log::debug!("objects: {} tiles, {} fine pixels ({} on a grid)", tiles.len(), fine.len(), fine.iter().filter(|p| **p >> 31 == 1).count());
         if !fine.is_empty() {
-            let (vals, _) = self.run_pass(bufs, gs, OBJECTS_KIND, true, &fine)?;
+            let (vals, _) = self.run_pass(bufs, gs, PassKind::Objects, true, &fine)?;
             for (packed, v) in fine.iter().zip(vals) {
                 img[((packed >> 16) & 0x7fff) as usize * w + (packed & 0x7fff) as usize] = v;
             }

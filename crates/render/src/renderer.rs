@@ -10,27 +10,11 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
 use super::context::{BackendChoice, GpuContext};
-use super::gpu_scene::{
-    gpu_scene, lens_variant, scene_pass_kind, GpuScene, TileCornerRays, LENS_VARIANTS, OBJECTS_KIND, PASS_KINDS, SPATH_KIND, SPATH_LIMB_KIND, TILE_PX,
-};
+use super::gpu_scene::{gpu_scene, lens_variant, scene_pass_kind, GpuScene, PassKind, TileCornerRays, LENS_VARIANTS, TILE_PX};
 use super::shader::SHADER;
 use super::{GreyImage, RenderError};
 use synthcam_scene::Scene;
 
-/// Entry points, coarse then fine, per pass kind: chessboard, dot grid, S-path tiles with dots,
-/// S-path tiles without dots, coded boards (the cell lattice), then the planar kinds with views
-/// (defocus, motion: `gpu_scene::scene_pass_kind`).
-const ENTRY_POINTS: [[&str; 2]; PASS_KINDS] = [
-    ["cs_coarse_chessboard", "cs_fine_chessboard"],
-    ["cs_coarse_dot_grid", "cs_fine_dot_grid"],
-    ["cs_coarse_spath", "cs_fine_spath"],
-    ["cs_coarse_spath_limb", "cs_fine_spath"],
-    ["cs_coarse_coded", "cs_fine_coded"],
-    ["cs_coarse_chessboard_views", "cs_fine_chessboard_views"],
-    ["cs_coarse_dot_grid_views", "cs_fine_dot_grid_views"],
-    ["cs_coarse_coded_views", "cs_fine_coded_views"],
-    ["cs_coarse_objects", "cs_fine_objects"],
-];
 /// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
 const MAX_GROUPS_X: u64 = 65535;
 
@@ -44,7 +28,7 @@ pub struct Renderer {
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
     /// Per target kind, coarse / fine, lens variant (`gpu_scene::LENS_VARIANTS`).
-    pipelines: [[[OnceLock<wgpu::ComputePipeline>; LENS_VARIANTS.len()]; 2]; PASS_KINDS],
+    pipelines: [[[OnceLock<wgpu::ComputePipeline>; LENS_VARIANTS.len()]; 2]; PassKind::COUNT],
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     buffers: Mutex<Buffers>,
@@ -151,12 +135,12 @@ impl Renderer {
     }
 
     /// The pipeline of pass `kind` (coarse or fine) for lens `variant`, compiled on first use.
-    fn pipeline(&self, kind: usize, fine: bool, variant: usize) -> &wgpu::ComputePipeline {
-        self.pipelines[kind][usize::from(fine)][variant].get_or_init(|| {
-            let entry = ENTRY_POINTS[kind][usize::from(fine)];
+    fn pipeline(&self, kind: PassKind, fine: bool, variant: usize) -> &wgpu::ComputePipeline {
+        self.pipelines[kind as usize][usize::from(fine)][variant].get_or_init(|| {
+            let entry = kind.entry_points()[usize::from(fine)];
             let t0 = std::time::Instant::now();
             let (model, tilt) = LENS_VARIANTS[variant];
-            let constants = [("LENS_MODEL", model), ("LENS_TILT", f64::from(u8::from(tilt)))];
+            let constants = [("LENS_MODEL", model), ("LENS_TILT", f64::from(u8::from(tilt))), ("PASS_KIND", f64::from(kind as u32))];
             let p = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: Some(&self.pipeline_layout),
@@ -189,7 +173,7 @@ impl Renderer {
 
     /// One compute pass over `items` work items, then read back `vals` (f32) and, for coarse
     /// passes, the hard flags (u32).
-    pub(super) fn run_pass(&self, bufs: &mut Buffers, gs: &GpuScene, kind: usize, fine: bool, work: &[u32]) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
+    pub(super) fn run_pass(&self, bufs: &mut Buffers, gs: &GpuScene, kind: PassKind, fine: bool, work: &[u32]) -> Result<(Vec<f32>, Vec<u32>), RenderError> {
         let t0 = std::time::Instant::now();
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
@@ -254,7 +238,7 @@ impl Renderer {
         queue.submit([enc.finish()]);
         let n = if fine { work.len() } else { outputs as usize };
         let (v, h) = read_back(device, staging_vals, (!fine).then_some(staging_hard), out_bytes, n)?;
-        log::debug!("pass kind {kind} fine {fine}: {} items in {:.2} ms", work.len(), t0.elapsed().as_secs_f64() * 1e3);
+        log::debug!("pass kind {kind:?} fine {fine}: {} items in {:.2} ms", work.len(), t0.elapsed().as_secs_f64() * 1e3);
         Ok((v, h))
     }
 
@@ -277,10 +261,10 @@ impl Renderer {
     fn compile_ahead<'s>(&'s self, scope: &'s std::thread::Scope<'s, '_>, scene: &Scene) {
         let variant = lens_variant(&scene.camera.lens);
         let kind = scene_pass_kind(scene);
-        let limb = (kind == SPATH_KIND).then_some((SPATH_LIMB_KIND, false));
-        let objects = if scene.objects.is_empty() { Vec::new() } else { vec![(OBJECTS_KIND, false), (OBJECTS_KIND, true)] };
+        let limb = (kind == PassKind::SPath).then_some((PassKind::SPathLimb, false));
+        let objects = if scene.objects.is_empty() { Vec::new() } else { vec![(PassKind::Objects, false), (PassKind::Objects, true)] };
         for (kind, fine) in [(kind, false), (kind, true)].into_iter().chain(limb).chain(objects) {
-            if self.pipelines[kind][usize::from(fine)][variant].get().is_none() {
+            if self.pipelines[kind as usize][usize::from(fine)][variant].get().is_none() {
                 scope.spawn(move || {
                     self.pipeline(kind, fine, variant);
                 });
@@ -301,7 +285,7 @@ impl Renderer {
         let mut img = vec![0.0f32; w as usize * h as usize];
         let kind = scene_pass_kind(scene);
         // Work lists per pass kind: S-path tiles without dots get the cheaper limb-only pass.
-        let mut work: [Vec<u32>; PASS_KINDS] = Default::default();
+        let mut work: [Vec<u32>; PassKind::COUNT] = Default::default();
         for (t, v) in gs.tile_flat.iter().enumerate() {
             let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
             if *v >= 0.0 {
@@ -311,13 +295,13 @@ impl Renderer {
                 }
             } else {
                 let has_dots = gs.tile_start[t + 1] > gs.tile_start[t];
-                let k = if kind == SPATH_KIND && !has_dots { SPATH_LIMB_KIND } else { kind };
-                work[k].push(tx | (ty << 16));
+                let k = if kind == PassKind::SPath && !has_dots { PassKind::SPathLimb } else { kind };
+                work[k as usize].push(tx | (ty << 16));
             }
         }
         let mut fine_work = Vec::new();
         for (k, list) in work.iter().enumerate().filter(|(_, l)| !l.is_empty()) {
-            let (vals, hard) = self.run_pass(&mut bufs, &gs, k, false, list)?;
+            let (vals, hard) = self.run_pass(&mut bufs, &gs, PassKind::ALL[k], false, list)?;
             for (j, packed) in list.iter().enumerate() {
                 let (tx, ty) = (packed & 0xffff, packed >> 16);
                 for ly in 0..TILE_PX {

@@ -93,12 +93,40 @@ mod tests {
 
     #[test]
     fn shader_kinds_are_the_rust_ones() {
-        use crate::gpu_scene::{CHESSBOARD_KIND, CODED_KIND};
-        assert_eq!(wgsl_u32_const(SHADER, "KIND_CHESSBOARD"), Some(CHESSBOARD_KIND as u32));
-        assert_eq!(wgsl_u32_const(SHADER, "KIND_CODED"), Some(CODED_KIND as u32));
+        use crate::gpu_scene::PassKind;
+        let names = [
+            "KIND_CHESSBOARD",
+            "KIND_DOT_GRID",
+            "KIND_SPATH",
+            "KIND_SPATH_LIMB",
+            "KIND_CODED",
+            "KIND_CHESSBOARD_VIEWS",
+            "KIND_DOT_GRID_VIEWS",
+            "KIND_CODED_VIEWS",
+            "KIND_OBJECTS",
+        ];
+        for (kind, name) in PassKind::ALL.into_iter().zip(names) {
+            assert_eq!(wgsl_u32_const(SHADER, name), Some(kind as u32), "{name} vs PassKind::{kind:?}");
+        }
         // the check reads the shader: a changed value fails it
         let changed = SHADER.replacen("const KIND_CODED: u32 = 4u;", "const KIND_CODED: u32 = 5u;", 1);
-        assert_ne!(wgsl_u32_const(&changed, "KIND_CODED"), Some(CODED_KIND as u32));
+        assert_ne!(wgsl_u32_const(&changed, "KIND_CODED"), Some(PassKind::Coded as u32));
+    }
+
+    #[test]
+    fn every_pass_has_its_entry_points_in_the_shader() {
+        let module = wgpu::naga::front::wgsl::parse_str(SHADER).expect("the shader parses");
+        let names: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
+        for kind in crate::gpu_scene::PassKind::ALL {
+            for entry in kind.entry_points() {
+                assert!(names.contains(&entry), "{kind:?}: no entry point {entry} in {names:?}");
+            }
+        }
+        assert_eq!(
+            names.len(),
+            9,
+            "a coarse / fine pair per pass (planar, planar with views, S-path, objects) and the S-path's dotless tiles' coarse entry: {names:?}"
+        );
     }
 
     #[test]

@@ -10,7 +10,8 @@ use synthcam_core::target::{Chessboard, Target};
 /// Builds a [`Scene`].
 ///
 /// ```
-/// use synthcam::{camera::CameraModel, scene::{Facing, Scene}, target::Target};
+/// use synthcam_core::{camera::CameraModel, target::Target};
+/// use synthcam_scene::{Facing, Scene};
 /// let scene = Scene::builder()
 ///     .camera(CameraModel::pinhole(640, 480, 600.0).with_distortion([-0.2, 0.0, 0.0, 0.0, 0.0]))
 ///     .target(Target::chessboard(9, 7, 0.03))
@@ -18,7 +19,7 @@ use synthcam_core::target::{Chessboard, Target};
 ///     .noise(1.0)
 ///     .build()?;
 /// assert!(scene.camera.sees_all(&scene.cam_from_target, &scene.target.feature_points_m(), 0.0));
-/// # Ok::<(), synthcam::scene::SceneError>(())
+/// # Ok::<(), synthcam_scene::SceneError>(())
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneBuilder {

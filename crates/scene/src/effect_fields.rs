@@ -1,6 +1,6 @@
 //! Numeric fields of the render settings and camera effects by their scene-file names
 //! (`sensor.exposure_s`, `optics.f_number`, `motion.twist.3`, ...), so that a dataset spec can
-//! sample each from a range per image (`[ranges]`, [`synthcam_io::dataset`]).
+//! sample each from a range per image (`[ranges]`, `synthcam_io::dataset`).
 
 use super::{RenderSettings, SceneError};
 

@@ -15,14 +15,14 @@ use synthcam_core::target::Target;
 /// The `[facing]` table of a scene file and Python's `synthcam.facing(...)` are the same fields.
 ///
 /// ```
-/// use synthcam::scene::Facing;
-/// use synthcam::target::Target;
+/// use synthcam_scene::Facing;
+/// use synthcam_core::target::Target;
 /// let board = Target::chessboard(9, 7, 0.03);
 /// let pose = Facing { distance_m: 0.6, tilt_x_deg: 30.0, ..Facing::default() }.cam_from_target(&board)?;
 /// // the board's centre (4.5 and 3.5 squares from its corner) lies on the optical axis
 /// let centre = pose * nalgebra::Point3::new(0.135, 0.105, 0.0);
 /// assert!(centre.x.abs() < 1e-12 && centre.y.abs() < 1e-12 && (centre.z - 0.6).abs() < 1e-12);
-/// # Ok::<(), synthcam::scene::SceneError>(())
+/// # Ok::<(), synthcam_scene::SceneError>(())
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -18,7 +18,6 @@ pub mod facing;
 pub mod file;
 pub mod motion;
 pub mod objects;
-pub mod poses;
 pub mod reference;
 pub mod scanline;
 pub mod trace;

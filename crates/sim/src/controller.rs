@@ -8,7 +8,6 @@
 
 use nalgebra::{DVector, Isometry3, Point2, Point3};
 
-use super::handeye_run::PoseError;
 use super::observe::{pose_from_dots, pose_from_dots_cached, CentroidBias, Dots};
 use super::sensor::Feature;
 use super::world::{Observation, Sim};
@@ -300,4 +299,30 @@ pub fn run_loop(
 /// A joint vector as nalgebra's dynamic vector (for user laws written with nalgebra).
 pub fn dvector(q: &[f64]) -> DVector<f64> {
     DVector::from_column_slice(q)
+}
+
+/// The control law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Law {
+    /// Position-based: PnP pose, tool-pose error.
+    Pbvs,
+    /// Image-based: pixel error through the image Jacobian.
+    Ibvs,
+}
+
+/// Errors of one estimate against the truth.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct PoseError {
+    /// Translation error, millimetres.
+    pub mm: f64,
+    /// Rotation error, degrees.
+    pub deg: f64,
+}
+
+impl PoseError {
+    /// The error of `est` against `truth`: translation distance and rotation angle between them.
+    pub fn between(est: &Isometry3<f64>, truth: &Isometry3<f64>) -> Self {
+        PoseError { mm: 1e3 * (est.translation.vector - truth.translation.vector).norm(), deg: (est.rotation * truth.rotation.inverse()).angle().to_degrees() }
+    }
 }

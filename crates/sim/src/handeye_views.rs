@@ -29,7 +29,7 @@ pub struct HandEyeEstimate {
 
 /// How hand-eye views are drawn.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Draw {
+pub struct Draw {
     /// Views wanted.
     pub views: usize,
     /// Joints drawn uniformly within this of the current ones, radians.
@@ -43,7 +43,7 @@ pub(crate) struct Draw {
 }
 
 /// The drawn views.
-pub(crate) struct Views {
+pub struct Views {
     /// `base_from_tool` per view.
     pub base_from_tool: Vec<Isometry3<f64>>,
     /// `target_from_cam` per view, from PnP.
@@ -57,7 +57,8 @@ pub(crate) struct Views {
 }
 
 /// Why drawing views failed.
-pub(crate) enum DrawFailure {
+#[derive(Debug)]
+pub enum DrawFailure {
     /// Fewer than the views wanted in 400 draws per view (the draws made).
     Unreachable(usize),
     /// PnP failed on a view.
@@ -80,7 +81,7 @@ impl From<SimError> for DrawFailure {
 /// Visit configurations around the current joints until `draw.views` of them show the whole
 /// target (predicted from the scenario's layout) and have it detected; observe and solve PnP at
 /// each. The arm is returned to its joints when the draws run out and after the last view.
-pub(crate) fn draw_views(sim: &mut Sim<'_>, cell: &EyeInHand, draw: &Draw) -> Result<Views, DrawFailure> {
+pub fn draw_views(sim: &mut Sim<'_>, cell: &EyeInHand, draw: &Draw) -> Result<Views, DrawFailure> {
     let q0 = sim.joints().to_vec();
     let pts = sim.scenario().target.feature_points_m();
     let mut rng = ChaCha8Rng::seed_from_u64(draw.seed);

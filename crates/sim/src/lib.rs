@@ -2,16 +2,18 @@
 //! camera in a cell with a target, any camera, target and [`synthcam_core::robot::Robot`]), observed
 //! through a [`sensor::Sensor`] (the GPU renderer and detector, or ideal projections), driven by a
 //! [`controller::Controller`] (a user's, or synthcam's PBVS and IBVS), described by a scenario
-//! file ([`scenario`]). And the course's experiments: observing the S-path, the course's servo
-//! loop, the hand-eye experiment and the calibration sweep.
+//! file ([`scenario`]); observing a target ([`observe`]: render, detect, PnP with the S-path's
+//! bead correction), drawing hand-eye views ([`handeye_views`]), open-scenario runs ([`open_run`])
+//! and the robustness experiment ([`robustness`]). The course's own experiments build on this in
+//! `synthcam-course`.
 //!
-//! Pure of files: everything here returns values that [`synthcam_io::report`] formats and the CLI writes.
+//! Pure of files: everything here returns values that `synthcam_io::report` formats and the CLI writes.
 //!
 //! ```no_run
-//! use synthcam::render::Renderer;
-//! use synthcam::sim::{controller::{run_loop, EyeInHand, Pbvs}, sensor::RenderedSensor, ScenarioSpec, Sim};
+//! use synthcam_render::Renderer;
+//! use synthcam_sim::{controller::{run_loop, EyeInHand, Pbvs}, sensor::RenderedSensor, ScenarioSpec, Sim};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let spec = ScenarioSpec::parse(synthcam::sim::UR5E_CHESSBOARD)?;
+//! let spec = ScenarioSpec::parse(synthcam_sim::UR5E_CHESSBOARD)?;
 //! let scenario = spec.to_scenario()?;
 //! let robot = spec.robot.build(&|_| Err("no files".into()))?;
 //! let renderer = Renderer::headless()?;
@@ -27,15 +29,12 @@
 #![deny(missing_docs)]
 
 pub mod controller;
-pub mod handeye_run;
 pub mod handeye_views;
 pub mod observe;
 pub mod open_run;
 pub mod robustness;
 pub mod scenario;
 pub mod sensor;
-pub mod servo_run;
-pub mod sweep;
 pub mod world;
 
 pub use scenario::{JointLimits, RobotSpec, ScenarioSpec, SimScenario};
@@ -44,10 +43,6 @@ pub use world::{Observation, Sim};
 /// The worked non-course scenario: a UR5e, a 9 x 7-square chessboard, a 1920 x 1200 camera with
 /// f = 1100 px and k1 = -0.2 (`assets/scenarios/ur5e_chessboard.toml`).
 pub const UR5E_CHESSBOARD: &str = include_str!("../../../assets/scenarios/ur5e_chessboard.toml");
-
-/// The course's servoing cell in the open format: IRB 1200, hand-eye variant A, the S-path of
-/// beads, the course camera, the course's start and goal (`assets/scenarios/course_sim.toml`).
-pub const COURSE: &str = include_str!("../../../assets/scenarios/course_sim.toml");
 
 /// Errors of the simulator and its controllers.
 #[derive(Debug, thiserror::Error)]

@@ -2,9 +2,8 @@
 //! estimate, on a [`Sim`] (what `synthcam sim` does).
 
 use super::controller::{pixel_rms, run_loop, Controller, EyeInHand, Ibvs, LoopTrace, Pbvs};
-use super::handeye_run::PoseError;
+use super::controller::{Law, PoseError};
 use super::handeye_views::{estimate_hand_eye, HandEyeEstimate};
-use super::servo_run::Law;
 use super::world::Sim;
 use super::SimError;
 use synthcam_geometry::servo::{IbvsParams, PbvsParams};

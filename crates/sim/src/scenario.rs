@@ -238,23 +238,3 @@ impl ScenarioSpec {
         })
     }
 }
-
-/// The course's world as a [`SimScenario`]: the course camera, the S-path of beads (defined in
-/// the world frame, so `world_from_target` is the identity), render noise 1 grey level with
-/// 8 x 8 samples (render seeds from `seed`), the hand-eye truth of `cell`, and the course's
-/// convention of unchecked joint limits.
-pub fn course_world(cell: &synthcam_core::robot::Cell, q_start_rad: &[f64], goal_cam_from_target: Isometry3<f64>, seed: u64) -> SimScenario {
-    let (tool_from_cam, world_from_base) = cell.truth();
-    SimScenario {
-        camera: CameraModel::course_default(),
-        target: Target::SPath(synthcam_core::target::SPathDots::default()),
-        render: RenderSettings { noise_sigma: 1.0, samples: 8, seed, ..Default::default() },
-        world_from_base,
-        tool_from_cam,
-        world_from_target: Isometry3::identity(),
-        goal_cam_from_target,
-        q_start_rad: q_start_rad.to_vec(),
-        joint_limits: JointLimits::Ignore,
-        objects: Vec::new(),
-    }
-}

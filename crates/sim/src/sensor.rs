@@ -111,15 +111,23 @@ impl Sensor for IdealSensor {
 /// # Errors
 /// A rendered observation without a renderer, or a bad noise level.
 pub fn sensor_for(
-    observation: super::handeye_run::ObservationKind,
+    observation: ObservationKind,
     renderer: Option<&synthcam_render::Renderer>,
     noise_px: f64,
     seed: u64,
 ) -> Result<Box<dyn Sensor + '_>, SimError> {
-    use super::handeye_run::ObservationKind;
     match (observation, renderer) {
         (ObservationKind::Rendered, Some(r)) => Ok(Box::new(RenderedSensor { renderer: r })),
         (ObservationKind::Rendered, None) => Err(SimError::Scenario("a rendered observation needs a renderer".into())),
         (ObservationKind::Ideal, _) => Ok(Box::new(IdealSensor::new(noise_px, seed)?)),
     }
+}
+
+/// How the dots are observed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObservationKind {
+    /// Ideal projections plus N(0, 0.1^2) px noise (the course's method).
+    Ideal,
+    /// Rendered (noise 1 grey level) and detected.
+    Rendered,
 }

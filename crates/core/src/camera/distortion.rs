@@ -32,15 +32,15 @@ pub const MONOTONIC_SEARCH_RADIUS: f64 = 10.0;
 /// forms are this vector truncated (the missing values are 0).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Distortion {
-    /// Radial coefficient of r^2 (course k1).
+    /// Radial coefficient of r^2 (Bouguet k1).
     pub k1: f64,
-    /// Radial coefficient of r^4 (course k2).
+    /// Radial coefficient of r^4 (Bouguet k2).
     pub k2: f64,
-    /// First tangential coefficient (course k3).
+    /// First tangential coefficient (Bouguet k3).
     pub p1: f64,
-    /// Second tangential coefficient (course k4).
+    /// Second tangential coefficient (Bouguet k4).
     pub p2: f64,
-    /// Radial coefficient of r^6 (course k5).
+    /// Radial coefficient of r^6 (Bouguet k5).
     pub k3: f64,
     /// Rational model: denominator coefficient of r^2.
     pub k4: f64,

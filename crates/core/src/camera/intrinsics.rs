@@ -7,7 +7,7 @@
 
 use nalgebra::{Matrix3, Point2, Vector2};
 
-/// Pinhole intrinsics in pixels. `skew` is `K[0][1]` in pixels (course
+/// Pinhole intrinsics in pixels. `skew` is `K[0][1]` in pixels (Bouguet's
 /// `alpha` times `fx`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Intrinsics {

@@ -10,7 +10,7 @@
 //! | [`Lens::Fisheye`] | `k1 k2 k3 k4` | `cv::fisheye` | `pinhole-equi` | `equidistant` |
 //! | [`Lens::DoubleSphere`] | `xi alpha` | - | `ds-none` (`[xi, alpha, fu, fv, pu, pv]`) | - |
 //!
-//! The course's Bouguet `k1..k5` map to OpenCV's `k1, k2, p1, p2, k3` (see [`super`]).
+//! Bouguet's `k1..k5` map to OpenCV's `k1, k2, p1, p2, k3` (see [`super`]).
 
 use nalgebra::{Matrix2, SMatrix, Vector2, Vector3};
 

@@ -4,7 +4,7 @@
 //!
 //! Reference: Brown 1966 "Decentering distortion of lenses"; Conrady 1919;
 //! OpenCV calib3d docs "Camera Calibration and 3D Reconstruction"; Bouguet,
-//! "Camera Calibration Toolbox for Matlab" (parameter naming of the course).
+//! "Camera Calibration Toolbox for Matlab" (its parameter names, mapped below).
 //!
 //! # Conventions
 //! * Camera frame: x right, y down, z forward (optical axis).
@@ -19,18 +19,16 @@
 //!   `K = [[fx, skew, cx], [0, fy, cy], [0, 0, 1]]` with `skew = K[0][1]` in
 //!   pixels (Zhang / Hartley–Zisserman; OpenCV itself has no skew term).
 //!
-//! # Mapping to the course's (Bouguet) parameters
-//! | course                    | here                      |
+//! # Mapping to Bouguet's (Camera Calibration Toolbox for Matlab) parameters
+//! | Bouguet                   | here                      |
 //! |---------------------------|---------------------------|
 //! | `k1, k2, k5` (r^2, r^4, r^6 radial) | `k1, k2, k3`    |
 //! | `k3, k4` (tangential)     | `p1, p2`                  |
 //! | `alpha` (dimensionless skew, `alpha_c`) | `skew = alpha * fx` (so `K[0][1] = alpha fx`) |
 //! | `u0, v0`                  | `cx, cy`                  |
 //!
-//! The course writes `u = fx (xd + alpha yd) + u0`, which equals our
+//! Bouguet writes `u = fx (xd + alpha yd) + u0`, which equals our
 //! `u = fx xd + skew yd + cx` with `skew = alpha fx`.
-//! The course camera ([`CameraModel::course_default`]) is 1280 x 1024 pixels,
-//! `fx = fy = 1500`, `cx = 640`, `cy = 512`, no distortion and no skew.
 
 pub mod distortion;
 pub mod double_sphere;
@@ -168,7 +166,7 @@ impl CameraModel {
 
     /// A preset: an SXGA machine-vision camera, 1280 x 1024 pixels, `fx = fy = 1500`, the
     /// principal point at (640, 512), no distortion, no skew (the default camera of
-    /// [`synthcam_scene::Scene::builder`], and the course's).
+    /// `synthcam_scene::Scene::builder`).
     pub fn sxga_1500px() -> Self {
         Self {
             size: ImageSize { width: 1280, height: 1024 },
@@ -177,21 +175,11 @@ impl CameraModel {
         }
     }
 
-    /// The course camera ([`CameraModel::sxga_1500px`]).
-    pub fn course_default() -> Self {
-        Self::sxga_1500px()
-    }
-
-    /// The course camera ([`CameraModel::course_default`]).
-    pub fn course() -> Self {
-        Self::course_default()
-    }
-
     /// A pinhole camera of `width x height` pixels, focal length `f_px`, the principal point at
     /// the image centre ((W - 1) / 2, (H - 1) / 2 in OpenCV's convention), no distortion.
     ///
     /// ```
-    /// let cam = synthcam::camera::CameraModel::pinhole(1920, 1200, 1100.0).with_distortion([-0.2, 0.0, 0.0, 0.0, 0.0]);
+    /// let cam = synthcam_core::camera::CameraModel::pinhole(1920, 1200, 1100.0).with_distortion([-0.2, 0.0, 0.0, 0.0, 0.0]);
     /// assert_eq!(cam.intrinsics.cx, 959.5);
     /// assert!(cam.validate().is_ok());
     /// ```
@@ -211,7 +199,7 @@ impl CameraModel {
     /// The same camera with another lens.
     ///
     /// ```
-    /// use synthcam::camera::{CameraModel, Fisheye, Lens};
+    /// use synthcam_core::camera::{CameraModel, Fisheye, Lens};
     /// let cam = CameraModel::pinhole(1280, 1024, 400.0).with_lens(Lens::Fisheye(Fisheye { k: [0.05, -0.01, 0.0, 0.0] }));
     /// let q = cam.project(&nalgebra::Point3::new(1.0, 0.0, 1.0)); // 45 degrees off-axis
     /// assert!(q.visible() && (q.pixel_px.x - 639.5 - 400.0 * 0.806633).abs() < 1e-3);
@@ -242,8 +230,8 @@ mod tests {
     }
 
     #[test]
-    fn course_default_is_valid() {
-        let c = CameraModel::course_default();
+    fn sxga_1500px_is_valid() {
+        let c = CameraModel::sxga_1500px();
         assert_eq!(c.validate(), Ok(()));
         assert_eq!(c.size.width, 1280);
         assert_eq!(c.size.height, 1024);
@@ -252,15 +240,15 @@ mod tests {
 
     #[test]
     fn validate_names_the_field() {
-        let mut c = CameraModel::course_default();
+        let mut c = CameraModel::sxga_1500px();
         c.intrinsics.fy = -1.0;
         assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "intrinsics.fy", .. })));
-        let mut c = CameraModel::course_default();
+        let mut c = CameraModel::sxga_1500px();
         c.lens = Lens::OpenCv(Distortion { p2: f64::NAN, ..Distortion::default() });
         assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "p2", .. })));
         c.lens = Lens::DoubleSphere(DoubleSphere { xi: 0.5, alpha: 1.5 });
         assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "alpha", .. })));
-        let mut c = CameraModel::course_default();
+        let mut c = CameraModel::sxga_1500px();
         c.size.height = 0;
         assert!(matches!(c.validate(), Err(CameraError::InvalidParameter { field: "size.height", .. })));
         let msg = CameraError::InvalidParameter { field: "intrinsics.fx", reason: "must be > 0, got 0".into() }.to_string();

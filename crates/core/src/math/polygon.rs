@@ -1,6 +1,6 @@
 //! Exact areas of convex polygons clipped by axis-aligned rectangles and by discs (f64).
 //!
-//! The exact planar reference renderer ([`synthcam_scene::exact`]) measures how much of a pixel's
+//! The exact planar reference renderer (`synthcam_scene::exact`) measures how much of a pixel's
 //! footprint on the target plane falls in each square, plate and disc with these.
 //!
 //! - Clipping: Sutherland & Hodgman, "Reentrant polygon clipping", CACM 17(1), 1974 (one

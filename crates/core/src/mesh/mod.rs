@@ -10,8 +10,8 @@
 //! No file I/O here: [`obj::load_obj`] takes a `read` function (the CLI passes `std::fs::read`).
 //!
 //! ```
-//! use synthcam::mesh::{primitives::icosphere, MeshBvh};
-//! use synthcam::nalgebra::{Point3, Vector3};
+//! use synthcam_core::mesh::{primitives::icosphere, MeshBvh};
+//! use nalgebra::{Point3, Vector3};
 //!
 //! let sphere = icosphere(0.05, 8); // 1280 triangles, radius 5 cm
 //! let bvh = MeshBvh::build(&sphere);

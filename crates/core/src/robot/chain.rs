@@ -71,12 +71,12 @@ impl SerialChain {
     /// prismatic, or an axis is zero or not finite.
     ///
     /// ```
-    /// use synthcam::robot::{chain::UR5E_URDF, Robot, SerialChain};
+    /// use synthcam_core::robot::{chain::UR5E_URDF, Robot, SerialChain};
     /// let ur5e = SerialChain::from_urdf(UR5E_URDF, "base_link", "tool0")?;
     /// let tool = ur5e.base_from_tool(&[0.0; 6])?;
     /// // The published zero pose of the UR5e flange: (a2 + a3, -(d4 + d6), d1 - d5).
     /// assert!((tool.translation.vector - nalgebra::Vector3::new(-0.8172, -0.2329, 0.0628)).norm() < 1e-9);
-    /// # Ok::<(), synthcam::robot::RobotError>(())
+    /// # Ok::<(), synthcam_core::robot::RobotError>(())
     /// ```
     pub fn from_urdf(urdf: &str, base: &str, tip: &str) -> Result<Self, RobotError> {
         let robot = urdf_rs::read_from_string(urdf).map_err(|e| RobotError::Urdf(e.to_string()))?;

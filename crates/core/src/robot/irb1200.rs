@@ -119,7 +119,7 @@ mod tests {
     use nalgebra::DVector;
 
     #[test]
-    fn zero_pose_matches_the_course() {
+    fn zero_pose_matches_the_spec() {
         // course-scenario 1.5 / 3.9: q = 0 puts the tool at (0.533, 0, 0.8891) with R = I.
         let t = base_from_tool(&Joints::zeros());
         assert!((t.translation.vector - Vector3::new(0.533, 0.0, 0.8891)).norm() < 1e-12);
@@ -159,7 +159,7 @@ mod tests {
     }
 
     #[test]
-    fn course_variant_a_camera_pose_at_q0() {
+    fn variant_a_camera_pose_at_q0() {
         // course-scenario 3.9: variant A at q0 puts the camera at about (2.992, 0.063, 0.866).
         let q0 = Joints::from_row_slice(&[0.1, 1.6, 3.5, 3.0, 2.0, 0.0]);
         let world_from_base = Isometry3::from_parts(Translation3::new(2.5, 0.0, 0.0), UnitQuaternion::identity());

@@ -106,7 +106,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn course_grid_order_x_slow_y_fast() {
+    fn grid_order_x_slow_y_fast() {
         let g = DotGrid::default();
         let c = g.dot_centres_m();
         assert_eq!(c.len(), 9);

@@ -30,7 +30,7 @@ pub use chessboard::Chessboard;
 pub use dot_grid::DotGrid;
 pub use lattice::CellLattice;
 pub use look::BoardLook;
-pub use s_path::{course_s_path, SPath};
+pub use s_path::{spherical_s, SPath};
 pub use s_path_dots::{DotStyle, SPathDots};
 
 use nalgebra::Point3;
@@ -95,15 +95,15 @@ impl Target {
     /// half a square, dark 20 / light 235 grey levels).
     ///
     /// ```
-    /// let board = synthcam::target::Target::chessboard(9, 7, 0.04);
+    /// let board = synthcam_core::target::Target::chessboard(9, 7, 0.04);
     /// assert_eq!(board.feature_points_m().len(), 8 * 6);
     /// ```
     pub fn chessboard(cols: u32, rows: u32, square_m: f64) -> Self {
         Target::Chessboard(Chessboard { squares: [cols, rows], square_m, margin_m: 0.5 * square_m, ..Chessboard::default() })
     }
 
-    /// The course's S-path dot target.
-    pub fn course_s_path() -> Self {
+    /// The S-path dot target: the dots of [`spherical_s`] with their default look.
+    pub fn s_path() -> Self {
         Target::SPath(SPathDots::default())
     }
 

@@ -43,7 +43,7 @@ pub const SPHERE_RADIUS_M: f64 = 0.5;
 pub const PLANAR_CENTER: [f64; 2] = [1.869430, -0.017589];
 
 /// The planar S as embedded at compile time (`x,y` header, one point a row).
-pub const COURSE_PLANAR_S_CSV: &str = include_str!("../../../../assets/s_path/planar_s.csv");
+pub const PLANAR_S_CSV: &str = include_str!("../../../../assets/s_path/planar_s.csv");
 
 /// Errors from parsing planar data or building an S path.
 #[derive(Debug, thiserror::Error)]
@@ -138,18 +138,18 @@ impl SPath {
 /// The course's `pS`: 101 points on the sphere `c = (0, 0, 0.5)`, `r = 0.5`,
 /// built from the embedded planar S by [`build_s_path`].
 #[allow(clippy::expect_used)] // fixed compile-time data, see comment below
-pub fn course_s_path() -> SPath {
+pub fn spherical_s() -> SPath {
     // The input is compile-time data, and the unit test
     // `embedded_data_parses_and_builds` proves this cannot fail; a failure
     // here would be a build defect, not a runtime condition.
-    let points_m = course_planar_s().and_then(|planar| build_s_path(&planar, S_PATH_POINTS)).expect("embedded planar S data is valid (checked by unit test)");
+    let points_m = planar_s().and_then(|planar| build_s_path(&planar, S_PATH_POINTS)).expect("embedded planar S data is valid (checked by unit test)");
     SPath { points_m, sphere_center_m: Point3::from(SPHERE_CENTER_M), sphere_radius_m: SPHERE_RADIUS_M }
 }
 
 /// The embedded planar S (`Sls`, 101 points, unitless) parsed from
-/// [`COURSE_PLANAR_S_CSV`].
-pub fn course_planar_s() -> Result<Vec<Point2<f64>>, SPathError> {
-    parse_planar_csv(COURSE_PLANAR_S_CSV)
+/// [`PLANAR_S_CSV`].
+pub fn planar_s() -> Result<Vec<Point2<f64>>, SPathError> {
+    parse_planar_csv(PLANAR_S_CSV)
 }
 
 /// Parses `x,y` CSV text: an optional first header line `x,y`, then one

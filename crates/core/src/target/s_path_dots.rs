@@ -46,7 +46,7 @@ pub struct SPathDots {
 
 impl Default for SPathDots {
     fn default() -> Self {
-        Self { path: super::course_s_path(), style: DotStyle::Bead, dot_radius_m: 0.006, start_dot_radius_m: 0.010, dark: 20.0, light: 225.0, background: 90.0 }
+        Self { path: super::spherical_s(), style: DotStyle::Bead, dot_radius_m: 0.006, start_dot_radius_m: 0.010, dark: 20.0, light: 225.0, background: 90.0 }
     }
 }
 

@@ -2,11 +2,11 @@
 
 use super::*;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use synthcam_core::target::course_s_path;
+use synthcam_core::target::spherical_s;
 
 /// The course S-path seen from the course's desired pose (f = 1500 px, 1280 x 1024).
 fn projected() -> (SPath, Vec<Option<Point2<f64>>>) {
-    let path = course_s_path();
+    let path = spherical_s();
     let r = nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, 1.0, -1.0, 0.0, 0.0));
     let cam_from_world = Isometry3::from_parts(Translation3::new(0.0, -0.55, 1.8), UnitQuaternion::from_rotation_matrix(&r));
     let pts = path

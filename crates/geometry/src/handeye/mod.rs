@@ -4,8 +4,8 @@
 //! `base_from_tool_i` (forward kinematics) and PnP gives `cam_from_world_i`, and
 //! `world_from_base * base_from_tool_i * tool_from_cam * cam_from_world_i = I`.
 //!
-//! - [`course_linear`]: the course's least squares (course-scenario 1.7, 3.6) for the two
-//!   translations when the rotations `R_TC` and `R_0B = I` are known:
+//! - [`linear_known_rotations`]: linear least squares for the two translations when the
+//!   rotations `R_TC` and `R_0B` are known; with `R_0B = I`:
 //!   `[R_BT,i  I] [p_TC; p_0B] = p_0C,i - p_BT,i`.
 //! - [`park_martin`]: rotations unknown: AX = XB over all view pairs, with A = tool motion and
 //!   B = camera motion; rotation by Park-Martin's closed form (log-map correlation), then the
@@ -74,16 +74,7 @@ fn lstsq(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>, HandEyeErro
     svd.solve(b, 1e-12 * smax).map_err(|e| HandEyeError::Degenerate { reason: e.to_string() })
 }
 
-/// The course's linear solver: translations of `tool_from_cam` and `world_from_base` with the
-/// rotations `r_tool_cam` and `R_0B = I` known.
-///
-/// # Errors
-/// Fewer than 2 views, or views whose tool rotations do not separate the two translations.
-pub fn course_linear(base_from_tool: &[Isometry3<f64>], world_from_cam: &[Isometry3<f64>], r_tool_cam: &Matrix3<f64>) -> Result<HandEyeResult, HandEyeError> {
-    linear_known_rotations(base_from_tool, world_from_cam, r_tool_cam, &Matrix3::identity())
-}
-
-/// The course's linear solver for any known base rotation `r_world_base`: with
+/// The linear solver for any known base rotation `r_world_base`: with
 /// `world_from_cam_i = W B_i X`, `R_WB^T p_WC,i - p_B,i = R_B,i t_X + R_WB^T t_W` is linear in the
 /// two translations (stacked over the views, solved by least squares).
 ///
@@ -201,7 +192,7 @@ mod tests {
     fn both_solvers_recover_variant_a_exactly() {
         let (bt, wc, x, wb) = variant_a(5, 1);
         let r_tc = x.rotation.to_rotation_matrix().into_inner();
-        for r in [course_linear(&bt, &wc, &r_tc).unwrap(), park_martin(&bt, &wc).unwrap()] {
+        for r in [linear_known_rotations(&bt, &wc, &r_tc, &Matrix3::identity()).unwrap(), park_martin(&bt, &wc).unwrap()] {
             assert!((r.tool_from_cam.translation.vector - x.translation.vector).norm() < 1e-9);
             assert!((r.tool_from_cam.rotation * x.rotation.inverse()).angle() < 1e-9);
             assert!((r.world_from_base.translation.vector - wb.translation.vector).norm() < 1e-9);
@@ -222,8 +213,8 @@ mod tests {
         assert!((r.tool_from_cam.translation.vector - x.translation.vector).norm() < 1e-9);
         assert!((r.world_from_base.translation.vector - wb.translation.vector).norm() < 1e-9);
         assert!(r.residual_m.iter().all(|e| *e < 1e-9));
-        let course = course_linear(&bt, &wc, &r_tc).unwrap();
-        assert!((course.world_from_base.translation.vector - wb.translation.vector).norm() > 0.1);
+        let linear = linear_known_rotations(&bt, &wc, &r_tc, &Matrix3::identity()).unwrap();
+        assert!((linear.world_from_base.translation.vector - wb.translation.vector).norm() > 0.1);
     }
 
     #[test]
@@ -244,7 +235,7 @@ mod tests {
     fn degenerate_motions_are_rejected() {
         let (bt, wc, x, _) = variant_a(5, 3);
         assert!(matches!(park_martin(&bt[..2], &wc[..2]), Err(HandEyeError::TooFewViews { .. })));
-        assert!(matches!(course_linear(&bt[..1], &wc[..1], &Matrix3::identity()), Err(HandEyeError::TooFewViews { .. })));
+        assert!(matches!(linear_known_rotations(&bt[..1], &wc[..1], &Matrix3::identity(), &Matrix3::identity()), Err(HandEyeError::TooFewViews { .. })));
         // Rotations about one axis only (joint 1 alone).
         let wb = Isometry3::identity();
         let (mut b1, mut c1) = (Vec::new(), Vec::new());

@@ -112,15 +112,15 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
     use synthcam_core::robot::{base_from_tool, Joints};
-    use synthcam_core::target::course_s_path;
+    use synthcam_core::target::spherical_s;
 
     #[test]
     fn refinement_is_exact_on_ideal_data_and_independent_of_view_order() {
-        let cam = CameraModel::course_default();
+        let cam = CameraModel::sxga_1500px();
         let r_tc = nalgebra::Matrix3::from_columns(&[Vector3::y(), Vector3::z(), Vector3::x()]);
         let x = Isometry3::from_parts(Translation3::new(0.0, 0.0, 0.05), UnitQuaternion::from_matrix(&r_tc));
         let wb = Isometry3::from_parts(Translation3::new(2.5, 0.0, 0.0), UnitQuaternion::identity());
-        let pts = course_s_path().points_m;
+        let pts = spherical_s().points_m;
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let (mut bt, mut wc, mut obs) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..5 {

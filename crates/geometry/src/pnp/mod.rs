@@ -206,7 +206,7 @@ pub fn pnp_planar(camera: &CameraModel, points: &[Point3<f64>], pixels: &[Point2
 #[cfg(test)]
 mod tests {
     use super::*;
-    use synthcam_core::target::course_s_path;
+    use synthcam_core::target::spherical_s;
 
     fn desired_pose() -> Isometry3<f64> {
         // course-scenario 1.8: T_0C* = [(-ey, ez, -ex), (1.8, 0, 0.55)]; cam_from_target is its inverse.
@@ -216,9 +216,9 @@ mod tests {
 
     #[test]
     fn s_path_pose_is_recovered_exactly_from_ideal_projections() {
-        let cam = CameraModel::course_default().with_distortion([-0.1, 0.0, 0.0, 0.0, 0.0]);
+        let cam = CameraModel::sxga_1500px().with_distortion([-0.1, 0.0, 0.0, 0.0, 0.0]);
         let truth = desired_pose();
-        let pts = course_s_path().points_m;
+        let pts = spherical_s().points_m;
         let px: Vec<Point2<f64>> = pts.iter().map(|p| cam.project_unchecked(&(truth * p))).collect();
         let r = pnp_general(&cam, &pts, &px).unwrap();
         let dt = (r.cam_from_target.translation.vector - truth.translation.vector).norm();
@@ -228,7 +228,7 @@ mod tests {
 
     #[test]
     fn planar_pose_is_recovered_exactly() {
-        let cam = CameraModel::course_default();
+        let cam = CameraModel::sxga_1500px();
         let truth = Isometry3::from_parts(Translation3::new(0.05, -0.02, 1.2), UnitQuaternion::from_euler_angles(0.3, -0.2, 0.1));
         let pts: Vec<Point3<f64>> = (0..20).map(|i| Point3::new(f64::from(i % 5) * 0.05, f64::from(i / 5) * 0.05, 0.0)).collect();
         let px: Vec<Point2<f64>> = pts.iter().map(|p| cam.project_unchecked(&(truth * p))).collect();
@@ -239,7 +239,7 @@ mod tests {
 
     #[test]
     fn degenerate_input_is_a_typed_error() {
-        let cam = CameraModel::course_default();
+        let cam = CameraModel::sxga_1500px();
         let pts: Vec<Point3<f64>> = (0..10).map(|i| Point3::new(f64::from(i) * 0.1, f64::from(i % 3) * 0.1, 0.0)).collect();
         let px = vec![Point2::new(600.0, 500.0); 10];
         assert!(matches!(pnp_general(&cam, &pts, &px), Err(PnpError::Degenerate { .. })));
@@ -249,7 +249,7 @@ mod tests {
         bad[0].x = f64::NAN;
         assert!(pnp_planar(&cam, &pts, &bad).is_err());
         // Behind the camera: the S seen from a camera that faces away.
-        let s = course_s_path().points_m;
+        let s = spherical_s().points_m;
         let away = Isometry3::from_parts(Translation3::new(0.0, 0.0, -3.0), UnitQuaternion::identity());
         let pxs: Vec<Point2<f64>> = s
             .iter()

@@ -130,16 +130,14 @@ pub struct IbvsParams {
     pub interaction: InteractionFrom,
 }
 
-impl IbvsParams {
-    /// The course's law exactly.
-    pub fn course() -> Self {
-        Self { gain: Gain::Constant(0.03), singular_threshold: 0.1, damping: 0.1, interaction: InteractionFrom::Current }
-    }
-}
-
 impl Default for IbvsParams {
     fn default() -> Self {
-        Self { gain: Gain::Adaptive { at_zero: 0.3, at_infinity: 0.03, slope_at_zero: 0.03 }, damping: 100.0, ..Self::course() }
+        Self {
+            gain: Gain::Adaptive { at_zero: 0.3, at_infinity: 0.03, slope_at_zero: 0.03 },
+            damping: 100.0,
+            singular_threshold: 0.1,
+            interaction: InteractionFrom::Current,
+        }
     }
 }
 
@@ -250,7 +248,7 @@ mod tests {
     use super::*;
     use nalgebra::{Translation3, UnitQuaternion};
     use synthcam_core::math::numdiff::central_diff;
-    use synthcam_core::target::course_s_path;
+    use synthcam_core::target::spherical_s;
 
     fn variant_a() -> (Isometry3<f64>, Isometry3<f64>) {
         let r_tc = Matrix3::from_columns(&[Vector3::y(), Vector3::z(), Vector3::x()]);
@@ -262,9 +260,9 @@ mod tests {
 
     #[test]
     fn image_jacobian_matches_finite_differences() {
-        let cam = CameraModel::course_default();
+        let cam = CameraModel::sxga_1500px();
         let (wb, x) = variant_a();
-        let pts = course_s_path().points_m;
+        let pts = spherical_s().points_m;
         let q = Joints::from_row_slice(&[0.1, 1.6, 3.5 - std::f64::consts::TAU, 3.0, 2.0, 0.0]);
         let f = |v: &DVector<f64>| {
             let qq = Joints::from_column_slice(v.as_slice());
@@ -286,7 +284,7 @@ mod tests {
     }
 
     #[test]
-    fn pbvs_converges_in_the_noise_free_course_setting() {
+    fn pbvs_converges_in_the_noise_free_spec_setting() {
         // course-scenario 1.8 / 3.9: from q0, 30 steps of the PBVS law reduce the error ~190 x.
         let (wb, x) = variant_a();
         let goal_world_from_cam = Isometry3::from_parts(

@@ -87,7 +87,7 @@ fn board_pose(rng: &mut ChaCha8Rng, b: &BoardRanges, centre: &Vector3<f64>, fron
 fn draw_pose(rng: &mut ChaCha8Rng, plan: &DatasetPlan, centre: &Vector3<f64>) -> (Isometry3<f64>, Option<[f64; 6]>) {
     match &plan.mode {
         PoseMode::Board(b) => (board_pose(rng, b, centre, plan.target.front_from_target()), None),
-        PoseMode::Course => (synthcam_scene::poses::course_pose(rng) * Translation3::from(-centre), None),
+        PoseMode::Course => (synthcam_course::calibration_pose(rng) * Translation3::from(-centre), None),
         PoseMode::Robot(s) => {
             let spread = s.spread_rad;
             let q: [f64; 6] = std::array::from_fn(|i| s.q0_rad[i] + if spread > 0.0 { rng.random_range(-spread..spread) } else { 0.0 });

@@ -8,7 +8,7 @@ use plotters::prelude::*;
 use super::doc::Table;
 use super::plot::{clamp, colour, draw_on, figure, int_label, legend, lin_range, log_label, log_range, swatch, FONT};
 use super::ReportError;
-use synthcam_sim::servo_run::{ServoTrace, Source, StepRecord};
+use synthcam_course::servo_run::{ServoTrace, Source, StepRecord};
 
 /// One CSV row per step (features are in the JSON trace).
 pub fn csv(trace: &ServoTrace) -> String {

@@ -2,7 +2,7 @@
 
 use super::doc::Table;
 use super::ReportError;
-use synthcam_sim::sweep::{SweepMode, SweepRun};
+use synthcam_course::sweep::{SweepMode, SweepRun};
 
 /// Mean and standard deviation.
 fn mean_std(v: &[f64]) -> (f64, f64) {

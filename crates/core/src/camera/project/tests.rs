@@ -36,7 +36,7 @@ fn dq_dp_cam_matches_central_diff() {
     // ~ 2e-7 px/m and truncation ~1e-9. Entries are ~1e2..1e3, so a
     // relative tolerance of 1e-7 (~1e-4 absolute) is well above noise and
     // below any wrong term (e.g. skew 0.5 * dyd/dz ~ 0.1).
-    for cam in [strong_cam(), CameraModel::course_default()] {
+    for cam in [strong_cam(), CameraModel::sxga_1500px()] {
         for p in POINTS {
             let pt = Point3::new(p[0], p[1], p[2]);
             let a = cam.dq_dp_cam(&pt);
@@ -114,10 +114,10 @@ fn opencv_project_points_hand_computed() {
 }
 
 #[test]
-fn course_camera_known_point() {
+fn sxga_camera_known_point() {
     // u = 1500 * 0.1/1.5 + 640 = 740, v = 1500 * (-0.05/1.5) + 512 = 462.
     // Rounding only (~1e-13 px).
-    let cam = CameraModel::course_default();
+    let cam = CameraModel::sxga_1500px();
     let pr = cam.project(&Point3::new(0.1, -0.05, 1.5));
     assert!((pr.pixel_px.x - 740.0).abs() < 1e-9);
     assert!((pr.pixel_px.y - 462.0).abs() < 1e-9);
@@ -151,7 +151,7 @@ fn beyond_fold_is_not_in_image() {
     // Course camera with k1 = -0.6: fold at r = 0.745; a point at r = 1.0
     // maps back to distorted radius 0.4 (inside the image) but must not
     // be reported visible.
-    let mut cam = CameraModel::course_default();
+    let mut cam = CameraModel::sxga_1500px();
     cam.lens = Lens::OpenCv(Distortion { k1: -0.6, ..Distortion::default() });
     let pr = cam.project(&Point3::new(1.0, 0.0, 1.0));
     assert!(cam.size.contains_px(&pr.pixel_px));
@@ -197,7 +197,7 @@ fn undistort_round_trip_whole_image_strong() {
 
 #[test]
 fn undistort_round_trip_whole_image_course_k1() {
-    let cam = CameraModel::course_default().with_distortion([-0.25, 0.0, 0.0, 0.0, 0.0]);
+    let cam = CameraModel::sxga_1500px().with_distortion([-0.25, 0.0, 0.0, 0.0, 0.0]);
     image_grid_round_trip(&cam, 8.0);
 }
 

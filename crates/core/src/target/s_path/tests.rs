@@ -16,7 +16,7 @@ const TOL_END: f64 = 1e-6;
 
 #[test]
 fn embedded_data_parses_and_builds() {
-    let planar = course_planar_s().expect("embedded CSV parses");
+    let planar = planar_s().expect("embedded CSV parses");
     assert_eq!(planar.len(), 101);
     assert_eq!(planar[0], Point2::new(1.0, -1.0));
     assert_eq!(planar[100], Point2::new(2.56, 1.06));
@@ -29,7 +29,7 @@ fn planar_s_matches_spec_summary() {
     // §1.4: x ∈ [0.935, 2.842], y ∈ [−1.025, 1.072], polyline length 6.299,
     // mean (1.869430, −0.017589). All stated to 3 decimals (6 for the mean;
     // the 4-decimal transcription moves the mean by ≤ 5e-5, measured 1.1e-6).
-    let p = course_planar_s().expect("embedded CSV parses");
+    let p = planar_s().expect("embedded CSV parses");
     let (mut xmin, mut xmax, mut ymin, mut ymax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for q in &p {
         xmin = xmin.min(q.x);
@@ -48,8 +48,8 @@ fn planar_s_matches_spec_summary() {
 }
 
 #[test]
-fn first_and_last_points_match_course() {
-    let s = course_s_path();
+fn first_and_last_points_match_the_spec() {
+    let s = spherical_s();
     assert_eq!(s.len(), S_PATH_POINTS);
     for j in 0..3 {
         assert_relative_eq!(s.points_m[0][j], FIRST[j], epsilon = TOL_END);
@@ -58,25 +58,25 @@ fn first_and_last_points_match_course() {
 }
 
 #[test]
-fn mapped_path_length_matches_course() {
+fn mapped_path_length_matches_the_spec() {
     // l_f is the chord length of the 101 mapped points before resampling.
     // Our planar input is the 4-decimal inline copy of Sls (±5e-5 per
     // coordinate, ≤ 3.6e-5 m on the sphere after ×0.5 and the projection,
     // whose Jacobian norm is ≤ 1). Rounding noise lengthens a polyline
     // slightly; measured l_f = 2.5744827 (+1.6e-5 m, 6e-6 relative), so
     // 5e-5 m bounds it with 3× margin.
-    let planar = course_planar_s().expect("embedded CSV parses");
+    let planar = planar_s().expect("embedded CSV parses");
     let mapped: Vec<_> = planar.iter().map(planar_to_sphere).collect();
     assert_relative_eq!(polyline_length_m(&mapped), L_F, epsilon = 5e-5);
 }
 
 #[test]
-fn spacing_matches_course() {
+fn spacing_matches_the_spec() {
     // Course: chord spacing 0.025685–0.025751 m, mean 0.025745 (6 decimals).
     // Measured: min 0.0256861, max 0.0257513, mean 0.0257438 (errors
     // 1.1e-6, 2.8e-7, 1.2e-6; the mean is l_resampled/100 and inherits the
     // input rounding, see the l_f test). 5e-6 m gives ≥ 4× margin.
-    let s = course_s_path();
+    let s = spherical_s();
     let d: Vec<f64> = s.points_m.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
     let min = d.iter().copied().fold(f64::MAX, f64::min);
     let max = d.iter().copied().fold(f64::MIN, f64::max);
@@ -96,11 +96,11 @@ fn all_points_on_sphere() {
     // round-off), resampled points to the spline error (measured max
     // 3.3e-7 m; bound 1e-6 m).
     let c = Point3::from(SPHERE_CENTER_M);
-    let planar = course_planar_s().expect("embedded CSV parses");
+    let planar = planar_s().expect("embedded CSV parses");
     for p in planar.iter().map(planar_to_sphere) {
         assert!(((p - c).norm() - SPHERE_RADIUS_M).abs() < 1e-12);
     }
-    let s = course_s_path();
+    let s = spherical_s();
     for (i, p) in s.points_m.iter().enumerate() {
         let e = ((p - c).norm() - SPHERE_RADIUS_M).abs();
         assert!(e < 1e-6, "point {i} off sphere by {e}");
@@ -108,11 +108,11 @@ fn all_points_on_sphere() {
 }
 
 #[test]
-fn bounding_box_matches_course() {
+fn bounding_box_matches_the_spec() {
     // Course bbox given to 4 decimals (±5e-5); interior points also carry
     // the 4-decimal input rounding (≤ 3.6e-5 m). Measured worst 1.2e-5
     // (x max 0.499412 vs 0.4994). 1e-4 m covers both contributions.
-    let s = course_s_path();
+    let s = spherical_s();
     let lo = |j: usize| s.points_m.iter().map(|p| p[j]).fold(f64::MAX, f64::min);
     let hi = |j: usize| s.points_m.iter().map(|p| p[j]).fold(f64::MIN, f64::max);
     let tol = 1e-4;
@@ -131,7 +131,7 @@ fn pipeline_matches_scipy_reference() {
     // norms, lk = arange(101)*l[-1]/100, CubicSpline(l, P[:, j]) (default
     // bc_type='not-a-knot'). Over all 101 points the max difference was
     // 1.1e-16; here three points are pinned to 1e-13 (round-off only).
-    let s = course_s_path();
+    let s = spherical_s();
     let want: [(usize, [f64; 3]); 3] = [
         (13, [0.30183846633281747, 0.0027659897876157057, 0.10139507388416846]),
         (50, [0.4957229507673621, 0.06384011885514905, 0.5135342540475754]),
@@ -144,7 +144,7 @@ fn pipeline_matches_scipy_reference() {
 
 #[test]
 fn normals_are_outward_unit() {
-    let s = course_s_path();
+    let s = spherical_s();
     for i in 0..s.len() {
         let n = s.normal_at(i);
         assert_relative_eq!(n.norm(), 1.0, epsilon = 1e-12);

@@ -16,11 +16,11 @@ use super::ros2_msgs::FrameTransform;
 use super::{write_atomic_with, FormatError};
 use crate::dataset::spec::PoseMode;
 use synthcam_core::robot::{base_from_tool, Joints, Robot};
+use synthcam_course::servo_run::ServoTrace;
 use synthcam_render::GreyImage;
 use synthcam_scene::file::CameraSpec;
 use synthcam_scene::truth::PoseLabel;
 use synthcam_sim::controller::LoopTrace;
-use synthcam_sim::servo_run::ServoTrace;
 use synthcam_sim::SimScenario;
 
 /// Default time between frames: 100 ms (10 Hz).

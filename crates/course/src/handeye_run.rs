@@ -7,40 +7,17 @@
 
 use nalgebra::Isometry3;
 
-use super::controller::EyeInHand;
+use super::controller::{EyeInHand, PoseError};
 use super::handeye_views::{draw_views, Draw, DrawFailure, Views};
-use super::scenario::{course_world, SimScenario};
+use super::scenario::SimScenario;
 use super::sensor::sensor_for;
+use super::sensor::ObservationKind;
 use super::{Sim, SimError};
+use crate::world;
 use synthcam_core::robot::{Cell, Irb1200, Robot};
 use synthcam_geometry::handeye::refine::{refine_joint, JointRefinement};
 use synthcam_geometry::handeye::{linear_known_rotations, park_martin, HandEyeResult};
 use synthcam_render::Renderer;
-
-/// How the dots are observed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ObservationKind {
-    /// Ideal projections plus N(0, 0.1^2) px noise (the course's method).
-    Ideal,
-    /// Rendered (noise 1 grey level) and detected.
-    Rendered,
-}
-
-/// Errors of one estimate against the truth.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct PoseError {
-    /// Translation error, millimetres.
-    pub mm: f64,
-    /// Rotation error, degrees.
-    pub deg: f64,
-}
-
-impl PoseError {
-    /// The error of `est` against `truth`: translation distance and rotation angle between them.
-    pub fn between(est: &Isometry3<f64>, truth: &Isometry3<f64>) -> Self {
-        PoseError { mm: 1e3 * (est.translation.vector - truth.translation.vector).norm(), deg: (est.rotation * truth.rotation.inverse()).angle().to_degrees() }
-    }
-}
 
 /// Result of one hand-eye run.
 #[derive(Debug, Clone, PartialEq)]
@@ -89,7 +66,7 @@ pub enum HandEyeRunError {
 /// # Errors
 /// Unreachable scenario, failed detection or PnP, degenerate motions.
 pub fn run_handeye(renderer: Option<&Renderer>, obs: ObservationKind, scenario: &Cell, views: usize, seed: u64) -> Result<HandEyeRun, HandEyeRunError> {
-    let sc = course_world(scenario, &scenario.q0_rad, Isometry3::identity(), seed);
+    let sc = world(scenario, &scenario.q0_rad, Isometry3::identity(), seed);
     run_handeye_on(renderer, obs, sc, Box::new(Irb1200), views, scenario.spread_rad, seed)
 }
 

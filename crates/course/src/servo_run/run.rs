@@ -9,11 +9,11 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::trace::{ServoStatus, ServoTrace, Source, StepRecord};
-use super::{HandEyeSource, Law, ServoOptions, ServoRunError};
-use crate::controller::EyeInHand;
-use crate::handeye_run::{ObservationKind, PoseError};
+use super::{HandEyeSource, ServoOptions, ServoRunError};
+use crate::controller::{EyeInHand, Law, PoseError};
 use crate::handeye_views::estimate_hand_eye;
 use crate::observe::CentroidBias;
+use crate::sensor::ObservationKind;
 use crate::{Sim, SimError};
 use synthcam_geometry::servo::{cam_twist_jacobian_of, ibvs_increment, interaction_matrix, joint_image_jacobian, pbvs_error, pbvs_increment, InteractionFrom};
 use synthcam_render::GreyImage;

@@ -18,10 +18,13 @@
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
-use super::handeye_run::{HandEyeRunError, ObservationKind};
-use super::scenario::{course_world, SimScenario};
+use super::handeye_run::HandEyeRunError;
+use super::scenario::SimScenario;
 use super::sensor::sensor_for;
 use super::{Sim, SimError};
+use crate::controller::Law;
+use crate::sensor::ObservationKind;
+use crate::world;
 use synthcam_core::robot::{Cell, Irb1200, Robot};
 use synthcam_geometry::servo::{IbvsParams, PbvsParams};
 use synthcam_render::{GreyImage, Renderer};
@@ -31,16 +34,6 @@ mod trace;
 
 pub use run::run_servo_in;
 pub use trace::{ServoStatus, ServoTrace, Source, StepRecord};
-
-/// The control law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Law {
-    /// Position-based: PnP pose, tool-pose error.
-    Pbvs,
-    /// Image-based: pixel error through the image Jacobian.
-    Ibvs,
-}
 
 /// A servoing scenario (TOML, `assets/scenarios/servo_course.toml`): where the robot starts,
 /// where the camera should go, and the hand-eye truth (with the sampling of the hand-eye views).
@@ -96,7 +89,7 @@ impl ServoScenario {
     /// # Errors
     /// A bad goal (see [`ServoScenario::goal`]).
     pub fn to_sim_scenario(&self, seed: u64) -> Result<SimScenario, ServoRunError> {
-        Ok(course_world(&self.handeye, &self.q_start_rad, self.goal()?.inverse(), seed))
+        Ok(world(&self.handeye, &self.q_start_rad, self.goal()?.inverse(), seed))
     }
 }
 

@@ -58,7 +58,7 @@ pub struct SweepSetup {
 
 impl Default for SweepSetup {
     fn default() -> Self {
-        Self { camera: CameraModel::course_default(), model: None }
+        Self { camera: CameraModel::sxga_1500px(), model: None }
     }
 }
 
@@ -135,7 +135,7 @@ fn view_pool(cam: &CameraModel, mode: SweepMode, n: usize, seed: u64, m_max: usi
     let mut attempts = 0;
     while pool.len() < m_max && attempts < 50 * m_max {
         attempts += 1;
-        let pose = synthcam_scene::poses::course_pose(&mut rng);
+        let pose = crate::calibration_pose(&mut rng);
         let proj: Vec<_> = pts.iter().map(|p| cam.project(&(pose * p))).collect();
         if !proj.iter().all(|p| p.visible()) {
             continue;

@@ -1,7 +1,6 @@
 //! The trace of a servo run: how it ended, and every step's truth, estimate and timing.
 
-use super::Law;
-use crate::handeye_run::PoseError;
+use crate::controller::{Law, PoseError};
 
 /// How a run ended.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
