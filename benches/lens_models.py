@@ -3,7 +3,7 @@
 OpenCV on the same corners, and compare both with the truth.
 
 Usage (from the repository root, after `cargo build --release`):
-    python3 benches/lens_models.py [--models opencv5,fisheye,...] [--count 20] [--repeat 5] [--cross-validate 5] [--cover]
+    python3 benches/lens_models.py [--models opencv5,fisheye,...] [--count 20] [--repeat 5] [--cross-validate 5] [--cover] [--seed S]
 
 Per model: a dataset spec (1280 x 1024, noise sigma 2) is written and rendered with
 `synthcam dataset`; `synthcam detect` finds the 11 x 8 inner corners (recall and corner error
@@ -42,14 +42,14 @@ def toml_value(v):
     return repr(v)
 
 
-def spec(model, count, cover=False):
+def spec(model, count, cover=False, seed=16):
     cam = dict(width=1280, height=1024, cx=639.5, cy=511.5, **CAMS[model][1])
     wide = model in ("fisheye", "double-sphere")
     # --cover: pinhole-model boards spread to the image edges (offsets as for the wide lenses).
     spread = wide or cover
     poses = dict(distance_m=[0.25, 0.6] if wide else [0.45, 0.9], tilt_deg=[0.0, 45.0], roll_deg=[-180.0, 180.0],
                  offset_x_m=[-0.3, 0.3] if spread else [-0.15, 0.15], offset_y_m=[-0.25, 0.25] if spread else [-0.1, 0.1])
-    lines = ["version = 1", f"count = {count}", "seed = 16", "", "[camera]"]
+    lines = ["version = 1", f"count = {count}", f"seed = {seed}", "", "[camera]"]
     lines += [f"{k} = {toml_value(v)}" for k, v in cam.items()]
     lines += ["", "[target]", 'kind = "chessboard"', "squares = [12, 9]", f"square_m = {SQUARE}", f"margin_m = {SQUARE / 2}",
               "", "[render]", "samples = 16", "noise_sigma = 2.0", "", "[poses]", 'mode = "board"']
@@ -92,8 +92,8 @@ def opencv(model, objp, corners, size, repeat):
     return out, statistics.median(times)
 
 
-def one(model, count, repeat, bin_, d, folds=0, cover=False):
-    text, cam = spec(model, count, cover)
+def one(model, count, repeat, bin_, d, folds=0, cover=False, seed=16):
+    text, cam = spec(model, count, cover, seed)
     sp, ds, dj, cj = (os.path.join(d, n) for n in ("spec.toml", "ds", "det.json", "cal.json"))
     open(sp, "w").write(text)
     run([bin_, "dataset", sp, "-o", ds])
@@ -118,7 +118,8 @@ def one(model, count, repeat, bin_, d, folds=0, cover=False):
     n_pts = sum(len(im["points_px"]) for im in found)
     sc_sse = r["rms_px"] ** 2 * n_pts
     e = [K[0, 0] - cam["fx"], K[1, 1] - cam["fy"], K[0, 2] - cam["cx"], K[1, 2] - cam["cy"]]
-    print(f"synthcam: fx fy cx cy - truth = {', '.join(f'{v:+.4f}' for v in e)} px; rms {r['rms_px']:.5f} px, SSE {sc_sse:.7f} px^2; median {statistics.median(st):.2f} ms")
+    det_rms = float(np.sqrt((errs ** 2).mean()))
+    print(f"synthcam: fx fy cx cy - truth = {', '.join(f'{v:+.4f}' for v in e)} px; rms {r['rms_px']:.5f} px (fit / detection RMS {r['rms_px'] / det_rms:.3f}), SSE {sc_sse:.7f} px^2; median {statistics.median(st):.2f} ms")
     lens = r.get("dist") or [r["xi"], r["alpha"]]
     print(f"synthcam lens: {', '.join(f'{v:.5f}' for v in lens)}")
     if folds:
@@ -146,11 +147,12 @@ def main():
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--synthcam", default="target/release/synthcam")
     ap.add_argument("--cross-validate", type=int, default=0, metavar="K", help="also cross-validate each calibration over K folds")
+    ap.add_argument("--seed", type=int, default=16, help="the dataset's seed (poses, noise)")
     ap.add_argument("--cover", action="store_true", help="pinhole models: boards spread to the image edges (offsets +-0.3 x +-0.25 m)")
     a = ap.parse_args()
     for m in a.models.split(","):
         with tempfile.TemporaryDirectory() as d:
-            one(m, a.count, a.repeat, a.synthcam, d, a.cross_validate, a.cover)
+            one(m, a.count, a.repeat, a.synthcam, d, a.cross_validate, a.cover, a.seed)
     return 0
 
 
