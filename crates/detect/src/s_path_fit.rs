@@ -45,6 +45,7 @@ use dlt::Dlt;
 pub use residuals::{path_residuals, PathResidual};
 pub use unmeasured::{unmeasured, MERGED_SPREAD, START_RADIUS_RATIO};
 
+mod anchor;
 mod checks;
 mod dlt;
 mod label;

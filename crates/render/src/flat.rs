@@ -6,7 +6,7 @@
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use super::gpu_scene::TileCornerRays;
+use super::tiles::TileCornerRays;
 use synthcam_core::target::{CellLattice, Target};
 use synthcam_scene::views::{ExposureView, ViewSet};
 use synthcam_scene::Scene;
@@ -111,7 +111,7 @@ fn tile_row_frames(views: &ViewSet, tiles_y: u32, height: u32) -> Vec<Vec<RayFra
     (0..tiles_y)
         .into_par_iter()
         .map(|ty| {
-            let (y0, y1) = (ty * super::gpu_scene::TILE_PX, ((ty + 1) * super::gpu_scene::TILE_PX).min(height) - 1);
+            let (y0, y1) = (ty * super::tiles::TILE_PX, ((ty + 1) * super::tiles::TILE_PX).min(height) - 1);
             views.row(y0).iter().chain(views.row(y1)).map(RayFrame::new).collect()
         })
         .collect()

@@ -19,6 +19,7 @@ pub(crate) mod objects;
 pub(crate) mod post;
 pub mod renderer;
 mod shader;
+pub(crate) mod tiles;
 pub(crate) mod uniforms;
 pub mod views;
 

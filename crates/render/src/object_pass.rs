@@ -5,8 +5,9 @@
 use std::sync::Arc;
 
 use super::buffers::{Buffers, STORAGE_DST};
-use super::gpu_scene::{GpuScene, PassKind, TILE_PX};
+use super::gpu_scene::{GpuScene, PassKind};
 use super::objects::{instance_rows, object_params, MeshRows};
+use super::tiles::TILE_PX;
 use super::{RenderError, Renderer};
 use synthcam_scene::Scene;
 

@@ -11,7 +11,7 @@ use glam::{Mat3, Vec3, Vec4};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::gpu_scene::{TileCornerRays, TILE_PX};
+use super::tiles::{TileCornerRays, TILE_PX};
 use super::uniforms::Params;
 use super::RenderError;
 use synthcam_core::mesh::bvh::LEAF;

@@ -10,8 +10,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
 use super::context::{BackendChoice, GpuContext};
-use super::gpu_scene::{gpu_scene, lens_variant, scene_pass_kind, GpuScene, PassKind, TileCornerRays, LENS_VARIANTS, TILE_PX};
+use super::gpu_scene::{gpu_scene, lens_variant, scene_pass_kind, GpuScene, PassKind, LENS_VARIANTS};
 use super::shader::SHADER;
+use super::tiles::{TileCornerRays, TILE_PX};
 use super::{GreyImage, RenderError};
 use synthcam_scene::Scene;
 

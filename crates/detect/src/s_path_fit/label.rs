@@ -2,9 +2,9 @@
 
 use nalgebra::{Point2, Point3};
 
+use super::anchor::{agreeing_prefix, median_step_px, with_anchor, STRAY_RMS_STEPS};
 use super::dlt::Dlt;
 use super::resolve::{resolve_labels, Head};
-use super::strays::{agreeing_prefix, median_step_px, with_anchor, STRAY_RMS_STEPS};
 use super::{fit_rms, Labels, SPathFitParams};
 use crate::dots::Dot;
 use synthcam_core::target::SPath;

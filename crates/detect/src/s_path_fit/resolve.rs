@@ -1,6 +1,6 @@
 //! Index increments a chain's step lengths leave open, decided by the path's shape.
 
-use super::strays::with_anchor;
+use super::anchor::with_anchor;
 use super::{fit_rms, Labels};
 use crate::dots::Dot;
 use crate::s_path_order::{ambiguous_steps, MAX_SKIP};

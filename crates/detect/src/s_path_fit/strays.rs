@@ -2,24 +2,13 @@
 //! ([`ChainGrowth::Strays`](crate::s_path_order::ChainGrowth::Strays)): labellings checked
 //! against each other, prefixes that fit.
 
+use super::anchor::{agreeing_prefix, compatible, median_step_px, with_anchor, STRAY_RMS_STEPS};
 use super::label::{label_chain, labellings, ranked_labellings, DOMINANT_AMBIGUITY_RATIO};
 use super::resolve::{chain_labels, resolve_labels, Head};
 use super::{best_and_rival, extend_locally, fit_rms, grow, relaxed_start_seed, Labels, SPathFitParams};
 use crate::dots::Dot;
-use crate::filters::median_by;
 use crate::s_path_order::SPathOrderParams;
 use synthcam_core::target::SPath;
-
-/// Does `labels` agree with `anchor` (labels known otherwise) wherever they share a path index
-/// or a dot?
-pub(super) fn compatible(labels: &[(usize, usize)], anchor: &[(usize, usize)]) -> bool {
-    labels.iter().all(|&(i, j)| anchor.iter().all(|&(ia, ja)| (i == ia) == (j == ja)))
-}
-
-/// Reprojection RMS, in image steps, up to which a chain holding most of the dots may fit: dots
-/// that stray by up to a fifth of their spacing fit at about 0.14 steps RMS (uniform in a disc
-/// of 0.19 steps), and a long chain at close range has steps of 30 px.
-pub(super) const STRAY_RMS_STEPS: f64 = 0.25;
 
 /// Steps by which [`fitting_prefix`] shortens a labelling.
 const PREFIX_STEP: usize = 5;
@@ -34,22 +23,6 @@ fn fitting_prefix(dots: &[Dot], path: &SPath, mut labels: Labels, max_rms_px: f6
     while labels.len() > min_len && fit_rms(dots, path, &labels).is_none_or(|r| r > max_rms_px) {
         labels.truncate(labels.len().saturating_sub(PREFIX_STEP).max(min_len));
     }
-    labels
-}
-
-/// The median image distance per path index between consecutive chain entries, pixels.
-pub(super) fn median_step_px(chain: &[(i64, usize)], dots: &[Dot]) -> f64 {
-    let mut steps: Vec<f64> =
-        chain.windows(2).map(|w| (dots[w[1].1].centre_px - dots[w[0].1].centre_px).norm() / (w[1].0 - w[0].0).unsigned_abs().max(1) as f64).collect();
-    median_by(&mut steps, f64::total_cmp).unwrap_or(0.0)
-}
-
-/// `labels` joined by the `anchor` labels compatible with them ([`compatible`]).
-pub(super) fn with_anchor(mut labels: Labels, anchor: &[(usize, usize)]) -> Labels {
-    let extra: Labels = anchor.iter().copied().filter(|a| compatible(&[*a], &labels)).collect();
-    labels.extend(extra);
-    labels.sort_unstable();
-    labels.dedup();
     labels
 }
 
@@ -159,14 +132,4 @@ fn by_growth(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathF
     log::debug!("s-path chain of {} dots by growth: {placed} placed at RMS {rms:.3} px, rival contender RMS {rival:.3} px", chain.len());
     let fits = rms <= STRAY_RMS_STEPS * median_step_px(chain, dots);
     (placed >= need && rival > DOMINANT_AMBIGUITY_RATIO * rms && fits).then_some(best)
-}
-
-/// The entries of `anchor` (a start chain's labels) in path order up to the first that
-/// contradicts `labels`: beyond a step the start chain miscounted, every entry is one index off,
-/// also where `labels` do not reach to contradict it.
-pub(super) fn agreeing_prefix(mut anchor: Labels, labels: &[(usize, usize)]) -> Labels {
-    anchor.sort_unstable();
-    let n = anchor.iter().take_while(|a| compatible(&[**a], labels)).count();
-    anchor.truncate(n);
-    anchor
 }

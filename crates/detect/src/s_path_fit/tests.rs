@@ -179,8 +179,8 @@ fn a_start_chain_joins_only_up_to_its_first_contradiction() {
     // index 4 is contradicted by nothing, yet it must not join.
     let anchor = vec![(3, 13), (0, 10), (2, 12), (1, 11), (4, 14)];
     let labels = vec![(3, 12), (5, 20), (6, 21)];
-    assert_eq!(strays::agreeing_prefix(anchor, &labels), vec![(0, 10), (1, 11)]);
-    assert_eq!(strays::agreeing_prefix(vec![(1, 11), (0, 10)], &labels), vec![(0, 10), (1, 11)]);
+    assert_eq!(anchor::agreeing_prefix(anchor, &labels), vec![(0, 10), (1, 11)]);
+    assert_eq!(anchor::agreeing_prefix(vec![(1, 11), (0, 10)], &labels), vec![(0, 10), (1, 11)]);
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Everything that touches files: PNG and JSON output written atomically (temporary name, then
 //! rename), so a failed run never leaves a truncated image behind.
 
+pub mod error;
 pub mod extras;
 pub mod formats;
 pub mod generate;
@@ -9,12 +10,13 @@ pub mod manifest;
 pub mod meshes;
 pub mod objects;
 pub mod poses;
+pub mod rng;
 pub mod shard;
 pub mod spec;
 
+pub use error::SpecError;
 pub use io::{encode_image, encode_jpeg, encode_png, load_grey, load_grey_u8, truth_json, write_atomic, write_image_and_truth, write_png_and_json};
 pub use meshes::MeshLibrary;
-pub use spec::SpecError;
 
 /// File errors.
 #[derive(Debug, thiserror::Error)]

@@ -21,8 +21,8 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::Rng;
 use serde::Deserialize;
 
+use super::error::SpecError;
 use super::meshes::MeshLibrary;
-use super::spec::SpecError;
 use synthcam_scene::file::{ObjectFrame, ObjectSpec};
 use synthcam_scene::objects::{MeshAsset, SceneObject, Shading};
 use synthcam_scene::{Scene, SceneError};
@@ -107,7 +107,7 @@ impl DatasetObjects {
             let frame = if spec.frame == ObjectFrame::Target { scene.cam_from_target } else { Isometry3::identity() };
             scene.objects.push(spec.place(asset.clone(), frame * pose));
         }
-        let mut rng = super::poses::image_rng(seed ^ 0x6f63_636c_7564_6572, k);
+        let mut rng = super::rng::image_rng(seed ^ 0x6f63_636c_7564_6572, k);
         let points = scene.target.feature_points_m();
         for (spec, asset) in &self.occluders {
             let n = rng.random_range(spec.count[0]..=spec.count[1]);

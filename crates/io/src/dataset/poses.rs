@@ -8,7 +8,9 @@ use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::spec::{BoardRanges, DatasetPlan, PoseMode, SpecError, TiltFrom};
+use super::error::SpecError;
+pub use super::rng::image_rng;
+use super::spec::{BoardRanges, DatasetPlan, PoseMode, TiltFrom};
 use synthcam_core::robot::{base_from_tool, Joints};
 use synthcam_scene::Scene;
 
@@ -31,13 +33,6 @@ pub struct SampledView {
     pub render_seed: u64,
     /// Poses drawn to meet the constraint.
     pub draws: usize,
-}
-
-/// The generator of image k: ChaCha8 keyed by `seed`, stream `k`.
-pub fn image_rng(seed: u64, k: u64) -> ChaCha8Rng {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream(k);
-    rng
 }
 
 /// Centre of the bounding box of the target's feature points (target frame).

@@ -14,6 +14,7 @@
 //!
 //! Unknown fields are errors; every invalid value is reported as a [`SpecError`] naming its field.
 
+use super::error::SpecError;
 use serde::Deserialize;
 
 use synthcam_core::camera::CameraModel;
@@ -27,42 +28,6 @@ pub const SPEC_VERSION: u32 = 1;
 
 /// Largest `count` (image names have six digits).
 pub const MAX_COUNT: u64 = 1_000_000;
-
-/// Errors of a dataset spec.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum SpecError {
-    /// The text does not parse, or a field is missing, unknown or of the wrong type.
-    #[error("dataset spec does not parse: {0}")]
-    Parse(String),
-    /// `version` is not [`SPEC_VERSION`].
-    #[error("dataset spec field `version` is {found}, this build reads version {SPEC_VERSION}")]
-    Version {
-        /// The version in the file.
-        found: u32,
-    },
-    /// A field has an invalid value.
-    #[error("dataset spec field `{field}` is invalid: {reason}")]
-    InvalidField {
-        /// Dotted path of the field, e.g. `poses.distance_m`.
-        field: String,
-        /// What is wrong with it.
-        reason: String,
-    },
-    /// The camera, target or render settings are invalid.
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    /// No sampled pose meets a constraint.
-    #[error("constraint `{constraint}` is never met: 0 of {draws} sampled poses satisfy it ({hint})")]
-    Infeasible {
-        /// Dotted name of the constraint, e.g. `poses.full_target_visible`.
-        constraint: String,
-        /// Poses tried.
-        draws: usize,
-        /// What to change.
-        hint: String,
-    },
-}
 
 /// A whole dataset spec file.
 #[derive(Debug, Clone, Deserialize)]
@@ -302,7 +267,7 @@ impl DatasetSpec {
     /// As [`DatasetSpec::to_plan`], and a mesh that does not load.
     pub fn to_plan_with(&self, meshes: &super::MeshLibrary) -> Result<DatasetPlan, SpecError> {
         if self.version != SPEC_VERSION {
-            return Err(SpecError::Version { found: self.version });
+            return Err(SpecError::Version { found: self.version, expected: SPEC_VERSION });
         }
         if self.count == 0 || self.count > MAX_COUNT {
             return Err(invalid("count", format!("must be in 1..={MAX_COUNT}, got {}", self.count)));

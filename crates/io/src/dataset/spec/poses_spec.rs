@@ -1,6 +1,7 @@
 //! Validation of `[poses]` ([`PosesSpec`]) into a [`PoseMode`].
 
-use super::{check_finite, check_margin, check_range, invalid, BoardRanges, PoseMode, PosesSpec, SpecError};
+use super::{check_finite, check_margin, check_range, invalid, BoardRanges, PoseMode, PosesSpec};
+use crate::dataset::error::SpecError;
 use synthcam_core::camera::CameraModel;
 use synthcam_core::robot::Cell;
 use synthcam_core::target::Target;
