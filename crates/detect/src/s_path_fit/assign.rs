@@ -190,7 +190,21 @@ pub(super) struct Assignment {
     offsets: Vec<f64>,
 }
 
+/// Root mean square of the placed dots' offsets from their points, over the deviation radius, up
+/// to which an assignment's dots count as on their points ([`Assignment::on_their_points`]).
+const ON_POINTS_RMS: f64 = 0.5;
+
 impl Assignment {
+    /// Whether the placed dots lie on their path points (RMS offset at most [`ON_POINTS_RMS`] of
+    /// the deviation radius): a stretch one index off beyond a split point fits the camera of the
+    /// rest only where the dots stray by a good part of the radius (its dots would otherwise lie a
+    /// whole spacing, 3.4 radii, from the points the camera projects), so such an assignment's
+    /// split rivals ([`shifted_rivals`]) need no test; its whole shifts are still tested.
+    fn on_their_points(&self) -> bool {
+        let n = self.offsets.len().max(1) as f64;
+        self.offsets.iter().sum::<f64>() / n <= ON_POINTS_RMS * ON_POINTS_RMS
+    }
+
     /// How badly the labelling explains the dots: the placed dots' squared offsets over the
     /// deviation radius, plus [`UNPLACED_COST`] per detected dot left unplaced (a robust
     /// negative log-likelihood of dots spread over their discs).
@@ -270,8 +284,11 @@ const SPLIT_STEP: usize = 5;
 /// [`SPLIT_STEP`] indices), or its part before it, moved by one either way (a labelling right up to a missed or stray
 /// dot and one index off beyond it fits one projective camera nearly as well where the dots
 /// stray by a quarter of their spacing).
-fn shifted_rivals(labels: &[(usize, usize)], len: usize) -> Vec<Labels> {
+fn shifted_rivals(labels: &[(usize, usize)], len: usize, splits: bool) -> Vec<Labels> {
     let mut out: Vec<Labels> = (1..=SHIFTS as i64).flat_map(|k| [-k, k]).map(|k| shift(labels, k, len)).collect();
+    if !splits {
+        return out;
+    }
     let (lo, hi) = labels.iter().fold((usize::MAX, 0), |(a, b), l| (a.min(l.0), b.max(l.0)));
     for split in (lo + SPLIT_STEP..hi).step_by(SPLIT_STEP) {
         let (head, tail): (Labels, Labels) = labels.iter().partition(|l| l.0 < split);
@@ -320,11 +337,12 @@ pub(super) fn best_assignment(dots: &[Dot], path: &SPath, seeds: &[Labels], para
     for _ in 0..RECHALLENGES {
         results.sort_by(|a, b| a.0.total_cmp(&b.0));
         results.dedup_by(|a, b| a.1.labels == b.1.labels);
-        let best = results.first()?.1.labels.clone();
+        let first = &results.first()?.1;
+        let (best, splits) = (first.labels.clone(), !first.on_their_points());
         if challenged.contains(&best) {
             break;
         }
-        results.extend(shifted_rivals(&best, path.len()).iter().filter_map(scored));
+        results.extend(shifted_rivals(&best, path.len(), splits).iter().filter_map(scored));
         challenged.push(best);
     }
     results.sort_by(|a, b| a.0.total_cmp(&b.0));
