@@ -28,8 +28,15 @@
 //!    (`label`, `resolve`), a short start chain ruling out the labellings of the other chains
 //!    that contradict its first steps, or the two longest chains labelling each other (`strays`).
 //! 5. *Stepped over*: an unplaced dot between the dots of two consecutive indices takes the
-//!    index, the stretch after it moving up by one (`skipped`). Blobs that are no measurement
-//!    ([`unmeasured()`]) are left to the caller.
+//!    index, the stretch after it moving up by one (`skipped`).
+//! 6. *Assign*: the labellings of steps 1-5 are only seeds (with their shifts along the path, the
+//!    first steps from the start dot and the best placements of the longest chains): each fixes
+//!    a camera, and all dots are assigned to the projected path points at once by a
+//!    minimum-cost assignment gated by the tolerated deviation
+//!    ([`SPathFitParams::max_deviation_m`]), refitted until stable; the assignment explaining the
+//!    dots best wins only where no shift of it (whole, or beyond any of its stretches) comes
+//!    close, and a start dot it contradicts rules it out ([`assign`]). Blobs that are no
+//!    measurement ([`unmeasured()`]) are left to the caller.
 //!
 //! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera.
 //!
@@ -46,11 +53,14 @@ pub use residuals::{path_residuals, PathResidual};
 pub use unmeasured::{unmeasured, MERGED_SPREAD, START_RADIUS_RATIO};
 
 mod anchor;
+mod assign;
 mod checks;
 mod dlt;
+mod hungarian;
 mod label;
 mod residuals;
 mod resolve;
+mod seeds;
 mod skipped;
 mod strays;
 mod unmeasured;
@@ -74,11 +84,33 @@ pub struct SPathFitParams {
     pub match_fraction: f64,
     /// A dot whose reprojection residual differs from its path neighbours' by more is dropped, px.
     pub max_local_deviation_px: f64,
+    /// Largest distance of a dot from its nominal path point on the target, metres (painted or
+    /// glued by hand; default 7.5 mm, the course's dots 25.7 mm apart): the final labelling
+    /// ([`assign`]) places a dot only inside the image of this disc around its point. Below half
+    /// the spacing the discs are disjoint.
+    pub max_deviation_m: f64,
+    /// How far the dots' centres may stand off the sphere along its normal, metres (a bead's
+    /// centre: its radius, 6 mm on the course; a painted disc's: 0): the height is fitted to
+    /// the placed dots within 0 and this, and the tolerance disc raised by it.
+    pub max_height_m: f64,
+    /// How far the fitted camera (a DLT: lens distortion included) may miss a point's image, pixels: a dot up to
+    /// this far outside its disc's image is still placed, if no other is nearly as near.
+    pub model_error_px: f64,
 }
 
 impl Default for SPathFitParams {
     fn default() -> Self {
-        Self { order: SPathOrderParams::default(), min_seed: 10, max_seed_rms_px: 4.0, ambiguity_ratio: 2.5, match_fraction: 0.4, max_local_deviation_px: 1.5 }
+        Self {
+            order: SPathOrderParams::default(),
+            min_seed: 10,
+            max_seed_rms_px: 4.0,
+            ambiguity_ratio: 2.5,
+            match_fraction: 0.4,
+            max_local_deviation_px: 1.5,
+            max_deviation_m: 0.0075,
+            max_height_m: 0.006,
+            model_error_px: 2.0,
+        }
     }
 }
 
@@ -302,11 +334,9 @@ fn without_gaps(labels: &[(usize, usize)]) -> bool {
     idx.windows(2).all(|w| w[1] - w[0] <= MAX_SKIP)
 }
 
-/// Index the S-path's dots: the start chain or a labelled chain, grown by projecting the known
-/// path (see the module docs). Chains grow strictly first ([`ChainGrowth::Strict`]); where that
-/// leaves detected dots unplaced they grow again with [`ChainGrowth::Strays`] (or only so, when
-/// `params.order.growth` asks for it), and the labelling placing more dots wins, the strict one
-/// on a tie.
+/// Index the S-path's dots: seed labellings from chains of dots (see the module docs), each
+/// refined into an optimal assignment of all dots to the projected path within the tolerated
+/// deviation ([`assign`]); the assignment placing clearly the most dots wins.
 ///
 /// # Errors
 /// [`DetectError::NotFound`] when no stretch of dots can be labelled unambiguously, or the result
@@ -314,15 +344,11 @@ fn without_gaps(labels: &[(usize, usize)]) -> bool {
 pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Vec<IndexedDot>, DetectError> {
     let order = SPathOrderParams { points: path.len(), ..params.order };
     let need = order.needed(dots.len());
-    let strict = (order.growth == ChainGrowth::Strict).then(|| place_labels(dots, path, params, &order)).flatten();
-    // A strict labelling that places every dot stands; otherwise the one placing more wins
-    // (strict on a tie): strict growth misses stray dots, and can take a short stray step's
-    // successor for two steps and count one index too many from there on, placing fewer dots.
-    let labels = match strict {
-        Some(l) if l.len() == dots.len() => Some(l),
-        strict => more_placed(strict, place_labels(dots, path, params, &SPathOrderParams { growth: ChainGrowth::Strays, ..order })),
-    };
-    let Some(labels) = labels.map(|l| skipped::join_split(dots, skipped::insert_skipped(dots, l, path.len()))) else {
+    let (chained, seeds) = seeds::seeds(dots, path, params, &order);
+    let Some(labels) = assign::best_assignment(dots, path, &seeds, params, seeds::start_dot(dots, &order))
+        .map(|(l, placed)| assign::join_chained(l, chained.as_deref().unwrap_or_default(), &placed))
+        .map(|l| drop_merged(dots, l, order.start_area_ratio))
+    else {
         return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
     };
     if labels.len() < need {
