@@ -35,7 +35,7 @@
 //!    minimum-cost assignment gated by the tolerated deviation
 //!    ([`SPathFitParams::max_deviation_m`]), refitted until stable; the assignment explaining the
 //!    dots best wins only where no shift of it (whole, or beyond any of its stretches) comes
-//!    close, and a start dot it contradicts rules it out ([`assign`]). Blobs that are no
+//!    close, and a start dot it contradicts rules it out (`assign`). Blobs that are no
 //!    measurement ([`unmeasured()`]) are left to the caller.
 //!
 //! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera.
@@ -86,7 +86,7 @@ pub struct SPathFitParams {
     pub max_local_deviation_px: f64,
     /// Largest distance of a dot from its nominal path point on the target, metres (painted or
     /// glued by hand; default 7.5 mm, the course's dots 25.7 mm apart): the final labelling
-    /// ([`assign`]) places a dot only inside the image of this disc around its point. Below half
+    /// (`assign`) places a dot only inside the image of this disc around its point. Below half
     /// the spacing the discs are disjoint.
     pub max_deviation_m: f64,
     /// How far the dots' centres may stand off the sphere along its normal, metres (a bead's
@@ -336,7 +336,7 @@ fn without_gaps(labels: &[(usize, usize)]) -> bool {
 
 /// Index the S-path's dots: seed labellings from chains of dots (see the module docs), each
 /// refined into an optimal assignment of all dots to the projected path within the tolerated
-/// deviation ([`assign`]); the assignment placing clearly the most dots wins.
+/// deviation (`assign`); the assignment placing clearly the most dots wins.
 ///
 /// # Errors
 /// [`DetectError::NotFound`] when no stretch of dots can be labelled unambiguously, or the result
