@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::error::SpecError;
-pub use super::rng::image_rng;
+use super::rng::image_rng;
 use super::spec::{BoardRanges, DatasetPlan, PoseMode, TiltFrom};
 use synthcam_core::robot::{base_from_tool, Joints};
 use synthcam_scene::Scene;
