@@ -53,6 +53,11 @@ struct Params {
     obj: vec4<u32>,      // objects: instances, first instance row in objs, fine samples per axis, 0 (objects.wgsl)
     plane: vec4<f32>,    // planar targets: the plane n . x = c in the camera frame (n, c)
     sheet: vec4<f32>,    // planar targets: the printed sheet in the plane, x0, y0, x1, y1 (metres)
+    warp: vec4<f32>,     // warped boards: kx, ky (metres), lambda (H = [r1 r2 t]^-1 / lambda), 1 when warped (planar.wgsl warp_view)
+    warp_c: vec4<f32>,   // warped boards: the feature extent's centre xc, yc and scales sx, sy (u = (x - xc) sx)
+    tfc0: vec4<f32>,     // warped boards: rows of target_from_cam's rotation (xyz) and the camera centre in the target frame (w)
+    tfc1: vec4<f32>,
+    tfc2: vec4<f32>,
 };
 
 // Pass kinds (crates/render/src/gpu_scene.rs `PassKind`; the test

@@ -123,6 +123,7 @@ fn cs_coarse_planar(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
     let px = coarse_pixel(wg, lid);
     uniform_view();
     let ray = pixel_ray(vec2<f32>(f32(px.x), f32(px.y)));
+    warp_view(ray);
     if (PLANAR_KIND == KIND_DOT_GRID) {
         write_coarse(wg, lid, grid_coarse(ray));
     } else {
@@ -194,8 +195,10 @@ fn planar_fine_view(q: vec2<f32>, kind: u32) -> f32 {
     return acc / f32(parts * parts);
 }
 
-// The fine value of pass kind `kind` (a literal at each call) along `r`.
+// The fine value of pass kind `kind` (a literal at each call) along `r` (a warped board's
+// tangent plane for the ray first: warp_view).
 fn planar_fine_ray(r: Ray, kind: u32) -> f32 {
+    warp_view(r);
     if (kind == KIND_CODED) { return cells_fine(r, true); }
     if (kind == KIND_CHESSBOARD) { return cells_fine(r, false); }
     return grid_fine(r);

@@ -26,3 +26,39 @@ fn plane_value(b: vec2<f32>) -> f32 {
     return select(grid_value(b.x, b.y), chess_value(b.x, b.y), P.size.z == KIND_CHESSBOARD);
 }
 
+
+// A warped board (mrcal's sag, crates/core/src/target/warp.rs): the homography of the pixel's own
+// tangent plane. The ray d meets the paraboloid z = kx (1 - u^2) + ky (1 - v^2) (u = (x - xc) sx,
+// v = (y - yc) sy) of the board frame at s (the root of A s^2 + B s + C next to the flat plane's,
+// in the form that stays exact as the warp goes to 0); the tangent plane there is
+// z = gx x + gy y + c, so the camera point of the board point (x, y) on it is
+// (M + r3 g^T) (x, y, 1), M = [r1 r2 t], g = (gx, gy, c), and with H = M^-1 / lambda (the
+// uniform homography, rows scaled) Sherman-Morrison gives the tangent plane's
+// H' = H - (H r3)(g^T H) / (lambda + g^T H r3), scaled as H. Over a pixel's footprint the tangent
+// plane departs from the paraboloid by curvature x footprint^2 (1e-7 m for a 3 mm sag over 30 cm
+// and a 1 mm footprint). Off unless P.warp.w is 1 (no views, no objects: scene validation).
+fn warp_view(ray: Ray) {
+    if (P.warp.w == 0.0) { return; }
+    let d = ray_d(ray);
+    let o = vec3<f32>(P.tfc0.w, P.tfc1.w, P.tfc2.w);
+    let dir = vec3<f32>(dot(P.tfc0.xyz, d), dot(P.tfc1.xyz, d), dot(P.tfc2.xyz, d));
+    let kx = P.warp.x; let ky = P.warp.y;
+    let ax = (o.x - P.warp_c.x) * P.warp_c.z; let bx = dir.x * P.warp_c.z;
+    let ay = (o.y - P.warp_c.y) * P.warp_c.w; let by = dir.y * P.warp_c.w;
+    let qa = kx * bx * bx + ky * by * by;
+    let qb = dir.z + 2.0 * (kx * ax * bx + ky * ay * by);
+    let qc = o.z - kx - ky + kx * ax * ax + ky * ay * ay;
+    let disc = max(qb * qb - 4.0 * qa * qc, 0.0);
+    let s = -2.0 * qc / (qb + select(-1.0, 1.0, qb >= 0.0) * sqrt(disc));
+    let hit = o + s * dir;
+    let gx = -2.0 * kx * (hit.x - P.warp_c.x) * P.warp_c.z * P.warp_c.z;
+    let gy = -2.0 * ky * (hit.y - P.warp_c.y) * P.warp_c.w * P.warp_c.w;
+    let g = vec3<f32>(gx, gy, hit.z - gx * hit.x - gy * hit.y);
+    let r3 = P.tfc2.xyz;
+    let hr3 = vec3<f32>(dot(P.h0.xyz, r3), dot(P.h1.xyz, r3), dot(P.h2.xyz, r3));
+    let gh = g.x * P.h0.xyz + g.y * P.h1.xyz + g.z * P.h2.xyz;
+    let inv = 1.0 / (P.warp.z + dot(g, hr3));
+    H0 = vec4<f32>(P.h0.xyz - hr3.x * inv * gh, 0.0);
+    H1 = vec4<f32>(P.h1.xyz - hr3.y * inv * gh, 0.0);
+    H2 = vec4<f32>(P.h2.xyz - hr3.z * inv * gh, 0.0);
+}

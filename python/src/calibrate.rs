@@ -33,6 +33,7 @@ fn detection_from(det: &Bound<'_, PyAny>) -> PyResult<Detection> {
 
 #[derive(serde::Serialize)]
 struct ViewOut {
+    outliers: Vec<usize>,
     rms_px: f64,
     max_px: f64,
     rvec: [f64; 3],
@@ -53,13 +54,33 @@ struct Output {
     used: Vec<usize>,
     iterations: usize,
     converged: bool,
+    /// Intrinsics the data do not determine (their `std` is left out: infinite).
+    undetermined: Vec<String>,
+    /// Points dropped as outliers over all views, and the RMS with every point.
+    outliers_dropped: usize,
+    rms_before_rejection_px: f64,
+    /// Worst projection sigma inside and outside the area the views cover, px (at infinity).
+    uncertainty_inside_px: f64,
+    uncertainty_outside_px: f64,
 }
 
-fn output(r: &CalibResult, model: CalibModel, used: Vec<usize>) -> Output {
+fn output(r: &CalibResult, model: CalibModel, used: Vec<usize>, views: &[synthcam::calib::View], point_indices: &[Vec<usize>]) -> Output {
+    let map = r.uncertainty_map(views, 16, 12, None);
     let c = &r.camera;
     let k = c.intrinsics;
     let std = intrinsic_names(c.lens.kind()).iter().zip(r.std).filter(|(_, v)| v.is_finite()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect();
-    let views = r.views.iter().map(|v| ViewOut { rms_px: v.rms_px, max_px: v.max_px, rvec: v.rvec.into(), tvec: v.tvec.into() }).collect();
+    let view_out = r
+        .views
+        .iter()
+        .zip(point_indices)
+        .map(|(v, idx)| ViewOut {
+            outliers: v.outliers.iter().filter_map(|&j| idx.get(j).copied()).collect(),
+            rms_px: v.rms_px,
+            max_px: v.max_px,
+            rvec: v.rvec.into(),
+            tvec: v.tvec.into(),
+        })
+        .collect();
     Output {
         rms_px: r.rms_px,
         model: model.name(),
@@ -67,10 +88,15 @@ fn output(r: &CalibResult, model: CalibModel, used: Vec<usize>) -> Output {
         dist: c.lens.params()[..model.n_lens_params()].to_vec(),
         camera: CameraSpec::from_model(c),
         std,
-        views,
+        views: view_out,
         used,
         iterations: r.iterations,
         converged: r.converged,
+        undetermined: r.undetermined.iter().filter_map(|&i| intrinsic_names(c.lens.kind()).get(i).map(|n| (*n).to_string())).collect(),
+        outliers_dropped: r.rejection.dropped,
+        rms_before_rejection_px: r.rejection.rms_before_px,
+        uncertainty_inside_px: map.worst_inside_px,
+        uncertainty_outside_px: map.worst_outside_px,
     }
 }
 
@@ -88,10 +114,18 @@ fn output(r: &CalibResult, model: CalibModel, used: Vec<usize>) -> Output {
 /// Returns a dict: `rms_px`, `K` (3 x 3), `dist` (the lens parameters: OpenCV's coefficients in OpenCV's order; fisheye k1..k4; Double
 /// Sphere xi, alpha),
 /// `camera` (the scene-file camera, usable in a scene dict), `std` (standard deviation of each
-/// estimated intrinsic), `views` (per view `rms_px`, `max_px`, `rvec`, `tvec` in metres: `cam_from_target`),
-/// `used`, `iterations`, `converged`. The GIL is released while solving.
+/// estimated intrinsic), `views` (per view `outliers` (indices into its detection's `points_px`
+/// dropped),
+/// `rms_px`, `max_px`, `rvec`, `tvec` in metres: `cam_from_target`), `used`, `iterations`,
+/// `converged`, `outliers_dropped`, `rms_before_rejection_px`, `uncertainty_inside_px` and
+/// `uncertainty_outside_px` (worst projection sigma inside / outside the area the views cover).
+/// `outlier_threshold`: drop points beyond this many robust sigmas and refit (None: keep all,
+/// as OpenCV). The GIL is released while solving.
+// The arguments are the Python function's keyword arguments (pyo3 maps them one to one); the
+// literal 5.0 is `calib::DEFAULT_OUTLIER_THRESHOLD` (a literal, so the text signature shows it).
+#[allow(clippy::too_many_arguments)]
 #[pyfunction]
-#[pyo3(signature = (detections, target, square_m, image_size, model="opencv5", estimate_skew=false))]
+#[pyo3(signature = (detections, target, square_m, image_size, model="opencv5", estimate_skew=false, outlier_threshold=Some(5.0)), text_signature = "(detections, target, square_m, image_size, model='opencv5', estimate_skew=False, outlier_threshold=5.0)")]
 pub fn calibrate<'py>(
     py: Python<'py>,
     detections: Vec<Bound<'py, PyAny>>,
@@ -100,6 +134,7 @@ pub fn calibrate<'py>(
     image_size: (u32, u32),
     model: &str,
     estimate_skew: bool,
+    outlier_threshold: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     if !(square_m > 0.0 && square_m.is_finite()) {
         return Err(pyo3::exceptions::PyValueError::new_err(format!("square_m must be a positive length in metres, got {square_m}")));
@@ -110,9 +145,9 @@ pub fn calibrate<'py>(
         return Err(pyo3::exceptions::PyValueError::new_err("calibrate takes a chessboard, ChArUco or AprilGrid target"));
     }
     let dets = detections.iter().map(detection_from).collect::<PyResult<Vec<Detection>>>()?;
-    let BoardViews { views, used, .. } = views_from_detections(&dets, &spec, square_m).map_err(|e| err(chain(&e)))?;
+    let BoardViews { views, used, point_indices, .. } = views_from_detections(&dets, &spec, square_m).map_err(|e| err(chain(&e)))?;
     let size = ImageSize { width: image_size.0, height: image_size.1 };
-    let params = CalibParams { estimate_skew, model, ..CalibParams::default() };
-    let r = py.detach(move || calibrate_views(&views, size, &params)).map_err(|e| err(format!("calibrating: {}", chain(&e))))?;
-    to_py(py, &output(&r, model, used))
+    let params = CalibParams { estimate_skew, model, outlier_threshold, ..CalibParams::default() };
+    let (r, views) = py.detach(move || calibrate_views(&views, size, &params).map(|r| (r, views))).map_err(|e| err(format!("calibrating: {}", chain(&e))))?;
+    to_py(py, &output(&r, model, used, &views, &point_indices))
 }

@@ -101,12 +101,14 @@ def calibrate(
     image_size: Tuple[int, int],
     model: str = "opencv5",
     estimate_skew: bool = False,
+    outlier_threshold: Optional[float] = 5.0,
 ) -> Calibration:
-    """Calibrate from detections of a planar board (Zhang or a focal sweep, then
-    Levenberg-Marquardt); see ``Calibration``. Views' poses are ``cam_from_target`` in the
-    target's frame (origin at the board's outer corner)."""
+    """Calibrate from detections of a planar board (Zhang or a focal sweep, several starts and
+    a perturbed-restart check, then Levenberg-Marquardt; corners beyond ``outlier_threshold``
+    robust sigmas dropped, ``None`` keeps them all); see ``Calibration``. Views' poses are
+    ``cam_from_target`` in the target's frame (origin at the board's outer corner)."""
     dets = [d.raw if isinstance(d, Detection) else d for d in detections]
-    return Calibration.from_dict(_synthcam.calibrate(dets, target, square_m, image_size, model, estimate_skew))
+    return Calibration.from_dict(_synthcam.calibrate(dets, target, square_m, image_size, model, estimate_skew, outlier_threshold))
 
 
 __all__ = [

@@ -61,8 +61,9 @@ def calibrate(
     image_size: Tuple[int, int],
     model: str = "opencv5",
     estimate_skew: bool = False,
+    outlier_threshold: Optional[float] = 5.0,
 ) -> Dict[str, Any]:
-    """Zhang + Levenberg-Marquardt: rms_px, K, dist, camera, std, views, used, iterations, converged."""
+    """Global search + Levenberg-Marquardt + outlier rejection: rms_px, K, dist, camera, std, views, used, iterations, converged, outliers_dropped, rms_before_rejection_px, uncertainty_inside_px, uncertainty_outside_px."""
 
 @final
 class Sim:

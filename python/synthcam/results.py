@@ -162,6 +162,8 @@ class CalibratedView:
     cam_from_target: Pose
     rms_px: float
     max_px: float
+    outliers: List[int] = field(default_factory=list)
+    """Indices (into the detection's ``points_px``) dropped as outliers."""
 
 
 @dataclass(frozen=True)
@@ -184,10 +186,21 @@ class Calibration(_DictView):
     iterations: int
     converged: bool
     raw: Dict[str, Any] = field(repr=False, compare=False)
+    outliers_dropped: int = 0
+    """Points dropped as outliers over all views (``raw["rms_before_rejection_px"]``: the RMS with them)."""
+    undetermined: List[str] = field(default_factory=list)
+    """Intrinsics the views do not determine (left out of ``std``: their sigma is infinite)."""
+    uncertainty_inside_px: float = 0.0
+    """Worst projection sigma inside the area the views cover, px (at infinity)."""
+    uncertainty_outside_px: float = 0.0
+    """Worst projection sigma outside it, px (NaN when the views cover every cell)."""
 
     @staticmethod
     def from_dict(d: Dict[str, Any]) -> "Calibration":
-        views = [CalibratedView(Pose.from_rvec(v["rvec"], v["tvec"]), float(v["rms_px"]), float(v["max_px"])) for v in d["views"]]
+        views = [
+            CalibratedView(Pose.from_rvec(v["rvec"], v["tvec"]), float(v["rms_px"]), float(v["max_px"]), [int(i) for i in v.get("outliers", [])])
+            for v in d["views"]
+        ]
         return Calibration(
             rms_px=float(d["rms_px"]),
             model=d["model"],
@@ -200,7 +213,15 @@ class Calibration(_DictView):
             iterations=int(d["iterations"]),
             converged=bool(d["converged"]),
             raw=d,
+            outliers_dropped=int(d.get("outliers_dropped", 0)),
+            undetermined=list(d.get("undetermined", [])),
+            uncertainty_inside_px=_float_or_nan(d.get("uncertainty_inside_px")),
+            uncertainty_outside_px=_float_or_nan(d.get("uncertainty_outside_px")),
         )
+
+
+def _float_or_nan(v: Any) -> float:
+    return float("nan") if v is None else float(v)
 
 
 def _pose_of_rows(rows: Any) -> Pose:

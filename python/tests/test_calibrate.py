@@ -52,6 +52,22 @@ def test_calibration_recovers_the_rendered_camera(board_scene_text):
         assert np.abs(typed.cam_from_target.t_m - t_true).max() < 0.002
         assert np.abs(typed.cam_from_target.R - rodrigues(rvec)).max() < 0.002
     assert isinstance(r, synthcam.Calibration) and r.K.shape == (3, 3) and r.dist.shape == (5,)
+    # No corner of a clean render is an outlier; the views leave nothing undetermined; the
+    # projection is surer where the views saw the board than outside.
+    assert r.outliers_dropped == 0 and all(v.outliers == [] for v in r.views) and r.undetermined == []
+    assert 0.0 < r.uncertainty_inside_px < r.uncertainty_outside_px
+    # Three corners moved 3 px: flagged by their index in the detection (untrusted corners, left
+    # out, do not shift it), and dropped.
+    bad = [dict(d) for d in detections]
+    for i, j in [(0, 7), (2, 40), (2, 41)]:  # not among the corners the detector marks untrusted
+        pts = np.array(bad[i]["points_px"], dtype=float)
+        pts[j] += 3.0
+        bad[i]["points_px"] = pts
+    rb = synthcam.calibrate(bad, "chessboard:11x8", 0.05, (1280, 1024))
+    assert [v.outliers for v in rb.views][:3] == [[7], [], [40, 41]] and rb.outliers_dropped == 3
+    assert rb.rms_px < 0.05 < rb["rms_before_rejection_px"]
+    kept = synthcam.calibrate(bad, "chessboard:11x8", 0.05, (1280, 1024), outlier_threshold=None)
+    assert kept.outliers_dropped == 0 and kept.rms_px > 0.05
 
 
 def test_calibrate_bad_input():

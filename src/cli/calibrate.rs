@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use nalgebra::Point2;
 use serde::Serialize;
-use synthcam::calib::{calibrate, cross_validate, CalibModel, CalibParams, CalibResult, View};
+use synthcam::calib::{calibrate, cross_validate, BoardExtent, CalibModel, CalibParams, CalibResult, UncertaintyMap, View};
 use synthcam::camera::formats::{kalibr_yaml, mrcal_cameramodel, opencv_yaml, ros_yaml};
 use synthcam::camera::{intrinsic_names, ImageSize, Lens};
 use synthcam::dataset::write_atomic;
@@ -19,6 +19,9 @@ use super::skipped::Skipped;
 use detections::{keep_first_size, load_detections, Found};
 
 mod detections;
+mod output;
+
+use output::{uncertainty_out, RejectionOut, SearchOut, UncertaintyOut};
 
 /// Arguments of `calibrate`.
 #[derive(Debug, clap::Args)]
@@ -60,6 +63,25 @@ pub struct CalibrateArgs {
     /// calibration.png into this folder.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
+    /// Estimate the board's warp (mrcal's model: sags `kx`, `ky` at the centre along the board's x
+    /// and y, a paraboloid over the board's points; JSON `board_warp_m`).
+    #[arg(long)]
+    pub board_warp: bool,
+    /// Drop points whose residual exceeds this many robust standard deviations of the residuals,
+    /// then fit again (listed per view in the JSON's `views[i].outliers`).
+    #[arg(long, value_name = "K", default_value_t = synthcam::calib::DEFAULT_OUTLIER_THRESHOLD)]
+    pub outlier_threshold: f64,
+    /// Keep every point (no outlier rejection; what OpenCV's calibrateCamera does).
+    #[arg(long, conflicts_with = "outlier_threshold")]
+    pub keep_outliers: bool,
+    /// The projection uncertainty map's cells, COLSxROWS (JSON `projection_uncertainty`, the
+    /// report's map).
+    #[arg(long, value_name = "COLSxROWS", default_value = "16x12", value_parser = parse_grid)]
+    pub uncertainty_grid: (u32, u32),
+    /// Range (metres from the camera) at which the projection uncertainty is evaluated; default
+    /// at infinity (mrcal's default).
+    #[arg(long, value_name = "M")]
+    pub uncertainty_range: Option<f64>,
     /// Cross-validate over K folds of the views (K >= 2; view i in fold i mod K): each fold
     /// calibrated on the rest, its held-out views' RMS and its projection's difference from the
     /// full calibration in the JSON's `cross_validation`.
@@ -67,11 +89,20 @@ pub struct CalibrateArgs {
     pub cross_validate: Option<usize>,
 }
 
+/// `COLSxROWS`, both 1-1000.
+fn parse_grid(s: &str) -> Result<(u32, u32), String> {
+    let (c, r) = s.split_once('x').ok_or_else(|| format!("expected COLSxROWS, got {s:?}"))?;
+    let parse = |v: &str| v.parse::<u32>().ok().filter(|n| (1..=1000).contains(n)).ok_or_else(|| format!("{v:?} is not a count of cells in 1-1000"));
+    Ok((parse(c)?, parse(r)?))
+}
+
 #[derive(Debug, Serialize)]
 struct ViewOut {
     file: String,
-    /// Points used (a coded board's partial views hold fewer than the board).
+    /// Points given (a coded board's partial views hold fewer than the board), outliers included.
     points: usize,
+    /// Indices (into the detection's `points_px`) of the points dropped as outliers.
+    outliers: Vec<usize>,
     rms_px: f64,
     max_px: f64,
     rvec: [f64; 3],
@@ -92,6 +123,14 @@ struct Output {
     #[serde(skip_serializing_if = "Option::is_none")]
     alpha: Option<f64>,
     std: serde_json::Value,
+    /// Parameters the data do not determine (their `std` is null): the views leave them free.
+    undetermined: Vec<String>,
+    /// `--board-warp`: the sags `[kx, ky]` at the board's centre, metres (+ along the board
+    /// frame's z), and their standard deviations.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    board_warp_m: Option<[f64; 2]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    board_warp_std_m: Option<[f64; 2]>,
     views: Vec<ViewOut>,
     used: usize,
     /// Inputs not used, each with the reason (board not found, unreadable, other image size).
@@ -100,6 +139,11 @@ struct Output {
     converged: bool,
     /// Time of the calibration itself (after detection or loading), milliseconds.
     time_ms: f64,
+    /// How the optimum was searched for (starts, perturbed restarts).
+    search: SearchOut,
+    /// The outlier rejection.
+    rejection: RejectionOut,
+    projection_uncertainty: UncertaintyOut,
     #[serde(skip_serializing_if = "Option::is_none")]
     cross_validation: Option<CrossOut>,
 }
@@ -126,9 +170,10 @@ struct CrossOut {
     per_fold: Vec<FoldOut>,
 }
 
-/// The finite `values` by their `names`, as a JSON object.
+/// The `values` by their `names`, as a JSON object: NaN (a fixed parameter) left out, infinite
+/// (a parameter the data do not determine) as null.
 fn named(names: &[&str], values: &[f64]) -> serde_json::Value {
-    serde_json::Value::Object(names.iter().zip(values).filter(|(_, v)| v.is_finite()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect())
+    serde_json::Value::Object(names.iter().zip(values).filter(|(_, v)| !v.is_nan()).map(|(n, v)| ((*n).to_string(), serde_json::json!(v))).collect())
 }
 
 /// `--cross-validate K` of the calibration `r` of `views` (the inputs `found`), printed and for
@@ -186,38 +231,114 @@ fn export_files<'a>(args: &'a CalibrateArgs, cam: &synthcam::camera::CameraModel
     Ok(out)
 }
 
-/// Run `calibrate`.
-pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
+/// The options' checks that need no input read.
+fn check_args(args: &CalibrateArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.square.is_finite() && args.square > 0.0, "--square must be a positive number of metres, got {}", args.square);
+    anyhow::ensure!(
+        args.outlier_threshold.is_finite() && args.outlier_threshold > 0.0,
+        "--outlier-threshold must be a positive number of standard deviations, got {}",
+        args.outlier_threshold
+    );
+    if let Some(r) = args.uncertainty_range {
+        anyhow::ensure!(r.is_finite() && r > 0.0, "--uncertainty-range must be a positive number of metres, got {r}");
+    }
     // before detecting any image (the library's views_from_detections refuses it too, afterwards)
     anyhow::ensure!(
         args.target.board_points_m(args.square).is_some(),
         "calibrate takes a chessboard, ChArUco or AprilGrid target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO, aprilgrid:NXxNY:tag36h11:SPACING)"
     );
+    Ok(())
+}
+
+/// The library's options from the command line's.
+fn params_of(args: &CalibrateArgs) -> anyhow::Result<CalibParams> {
+    let board_warp = if args.board_warp {
+        let points = args.target.board_points_m(args.square).unwrap_or_default();
+        Some(BoardExtent::of(points).context("the board's points span no area: no warp to estimate")?)
+    } else {
+        None
+    };
+    let outlier_threshold = (!args.keep_outliers).then_some(args.outlier_threshold);
+    Ok(CalibParams { estimate_skew: args.skew, model: args.model, outlier_threshold, board_warp, ..Default::default() })
+}
+
+/// The names of the parameters the data do not determine.
+fn undetermined_names(r: &CalibResult) -> Vec<String> {
+    let names = intrinsic_names(r.camera.lens.kind());
+    let name = |i: usize| names.get(i).map_or_else(|| ["board_warp_x", "board_warp_y"][i.saturating_sub(names.len()).min(1)].to_string(), |n| (*n).to_string());
+    r.undetermined.iter().map(|&i| name(i)).collect()
+}
+
+/// The summary on the terminal.
+fn print_result(args: &CalibrateArgs, r: &CalibResult, map: &UncertaintyMap, undetermined: &[String], (used, skipped): (usize, usize)) {
+    println!("{used} views used, {skipped} skipped; RMS {:.4} px", r.rms_px);
+    if !undetermined.is_empty() {
+        eprintln!(
+            "warning: {} not determined (standard deviation infinite): the model trades them exactly at this solution, or the views do not vary what they trade against",
+            undetermined.join(", ")
+        );
+    }
+    if let (Some(k), true) = (r.rejection.threshold_sigmas, r.rejection.dropped > 0) {
+        println!(
+            "{} outliers dropped (residual > {:.4} px = {k} robust sigma); RMS with them {:.4} px",
+            r.rejection.dropped, r.rejection.threshold_px, r.rejection.rms_before_px
+        );
+    }
+    println!("{}", map.summary());
+    if args.board_warp {
+        let (k, sd) = (r.board_warp.k, r.board_warp_std);
+        println!("board warp: kx {:.3} +- {:.3} mm, ky {:.3} +- {:.3} mm", k[0] * 1e3, sd[0] * 1e3, k[1] * 1e3, sd[1] * 1e3);
+    }
+    let k = r.camera.intrinsics;
+    println!(
+        "fx {:.4} +- {:.4}  fy {:.4} +- {:.4}  cx {:.4} +- {:.4}  cy {:.4} +- {:.4}  skew {:.4}",
+        k.fx, r.std[0], k.fy, r.std[1], k.cx, r.std[2], k.cy, r.std[3], k.skew
+    );
+    let n_lens = args.model.n_lens_params();
+    let lens_names = &r.camera.lens.kind().param_names()[..n_lens];
+    println!("{} ({}) = {:?}", args.model, lens_names.join(", "), &r.camera.lens.params()[..n_lens]);
+}
+
+/// Each view's line of the JSON.
+fn view_outs(found: &[Found], r: &CalibResult) -> Vec<ViewOut> {
+    found
+        .iter()
+        .zip(&r.views)
+        .map(|(f, v)| ViewOut {
+            file: f.file.clone(),
+            points: f.view.len(),
+            outliers: v.outliers.iter().filter_map(|&j| f.point_index.get(j).copied()).collect(),
+            rms_px: v.rms_px,
+            max_px: v.max_px,
+            rvec: v.rvec.into(),
+            tvec: v.tvec.into(),
+        })
+        .collect()
+}
+
+/// Run `calibrate`.
+pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
+    check_args(args)?;
     let (found, skipped) = keep_first_size(load_detections(args)?);
     let Some(first) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
     let size = ImageSize { width: first.width as u32, height: first.height as u32 };
     let views: Vec<View> = found.iter().map(|f| f.view.clone()).collect();
     let t0 = std::time::Instant::now();
-    let params = CalibParams { estimate_skew: args.skew, model: args.model, ..Default::default() };
+    let params = params_of(args)?;
     let r = calibrate(&views, size, &params).context("calibrating")?;
     let time_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let (cols, rows) = args.uncertainty_grid;
+    let map = r.uncertainty_map(&views, cols, rows, args.uncertainty_range);
     // Files the chosen formats cannot hold fail before anything is written.
     let files = export_files(args, &r.camera, r.rms_px)?;
     let k = r.camera.intrinsics;
-    let std = named(&intrinsic_names(r.camera.lens.kind()), &r.std);
     let n_lens = args.model.n_lens_params();
     let (dist, xi, alpha) = match r.camera.lens {
         Lens::DoubleSphere(d) => (None, Some(d.xi), Some(d.alpha)),
         l => (Some(l.params()[..n_lens].to_vec()), None, None),
     };
-    println!("{} views used, {} skipped; RMS {:.4} px", found.len(), skipped.len(), r.rms_px);
-    println!(
-        "fx {:.4} +- {:.4}  fy {:.4} +- {:.4}  cx {:.4} +- {:.4}  cy {:.4} +- {:.4}  skew {:.4}",
-        k.fx, r.std[0], k.fy, r.std[1], k.cx, r.std[2], k.cy, r.std[3], k.skew
-    );
-    let lens_names = &r.camera.lens.kind().param_names()[..n_lens];
-    println!("{} ({}) = {:?}", args.model, lens_names.join(", "), &r.camera.lens.params()[..n_lens]);
+    let undetermined = undetermined_names(&r);
+    print_result(args, &r, &map, &undetermined, (found.len(), skipped.len()));
     let out = Output {
         image_size: [size.width, size.height],
         rms_px: r.rms_px,
@@ -226,17 +347,19 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
         dist,
         xi,
         alpha,
-        std,
-        views: found
-            .iter()
-            .zip(&r.views)
-            .map(|(f, v)| ViewOut { file: f.file.clone(), points: f.view.len(), rms_px: v.rms_px, max_px: v.max_px, rvec: v.rvec.into(), tvec: v.tvec.into() })
-            .collect(),
+        std: named(&intrinsic_names(r.camera.lens.kind()), &r.std),
+        undetermined,
+        board_warp_m: args.board_warp.then_some(r.board_warp.k),
+        board_warp_std_m: args.board_warp.then_some(r.board_warp_std),
+        views: view_outs(&found, &r),
         used: found.len(),
         skipped,
         iterations: r.iterations,
         converged: r.converged,
         time_ms,
+        search: SearchOut::from(&r.search),
+        rejection: RejectionOut::from(&r.rejection),
+        projection_uncertainty: uncertainty_out(&map),
         cross_validation: cross_out(args, &views, size, &params, &r, &found)?,
     };
     if let Some(p) = &args.json {
@@ -252,7 +375,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.report {
         let files: Vec<String> = found.iter().map(|f| f.file.clone()).collect();
         let skipped: Vec<(String, String)> = out.skipped.iter().map(|s| (s.file.clone(), s.reason.clone())).collect();
-        let inputs = CalibInputs { model: args.model.name(), lens_params: n_lens, files: &files, points_px: &pts, skipped: &skipped };
+        let inputs = CalibInputs { model: args.model.name(), lens_params: n_lens, files: &files, points_px: &pts, skipped: &skipped, uncertainty: Some(&map) };
         write_report(dir, &document(&r, &inputs)?)?;
     }
     Ok(())

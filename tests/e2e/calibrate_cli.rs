@@ -6,7 +6,9 @@ use synthcam::course::sweep::{run_sweep, SweepMode};
 
 use crate::common::{bin, renderer};
 
-fn write_detections(name: &str, images: &[Vec<[f64; 2]>]) -> std::path::PathBuf {
+/// A detections JSON of 640 x 480 images (`v{i}.png`, each found with its points) in a fresh
+/// temporary folder named after `name`.
+pub(crate) fn write_detections(name: &str, images: &[Vec<[f64; 2]>]) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("synthcam-cal-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
     let v = serde_json::json!({

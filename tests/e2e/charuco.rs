@@ -29,6 +29,7 @@ fn random_charuco_scene(rng: &mut ChaCha8Rng) -> Scene {
         light: rng.random_range(170.0..255.0),
         margin: rng.random_range(100.0..255.0),
         background: rng.random_range(0.0..255.0),
+        warp_m: [0.0; 2],
     };
     // Marker cells of 3 to 40 px (before foreshortening).
     let cell_px = (rng.random_range(3f64.ln()..40f64.ln())).exp();

@@ -80,7 +80,16 @@ fn random_scene(rng: &mut ChaCha8Rng, chessboard: bool) -> Scene {
     let (target, feature_m, centre) = if chessboard {
         let s = rng.random_range(0.01..0.08);
         let squares = [rng.random_range(3..13), rng.random_range(3..11)];
-        let b = Chessboard { squares, square_m: s, margin_m: s * rng.random_range(0.0..1.0), dark, light, margin: rng.random_range(100.0..255.0), background };
+        let b = Chessboard {
+            warp_m: [0.0; 2],
+            squares,
+            square_m: s,
+            margin_m: s * rng.random_range(0.0..1.0),
+            dark,
+            light,
+            margin: rng.random_range(100.0..255.0),
+            background,
+        };
         let c = Vector3::new(0.5 * s * f64::from(squares[0]), 0.5 * s * f64::from(squares[1]), 0.0);
         (Target::Chessboard(b), s, c)
     } else {

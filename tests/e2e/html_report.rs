@@ -139,10 +139,10 @@ fn calibrate_report_renders_in_chromium() {
     let args =
         [images.as_os_str(), "--target".as_ref(), "chessboard:8x6".as_ref(), "--square".as_ref(), "0.03".as_ref(), "--report".as_ref(), report.as_os_str()];
     synthcam(&std::iter::once("calibrate".as_ref()).chain(args).collect::<Vec<_>>());
-    // Intrinsics, views, skipped (v6.png at 641 x 481); the residual plot.
+    // Intrinsics, views, skipped (v6.png at 641 x 481); the residual plot (and the uncertainty map).
     check_page(&report.join("report.html"), 3, 1, &["<h2>Intrinsics</h2>", "<td>v5.png</td>", "<td>v6.png</td>", "641x481", "<td>fx</td>"]);
     let md = std::fs::read_to_string(report.join("report.md")).expect("report.md");
-    assert!(md.contains("| view | file | points | RMS px | max px |") && md.contains("![reprojection error"), "{md}");
+    assert!(md.contains("| view | file | points | outliers | RMS px | max px |") && md.contains("![reprojection error"), "{md}");
     assert!(report.join("calibration.png").exists());
     check_in_chromium(&report.join("report.html"), 3, 1);
     let _ = std::fs::remove_dir_all(&out);

@@ -36,18 +36,21 @@ impl RayFrame {
 /// Bounding box `[xmin, ymin, xmax, ymax]` of the plane points seen along `rays` in all `frames`,
 /// grown by 10 % of its size to cover the bending of the tile's edges by the distortion (a
 /// straight pixel edge stays straight under the homography; the lens bends it by far less than
-/// 10 %); `None` if a ray misses the plane.
-fn plane_bbox(frames: &[RayFrame], rays: &[Vector3<f64>]) -> Option<[f64; 4]> {
+/// 10 %); `None` if a ray misses the plane. A warped board lies between the planes `z = z_range`
+/// (`[0, 0]` when flat): the rays are met with both, and the box holds every point seen.
+fn plane_bbox(frames: &[RayFrame], rays: &[Vector3<f64>], z_range: [f64; 2]) -> Option<[f64; 4]> {
     let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
     for f in frames {
         for r in rays {
             let (o, d) = f.ray(r);
-            let t = -o.z / d.z;
-            if !(t > 0.0) || !t.is_finite() {
-                return None;
+            for z in z_range {
+                let t = (z - o.z) / d.z;
+                if !(t > 0.0) || !t.is_finite() {
+                    return None;
+                }
+                let (x, y) = (o.x + t * d.x, o.y + t * d.y);
+                bb = [bb[0].min(x), bb[1].min(y), bb[2].max(x), bb[3].max(y)];
             }
-            let (x, y) = (o.x + t * d.x, o.y + t * d.y);
-            bb = [bb[0].min(x), bb[1].min(y), bb[2].max(x), bb[3].max(y)];
         }
     }
     let gx = 0.1 * (bb[2] - bb[0]) + 1e-9;
@@ -127,6 +130,8 @@ struct FlatTest<'a> {
     lattice: Option<&'a CellLattice>,
     /// S-path: the sphere's centre in the camera frame and its radius in pixels.
     sphere: Option<(Vector3<f64>, f64)>,
+    /// The range of a warped board's sag over its sheet (`[0, 0]`: flat).
+    z_range: [f64; 2],
 }
 
 impl<'a> FlatTest<'a> {
@@ -154,7 +159,8 @@ impl<'a> FlatTest<'a> {
             }
             _ => None,
         };
-        Self { lines_m, lattice, sphere }
+        let z_range = scene.target.warp().zip(scene.target.extent_m()).map_or([0.0; 2], |(w, sheet)| w.z_range(sheet));
+        Self { lines_m, lattice, sphere, z_range }
     }
 
     /// The grey level of the tile seen along the corner `rays` when it is one flat region;
@@ -164,13 +170,13 @@ impl<'a> FlatTest<'a> {
             Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) if plane_missed(frames, rays) => {
                 Some(scene.target.background())
             }
-            Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => plane_bbox(frames, rays).and_then(|bb| {
+            Target::Chessboard(_) | Target::Charuco(_) | Target::AprilGrid(_) => plane_bbox(frames, rays, self.z_range).and_then(|bb| {
                 let [xl, yl] = &self.lines_m;
                 let crossed = any_in(xl, bb[0], bb[2]) || any_in(yl, bb[1], bb[3]);
                 let uniform = self.lattice.is_none_or(|l| l.uniform_over(bb));
                 (!crossed && uniform).then(|| scene.target.plane_intensity(0.5 * (bb[0] + bb[2]), 0.5 * (bb[1] + bb[3]))).flatten()
             }),
-            Target::DotGrid(g) => plane_bbox(frames, rays).and_then(|bb| {
+            Target::DotGrid(g) => plane_bbox(frames, rays, self.z_range).and_then(|bb| {
                 let outer = 0.5 * g.edge_m + g.margin_m;
                 if any_in(&[-outer, outer], bb[0], bb[2]) || any_in(&[-outer, outer], bb[1], bb[3]) {
                     return None;

@@ -55,6 +55,18 @@ pub struct Params {
     pub plane: [f32; 4],
     /// Planar targets: the printed sheet in the target plane, `x0, y0, x1, y1`, metres.
     pub sheet: [f32; 4],
+    /// Warped boards (`shaders/planar.wgsl` `warp_view`): `kx, ky` (metres), `lambda` (the
+    /// uniform homography is `[r1 r2 t]^-1 / lambda`), 1 when warped (else all 0).
+    pub warp: [f32; 4],
+    /// Warped boards: the feature extent's centre `xc, yc` and scales `sx, sy` (`u = (x - xc) sx`).
+    pub warp_c: [f32; 4],
+    /// Warped boards: row 0 of `target_from_cam`'s rotation (xyz) and the camera centre's x in the
+    /// target frame (w).
+    pub tfc0: [f32; 4],
+    /// Row 1 (w: the camera centre's y).
+    pub tfc1: [f32; 4],
+    /// Row 2 (w: the camera centre's z).
+    pub tfc2: [f32; 4],
 }
 
 #[cfg(test)]
@@ -69,7 +81,10 @@ mod tests {
         macro_rules! fields {
             ($($f:ident),*) => { vec![$((stringify!($f).to_string(), offset_of!(Params, $f))),*] };
         }
-        fields!(size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet)
+        fields!(
+            size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet, warp,
+            warp_c, tfc0, tfc1, tfc2
+        )
     }
 
     /// WGSL struct `name`'s members (name, byte offset) and size, from naga's reflection of the

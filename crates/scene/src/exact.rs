@@ -27,7 +27,7 @@ pub type ExactImage = Vec<Option<f64>>;
 /// Render `scene` exactly (see the module docs) with `subdivisions^2` sub-squares per pixel.
 ///
 /// # Errors
-/// [`SceneError::InvalidField`] for an S-path scene (not planar) or `subdivisions` outside
+/// [`SceneError::InvalidField`] for an S-path scene (not planar), a warped board, or `subdivisions` outside
 /// 1..=64, and the scene's own validation errors.
 pub fn render_exact_planar(scene: &Scene, subdivisions: u32) -> Result<ExactImage, SceneError> {
     scene.validate()?;
@@ -36,6 +36,9 @@ pub fn render_exact_planar(scene: &Scene, subdivisions: u32) -> Result<ExactImag
     }
     if !scene.target.is_planar() {
         return Err(SceneError::InvalidField { field: "target.kind".into(), reason: "the exact reference covers planar targets only".into() });
+    }
+    if scene.target.warp().is_some() {
+        return Err(SceneError::InvalidField { field: "target.warp_m".into(), reason: "the exact reference covers flat boards only".into() });
     }
     let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
     let target_from_cam = scene.cam_from_target.inverse();

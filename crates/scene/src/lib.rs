@@ -152,6 +152,13 @@ impl Scene {
                 reason: "defocus and motion are rendered for planar targets (chessboard, dot grid, ChArUco, AprilGrid); the S-path is not supported yet".into(),
             });
         }
+        if self.target.warp().is_some() && (rs.effects.needs_views() || !self.objects.is_empty()) {
+            return Err(SceneError::InvalidField {
+                field: "target.warp_m".into(),
+                reason: "a warped board is rendered sharp and alone: defocus, motion, a rolling shutter and objects are not rendered on a curved board yet"
+                    .into(),
+            });
+        }
         self.validate_objects()?;
         let pts = self.target.feature_points_m();
         let n = pts.len().max(1) as f64;

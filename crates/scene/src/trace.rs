@@ -59,6 +59,8 @@ pub struct Tracer<'a> {
     target_from_cam: Isometry3<f64>,
     sphere: Option<SphereCam>,
     dots: Vec<SphereCam>,
+    /// A warped board's warp (flat: the default).
+    warp: synthcam_core::target::Warp,
 }
 
 impl<'a> Tracer<'a> {
@@ -73,7 +75,7 @@ impl<'a> Tracer<'a> {
             }
             _ => (None, Vec::new()),
         };
-        Self { scene, target_from_cam, sphere, dots }
+        Self { scene, target_from_cam, sphere, dots, warp: scene.target.warp().unwrap_or_default() }
     }
 
     /// The scene.
@@ -124,7 +126,8 @@ impl<'a> Tracer<'a> {
             Target::Chessboard(_) | Target::DotGrid(_) | Target::Charuco(_) | Target::AprilGrid(_) => {
                 let o = self.target_from_cam.translation.vector;
                 let d = self.target_from_cam.rotation * d_cam;
-                let t = -o.z / d.z;
+                // A warped board's paraboloid (flat: the plane z = 0).
+                let t = self.warp.intersect(&o, &d).unwrap_or(f64::NAN);
                 if d.z == 0.0 || !(t > 0.0) || !t.is_finite() {
                     return self.object_in_front(d_cam, f64::INFINITY).unwrap_or(background);
                 }

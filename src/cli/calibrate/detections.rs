@@ -22,6 +22,8 @@ pub(super) struct Found {
     /// Board points (the target's frame) and their detected pixels, without the corners the
     /// detector says to leave out ([`views_from_detections`]).
     pub(super) view: View,
+    /// The index (into the detection's points) of each point of `view`.
+    pub(super) point_index: Vec<usize>,
 }
 
 /// Detections and their images' names and sizes, in input order.
@@ -48,9 +50,10 @@ impl Inputs {
             .used
             .into_iter()
             .zip(v.views)
-            .map(|(i, view)| {
+            .zip(v.point_indices)
+            .map(|((i, view), point_index)| {
                 let (file, (width, height)) = self.images[i].clone();
-                Found { file, width, height, view }
+                Found { file, width, height, view, point_index }
             })
             .collect();
         Ok((found, skipped))

@@ -29,11 +29,13 @@ pub struct Chessboard {
     pub margin: f64,
     /// Grey level of everything that is not the board.
     pub background: f64,
+    /// The board's warp, `[kx, ky]` metres ([`super::Warp`]; zero: flat).
+    pub warp_m: [f64; 2],
 }
 
 impl Default for Chessboard {
     fn default() -> Self {
-        Self { squares: [9, 7], square_m: 0.03, margin_m: 0.015, dark: 20.0, light: 235.0, margin: 235.0, background: 110.0 }
+        Self { squares: [9, 7], square_m: 0.03, margin_m: 0.015, dark: 20.0, light: 235.0, margin: 235.0, background: 110.0, warp_m: [0.0; 2] }
     }
 }
 
@@ -64,7 +66,8 @@ impl Chessboard {
             return Err(TargetError::InvalidField { field: "squares", reason: format!("needs 2..=4096 squares per side, got {:?}", self.squares) });
         }
         require_positive("square_m", self.square_m)?;
-        BoardLook { margin_m: self.margin_m, dark: self.dark, light: self.light, margin: self.margin, background: self.background }.validate()
+        BoardLook { margin_m: self.margin_m, dark: self.dark, light: self.light, margin: self.margin, background: self.background, warp_m: self.warp_m }
+            .validate()
     }
 
     /// Grey level at (x, y) on the board plane (board frame, metres).

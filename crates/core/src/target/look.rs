@@ -15,12 +15,14 @@ pub struct BoardLook {
     pub margin: f64,
     /// Grey level of everything that is not the board.
     pub background: f64,
+    /// The board's warp, `[kx, ky]` metres ([`super::Warp`]; zero: flat).
+    pub warp_m: [f64; 2],
 }
 
 impl Default for BoardLook {
     /// The chessboard's look with a border of 2 cm.
     fn default() -> Self {
-        Self { margin_m: 0.02, dark: 20.0, light: 235.0, margin: 235.0, background: 110.0 }
+        Self { margin_m: 0.02, dark: 20.0, light: 235.0, margin: 235.0, background: 110.0, warp_m: [0.0; 2] }
     }
 }
 
@@ -32,6 +34,9 @@ impl BoardLook {
     pub fn validate(&self) -> Result<(), TargetError> {
         if !self.margin_m.is_finite() || self.margin_m < 0.0 {
             return Err(TargetError::InvalidField { field: "margin_m", reason: format!("must be finite and >= 0, got {}", self.margin_m) });
+        }
+        if !self.warp_m.iter().all(|k| k.is_finite()) {
+            return Err(TargetError::InvalidField { field: "warp_m", reason: format!("must be finite, got {:?}", self.warp_m) });
         }
         require_grey("dark", self.dark)?;
         require_grey("light", self.light)?;

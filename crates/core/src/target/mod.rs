@@ -22,6 +22,7 @@ pub mod lattice;
 pub mod look;
 pub mod s_path;
 pub mod s_path_dots;
+pub mod warp;
 
 pub use aprilgrid::{AprilGrid, AprilGridTarget};
 pub use aruco::Dictionary;
@@ -32,6 +33,7 @@ pub use lattice::CellLattice;
 pub use look::BoardLook;
 pub use s_path::{spherical_s, SPath};
 pub use s_path_dots::{DotStyle, SPathDots};
+pub use warp::{BoardExtent, Warp};
 
 use nalgebra::Point3;
 
@@ -118,11 +120,50 @@ impl Target {
             Target::SPath(s) => s.validate(),
             Target::Charuco(c) => c.validate(),
             Target::AprilGrid(g) => g.validate(),
+        }?;
+        self.validate_warp()
+    }
+
+    /// A warp is finite (the looks check that) and at most a tenth of the feature points' smaller
+    /// extent: beyond it a board is no longer "nearly flat", the model's domain.
+    fn validate_warp(&self) -> Result<(), TargetError> {
+        let (Some(k), Some(e)) = (self.warp_m(), BoardExtent::of(self.flat_feature_points_m())) else { return Ok(()) };
+        let limit = 0.1 * (e.x.1 - e.x.0).min(e.y.1 - e.y.0);
+        if k.iter().any(|k| k.abs() > limit) {
+            return Err(TargetError::InvalidField { field: "warp_m", reason: format!("{k:?} exceeds a tenth of the board's feature extent ({limit} m)") });
+        }
+        Ok(())
+    }
+
+    /// The warp's `[kx, ky]` (metres) of a board that has one (`None`: flat, or not a board).
+    pub fn warp_m(&self) -> Option<[f64; 2]> {
+        let k = match self {
+            Target::Chessboard(b) => b.warp_m,
+            Target::Charuco(c) => c.look.warp_m,
+            Target::AprilGrid(g) => g.look.warp_m,
+            Target::DotGrid(_) | Target::SPath(_) => return None,
+        };
+        (k != [0.0; 2]).then_some(k)
+    }
+
+    /// The board's warp over its feature points' extent ([`Warp`]); `None` for a flat target.
+    pub fn warp(&self) -> Option<Warp> {
+        let k = self.warp_m()?;
+        Some(Warp { k, extent: Some(BoardExtent::of(self.flat_feature_points_m())?) })
+    }
+
+    /// The labelled feature points in the target frame (metres), in the target's documented order
+    /// (on a warped board, off the plane by the warp's sag).
+    pub fn feature_points_m(&self) -> Vec<Point3<f64>> {
+        let flat = self.flat_feature_points_m();
+        match self.warp() {
+            Some(w) => flat.iter().map(|p| w.apply(p)).collect(),
+            None => flat,
         }
     }
 
-    /// The labelled feature points in the target frame (metres), in the target's documented order.
-    pub fn feature_points_m(&self) -> Vec<Point3<f64>> {
+    /// The feature points as printed: in z = 0 for the planar targets, whatever the warp.
+    pub fn flat_feature_points_m(&self) -> Vec<Point3<f64>> {
         match self {
             Target::Chessboard(b) => b.inner_corners_m(),
             Target::DotGrid(g) => g.dot_centres_m(),

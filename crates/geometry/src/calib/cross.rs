@@ -3,8 +3,9 @@
 //!
 //! The views are dealt into `k` folds (view `i` into fold `i mod k`: views taken in sequence
 //! spread over the folds). For each fold the camera is calibrated on the other folds' views; the
-//! held-out views then get their poses alone fitted under that camera (homography from the
-//! unprojected rays, then Levenberg-Marquardt over the poses), and their reprojection RMS is the
+//! held-out views (less the points the full calibration dropped as outliers) then get their
+//! poses alone fitted under that camera (homography from the unprojected rays, then
+//! Levenberg-Marquardt over the poses), and their reprojection RMS is the
 //! held-out error. A model too simple for the lens leaves a held-out RMS well above the fit's
 //! (the structure it cannot fit does not average out), one with parameters the data do not pin
 //! down leaves fold cameras that disagree: their spread per intrinsic, and the largest difference
@@ -16,9 +17,12 @@
 //! 2nd ed., section 7.10 (k-fold cross-validation); mrcal's cross-validation by the projection
 //! difference of models fitted to disjoint data (<https://mrcal.secretsauce.net/tour-cross-validation.html>).
 
-use nalgebra::{Point2, Point3, Vector6};
+use nalgebra::{Point2, Rotation3};
 
-use super::refine::{pose_vector, refine, vector_of, State, View};
+use super::compare::pixel_diff;
+
+use super::refine::{vector_of, View};
+use super::uncertainty::ImageGrid;
 use super::{calibrate, view_results, CalibError, CalibParams, CalibResult, IntrinsicStd};
 use synthcam_core::camera::{CameraModel, ImageSize, N_INTRINSICS};
 
@@ -74,13 +78,14 @@ pub fn cross_validate(views: &[View], size: ImageSize, params: &CalibParams, ful
         let (held_out, fit): (Vec<usize>, Vec<usize>) = (0..views.len()).partition(|i| i % folds == f);
         let pick = |ids: &[usize]| ids.iter().map(|&i| views[i].clone()).collect::<Vec<View>>();
         let r = calibrate(&pick(&fit), size, params)?;
-        let held = pick(&held_out);
-        let poses = held_out_poses(&r.camera, &held, size, params.max_iterations)?;
-        let (_, rms) = view_results(&r.camera, &held, &poses);
+        // The held-out views without the points the full calibration dropped as outliers.
+        let held: Vec<View> = held_out.iter().map(|&i| super::outliers::without(&views[i], &full.views[i].outliers)).collect();
+        let poses = super::global::poses_under(&r.camera, r.board_warp, &held, size, params.max_iterations)?;
+        let (_, rms) = view_results(&r.camera, &r.board_warp, &held, &poses, &[]);
         let n: usize = held.iter().map(Vec::len).sum();
         held_ss += rms * rms * n as f64;
         held_n += n;
-        let diffs: Vec<f64> = cells.iter().filter_map(|q| projection_diff(&full.camera, &r.camera, q)).collect();
+        let diffs: Vec<f64> = cells.iter().filter_map(|q| pixel_diff(&full.camera, &r.camera, &Rotation3::identity(), q)).collect();
         diff_ss += diffs.iter().map(|d| d * d).sum::<f64>();
         diff_n += diffs.len();
         let projection_diff_max_px = diffs.iter().copied().fold(0.0, f64::max);
@@ -95,52 +100,11 @@ pub fn cross_validate(views: &[View], size: ImageSize, params: &CalibParams, ful
     })
 }
 
-/// The poses of `views` under a fixed `camera`: each from the homography between the board and
-/// the unprojected rays near the axis ([`super::init_wide::view_pose`]; where that fails, as
-/// under a lens model that cannot follow the lens, from the board-to-pixel homography and K), then refined
-/// together with every intrinsic fixed.
-fn held_out_poses(camera: &CameraModel, views: &[View], size: ImageSize, max_iterations: usize) -> Result<Vec<Vector6<f64>>, CalibError> {
-    let mut poses = Vec::with_capacity(views.len());
-    for (i, v) in views.iter().enumerate() {
-        let pose = match super::init_wide::view_pose(camera, v) {
-            Some((pose, _)) => pose,
-            None => {
-                // Zhang's pose from the board-to-pixel homography and K, as the OpenCV models start.
-                let (src, dst): (Vec<Point2<f64>>, Vec<Point2<f64>>) = v.iter().map(|(x, q)| (x.xy(), *q)).unzip();
-                let h = synthcam_core::math::homography::homography(&src, &dst)
-                    .ok_or_else(|| CalibError::Degenerate { reason: format!("held-out view {i}: no homography") })?;
-                super::zhang::pose_from_homography(&h, &camera.intrinsics)
-            }
-        };
-        poses.push(pose_vector(&pose));
-    }
-    let init = State { kind: camera.lens.kind(), a: vector_of(camera), poses };
-    let r =
-        refine(size, init, views, &[], max_iterations).ok_or_else(|| CalibError::Degenerate { reason: "held-out poses: singular normal equations".into() })?;
-    Ok(r.state.poses)
-}
-
 /// Centres of the [`CELLS`] x [`CELLS`] image cells holding at least one observed point.
 fn covered_cells(views: &[View], size: ImageSize) -> Vec<Point2<f64>> {
-    let (cw, ch) = (f64::from(size.width) / f64::from(CELLS), f64::from(size.height) / f64::from(CELLS));
-    let mut hit = vec![false; (CELLS * CELLS) as usize];
-    for (_, q) in views.iter().flatten() {
-        let (cx, cy) = ((q.x + 0.5) / cw, (q.y + 0.5) / ch);
-        if (0.0..f64::from(CELLS)).contains(&cx) && (0.0..f64::from(CELLS)).contains(&cy) {
-            hit[cy as usize * CELLS as usize + cx as usize] = true;
-        }
-    }
-    (0..hit.len())
-        .filter(|&k| hit[k])
-        .map(|k| Point2::new(((k % CELLS as usize) as f64 + 0.5) * cw - 0.5, ((k / CELLS as usize) as f64 + 0.5) * ch - 0.5))
-        .collect()
-}
-
-/// `|project_b(unproject_a(q)) - q|`, px; `None` where either model cannot map the pixel.
-fn projection_diff(a: &CameraModel, b: &CameraModel, q: &Point2<f64>) -> Option<f64> {
-    let ray = a.unproject_ray(q).ok()?;
-    let p = b.project(&Point3::from(ray));
-    p.visible().then(|| (p.pixel_px - q).norm()).filter(|d| d.is_finite())
+    let grid = ImageGrid { size, cols: CELLS, rows: CELLS };
+    let covered = grid.covered(views);
+    (0..grid.len()).filter(|&k| covered[k]).map(|k| grid.centre(k)).collect()
 }
 
 /// Sample standard deviation of each intrinsic over the folds' cameras; NaN where `fixed_std` is

@@ -6,19 +6,28 @@
 //! OpenCV `calibrateCamera` (same model and objective: its results are the outside reference in
 //! the tests).
 
+pub mod compare;
 pub mod cross;
+pub mod global;
 pub mod init_wide;
 pub mod model;
+pub mod outliers;
+pub mod precision;
 pub mod refine;
+pub mod uncertainty;
 pub mod views;
 pub mod zhang;
 
+pub use compare::{projection_diff, ProjectionDiff};
 pub use cross::{cross_validate, CrossValidation, Fold};
+pub use global::Search;
 pub use model::{CalibModel, CALIB_MODELS};
+pub use outliers::Rejection;
+pub use uncertainty::UncertaintyMap;
 
-use nalgebra::{Point2, Point3, Vector2, Vector3, Vector6};
+use nalgebra::{Point3, Vector2, Vector3, Vector6};
 
-pub use refine::View;
+pub use refine::{BoardExtent, View, Warp};
 use synthcam_core::camera::{CameraModel, ImageSize, MAX_LENS_PARAMS, N_INTRINSICS};
 pub use views::{views_from_detections, BoardViews, SkippedDetection};
 
@@ -86,11 +95,33 @@ pub struct CalibParams {
     pub fix_distortion: [bool; MAX_LENS_PARAMS],
     /// Levenberg-Marquardt iteration limit.
     pub max_iterations: usize,
+    /// Drop points whose residual is more than this many robust standard deviations of the
+    /// residuals, then fit again ([`outliers`]); `None` keeps every point (as OpenCV does).
+    pub outlier_threshold: Option<f64>,
+    /// Estimate the board's warp (mrcal's two-parameter sag, [`Warp`]) over this extent of the
+    /// board (usually its points' extent, [`BoardExtent::of`]); `None`: the board is flat.
+    pub board_warp: Option<BoardExtent>,
+    /// A camera to start from besides the model's own starts ([`global`]; as OpenCV's
+    /// `CALIB_USE_INTRINSIC_GUESS`, except that the other starts still run and the lowest
+    /// optimum wins). Ignored unless its lens model is the one estimated.
+    pub initial: Option<CameraModel>,
 }
+
+/// [`CalibParams::outlier_threshold`]'s default: 5 robust standard deviations (a residual of
+/// Gaussian noise exceeds it with probability `exp(-12.5)`, 4e-6, per point).
+pub const DEFAULT_OUTLIER_THRESHOLD: f64 = 5.0;
 
 impl Default for CalibParams {
     fn default() -> Self {
-        Self { estimate_skew: false, model: CalibModel::OpenCv5, fix_distortion: [false; MAX_LENS_PARAMS], max_iterations: 200 }
+        Self {
+            estimate_skew: false,
+            model: CalibModel::OpenCv5,
+            fix_distortion: [false; MAX_LENS_PARAMS],
+            max_iterations: 200,
+            outlier_threshold: Some(DEFAULT_OUTLIER_THRESHOLD),
+            board_warp: None,
+            initial: None,
+        }
     }
 }
 
@@ -105,8 +136,11 @@ pub struct ViewResult {
     pub rms_px: f64,
     /// Largest reprojection error, px.
     pub max_px: f64,
-    /// Residuals (projected - observed), px.
+    /// Residuals (projected - observed) of every point of the view, outliers included, px.
     pub residuals_px: Vec<Vector2<f64>>,
+    /// Indices (into the view's points) of the points dropped as outliers; `rms_px` and
+    /// `max_px` are over the others.
+    pub outliers: Vec<usize>,
 }
 
 /// Standard deviations of the intrinsics (NaN for fixed ones), in
@@ -118,16 +152,33 @@ pub type IntrinsicStd = [f64; N_INTRINSICS];
 pub struct CalibResult {
     /// The calibrated camera.
     pub camera: CameraModel,
-    /// RMS reprojection error over all points, px (as OpenCV's `calibrateCamera` returns).
+    /// RMS reprojection error over all points not dropped as outliers, px (as OpenCV's
+    /// `calibrateCamera` returns).
     pub rms_px: f64,
     /// Per view.
     pub views: Vec<ViewResult>,
-    /// Standard deviations from sigma^2 (J^T J)^-1 with sigma^2 = SSE / (n - k).
+    /// Standard deviations from sigma^2 (J^T J)^-1 with sigma^2 = SSE / (n - k); infinite for a
+    /// parameter the data do not determine ([`CalibResult::undetermined`]), NaN for fixed ones.
     pub std: IntrinsicStd,
     /// Iterations of the refinement.
     pub iterations: usize,
     /// Whether the refinement met its convergence test.
     pub converged: bool,
+    /// Parameters the data do not determine (indices into the intrinsics vector,
+    /// [`synthcam_core::camera::intrinsic_names`], then the warp's `N_INTRINSICS`,
+    /// `N_INTRINSICS + 1`): a null direction of the normal equations moves them (e.g. Double
+    /// Sphere's `fx`, `xi`, `alpha` at `xi = 0`). Empty for a well-posed calibration.
+    pub undetermined: Vec<usize>,
+    /// The board's warp as estimated (`k` zero and no extent unless asked for).
+    pub board_warp: Warp,
+    /// Standard deviations of the warp's `kx`, `ky` (NaN unless estimated), board units.
+    pub board_warp_std: [f64; 2],
+    /// The starts and restarts behind the optimum ([`global`]).
+    pub search: Search,
+    /// The outlier rejection ([`outliers`]).
+    pub rejection: Rejection,
+    /// What the projection uncertainty needs ([`uncertainty`]).
+    precision: refine::Precision,
 }
 
 fn validate(views: &[View]) -> Result<(), CalibError> {
@@ -162,72 +213,99 @@ fn validate(views: &[View]) -> Result<(), CalibError> {
     Ok(())
 }
 
-/// Zhang's closed form: intrinsics and every view's pose (OpenCV models).
-fn initial_zhang(views: &[View], params: &CalibParams) -> Result<(refine::IntrinsicVector, Vec<Vector6<f64>>), CalibError> {
-    let hs = views
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            let (src, dst): (Vec<Point2<f64>>, Vec<Point2<f64>>) = v.iter().map(|(x, q)| (x.xy(), *q)).unzip();
-            synthcam_core::math::homography::homography(&src, &dst).ok_or_else(|| CalibError::Degenerate { reason: format!("no homography for view {i}") })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let k0 = zhang::intrinsics_from_homographies(&hs, !params.estimate_skew)?;
-    let poses: Vec<Vector6<f64>> = hs.iter().map(|h| refine::pose_vector(&zhang::pose_from_homography(h, &k0))).collect();
-    let mut a0 = [0.0; N_INTRINSICS];
-    a0[..5].copy_from_slice(&[k0.fx, k0.fy, k0.cx, k0.cy, k0.skew]);
-    Ok((a0, poses))
+/// Every point's residual (projected - observed) under `camera` at the view's pose (rvec, t), the
+/// board warped by `warp`.
+fn residuals(camera: &CameraModel, warp: &Warp, view: &View, pose: &Vector6<f64>) -> Vec<Vector2<f64>> {
+    let rot = synthcam_core::math::so3::rotation_from_rvec(&Vector3::new(pose[0], pose[1], pose[2]));
+    let t = Vector3::new(pose[3], pose[4], pose[5]);
+    view.iter().map(|(x, q)| camera.project_unchecked(&Point3::from(rot * warp.apply(x).coords + t)) - q).collect()
 }
 
-/// Each view's residuals under `camera` at its pose (rvec, t), and the RMS over all points, px.
-fn view_results(camera: &CameraModel, views: &[View], poses: &[Vector6<f64>]) -> (Vec<ViewResult>, f64) {
+/// Each view's residuals under `camera` at its pose, and the RMS over all points but the
+/// `outliers` (per view; empty: none), px.
+fn view_results(camera: &CameraModel, warp: &Warp, views: &[View], poses: &[Vector6<f64>], outliers: &[Vec<usize>]) -> (Vec<ViewResult>, f64) {
     let (mut total, mut count) = (0.0, 0usize);
     let results = views
         .iter()
         .zip(poses)
-        .map(|(v, pose)| {
-            let w = Vector3::new(pose[0], pose[1], pose[2]);
-            let t = Vector3::new(pose[3], pose[4], pose[5]);
-            let rot = synthcam_core::math::so3::rotation_from_rvec(&w);
-            let res: Vec<Vector2<f64>> = v.iter().map(|(x, q)| camera.project_unchecked(&Point3::from(rot * x.coords + t)) - q).collect();
-            let ss: f64 = res.iter().map(|e| e.norm_squared()).sum();
+        .enumerate()
+        .map(|(i, (v, pose))| {
+            let res = residuals(camera, warp, v, pose);
+            let dropped = outliers.get(i).cloned().unwrap_or_default();
+            let kept: Vec<f64> = res.iter().enumerate().filter(|(j, _)| !dropped.contains(j)).map(|(_, e)| e.norm()).collect();
+            let ss: f64 = kept.iter().map(|e| e * e).sum();
             total += ss;
-            count += res.len();
-            ViewResult { rvec: w, tvec: t, rms_px: (ss / res.len() as f64).sqrt(), max_px: res.iter().map(|e| e.norm()).fold(0.0, f64::max), residuals_px: res }
+            count += kept.len();
+            ViewResult {
+                rvec: Vector3::new(pose[0], pose[1], pose[2]),
+                tvec: Vector3::new(pose[3], pose[4], pose[5]),
+                rms_px: (ss / kept.len().max(1) as f64).sqrt(),
+                max_px: kept.iter().copied().fold(0.0, f64::max),
+                residuals_px: res,
+                outliers: dropped,
+            }
         })
         .collect();
     (results, (total / count.max(1) as f64).sqrt())
 }
 
-/// Calibrate from views of a planar target, with the lens model of `params.model`.
-///
-/// # Errors
-/// Fewer than 3 views or 4 points per view, NaN, collinear or parallel views, or (fisheye,
-/// Double Sphere) no focal length under which every view has a pose.
-pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Result<CalibResult, CalibError> {
-    validate(views)?;
-    let kind = params.model.kind();
-    let (a0, poses) = match kind {
-        synthcam_core::camera::LensKind::OpenCv => initial_zhang(views, params)?,
-        _ => init_wide::initial(size, kind, views)
-            .ok_or_else(|| CalibError::Degenerate { reason: format!("no {} focal length fits every view", params.model) })?,
-    };
+/// The free intrinsic indices of `params`.
+fn free_parameters(params: &CalibParams) -> Vec<usize> {
     let mut free: Vec<usize> = vec![0, 1, 2, 3];
     if params.estimate_skew {
         free.push(4);
     }
     free.extend((0..params.model.n_lens_params()).filter(|i| !params.fix_distortion[*i]).map(|i| 5 + i));
-    let init = refine::State { kind, a: a0, poses };
-    let r = refine::refine(size, init, views, &free, params.max_iterations)
-        .ok_or_else(|| CalibError::Degenerate { reason: "the normal equations are singular".into() })?;
-    let camera = refine::camera_of(size, kind, &r.state.a);
-    let mut std = [f64::NAN; N_INTRINSICS];
-    for (j, &f) in free.iter().enumerate() {
-        std[f] = r.covariance[(j, j)].sqrt();
+    if params.board_warp.is_some() {
+        free.extend([N_INTRINSICS, N_INTRINSICS + 1]);
     }
-    let (view_results, rms_px) = view_results(&camera, views, &r.state.poses);
-    Ok(CalibResult { camera, rms_px, views: view_results, std, iterations: r.iterations, converged: r.converged })
+    free
 }
 
+/// Calibrate from views of a planar target, with the lens model of `params.model`: the best of
+/// several starts checked by perturbed restarts ([`global`]), outliers dropped ([`outliers`]).
+///
+/// # Errors
+/// Fewer than 3 views or 4 points per view, NaN, collinear or parallel views, an outlier
+/// threshold that is not a positive number, or (fisheye, Double Sphere) no focal length under
+/// which every view has a pose.
+pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Result<CalibResult, CalibError> {
+    validate(views)?;
+    if let Some(k) = params.outlier_threshold.filter(|k| !(k.is_finite() && *k > 0.0)) {
+        return Err(CalibError::BadOption { reason: format!("the outlier threshold must be a positive number of standard deviations, got {k}") });
+    }
+    let free = free_parameters(params);
+    let (fit, search) = global::fit(views, size, params, &free)?;
+    let (r, dropped, rejection) = outliers::reject(fit, views, size, params, &free)?;
+    let camera = refine::camera_of(size, r.state.kind, &r.state.a);
+    let (mut std, mut board_warp_std) = ([f64::NAN; N_INTRINSICS], [f64::NAN; 2]);
+    for (j, &f) in free.iter().enumerate() {
+        let s = if r.undetermined.contains(&f) { f64::INFINITY } else { r.covariance[(j, j)].sqrt() };
+        match f.checked_sub(N_INTRINSICS) {
+            Some(w) => board_warp_std[w.min(1)] = s,
+            None => std[f] = s,
+        }
+    }
+    let (view_results, rms_px) = view_results(&camera, &r.state.warp, views, &r.state.poses, &dropped);
+    Ok(CalibResult {
+        camera,
+        rms_px,
+        views: view_results,
+        std,
+        iterations: r.iterations,
+        converged: r.converged,
+        undetermined: r.undetermined.clone(),
+        board_warp: r.state.warp,
+        board_warp_std,
+        search,
+        rejection,
+        precision: r.precision,
+    })
+}
+
+#[cfg(test)]
+mod robust_tests;
+#[cfg(test)]
+mod testdata;
 #[cfg(test)]
 mod tests;

@@ -13,9 +13,16 @@ use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Point2, Point3, SMatrix, Vect
 
 use synthcam_core::camera::{CameraModel, ImageSize, Intrinsics, LensKind, N_INTRINSICS};
 use synthcam_core::math::so3::{rotation_from_rvec, skew};
+pub use synthcam_core::target::{BoardExtent, Warp};
+
+use super::precision::pseudo_inverse;
+pub use super::precision::Precision;
 
 /// One view: board points (z = 0) and their pixels.
 pub type View = Vec<(Point3<f64>, Point2<f64>)>;
+
+/// Parameters shared by every view: the intrinsics vector, then the board warp's two.
+pub const N_GLOBAL: usize = N_INTRINSICS + 2;
 
 /// Intrinsics vector: `fx, fy, cx, cy, skew`, then the lens parameters (zero-padded).
 pub type IntrinsicVector = [f64; N_INTRINSICS];
@@ -76,22 +83,32 @@ impl PoseTerms {
     }
 }
 
-/// Residual and Jacobians of one observation: r = project(R x + t) - q; the intrinsics'
-/// Jacobian has its first `n_lens` lens columns filled.
+/// Residual and Jacobians of one observation: r = project(R warp(x) + t) - q; the global
+/// Jacobian has its first `n_lens` lens columns and (with an extent) the warp's two filled.
 fn residual(
     cam: &CameraModel,
     pose: &PoseTerms,
     n_lens: usize,
+    warp: &Warp,
     x: &Point3<f64>,
     q: &Point2<f64>,
-) -> (nalgebra::Vector2<f64>, SMatrix<f64, 2, N_INTRINSICS>, SMatrix<f64, 2, 6>) {
-    let p = Point3::from(pose.r * x.coords + pose.t);
+) -> (nalgebra::Vector2<f64>, SMatrix<f64, 2, N_GLOBAL>, SMatrix<f64, 2, 6>) {
+    let xw = warp.apply(x);
+    let p = Point3::from(pose.r * xw.coords + pose.t);
     let r = cam.project_unchecked(&p) - q;
     let dq_dp = cam.dq_dp_cam(&p);
     let mut jb = SMatrix::<f64, 2, 6>::zeros();
-    jb.fixed_view_mut::<2, 3>(0, 0).copy_from(&(dq_dp * drotated(&pose.r, &pose.jr, &x.coords)));
+    jb.fixed_view_mut::<2, 3>(0, 0).copy_from(&(dq_dp * drotated(&pose.r, &pose.jr, &xw.coords)));
     jb.fixed_view_mut::<2, 3>(0, 3).copy_from(&dq_dp);
-    (r, cam.dq_dintrinsics_n(&p, n_lens), jb)
+    let mut ja = SMatrix::<f64, 2, N_GLOBAL>::zeros();
+    ja.fixed_view_mut::<2, N_INTRINSICS>(0, 0).copy_from(&cam.dq_dintrinsics_n(&p, n_lens));
+    if let Some(e) = warp.extent {
+        let (bx, by) = e.warp_basis(x);
+        let dq_dz = dq_dp * pose.r.column(2);
+        ja.fixed_view_mut::<2, 1>(0, N_INTRINSICS).copy_from(&(dq_dz * bx));
+        ja.fixed_view_mut::<2, 1>(0, N_INTRINSICS + 1).copy_from(&(dq_dz * by));
+    }
+    (r, ja, jb)
 }
 
 /// State of the optimisation.
@@ -103,6 +120,25 @@ pub struct State {
     pub a: IntrinsicVector,
     /// Per-view poses.
     pub poses: Vec<Vector6<f64>>,
+    /// The board's warp (its parameters are the free indices `N_INTRINSICS` and
+    /// `N_INTRINSICS + 1`).
+    pub warp: Warp,
+}
+
+impl State {
+    /// A flat board's state.
+    pub fn flat(kind: LensKind, a: IntrinsicVector, poses: Vec<Vector6<f64>>) -> Self {
+        Self { kind, a, poses, warp: Warp::default() }
+    }
+
+    /// The global parameter `i` (intrinsics, then the warp's two).
+    fn global_mut(&mut self, i: usize) -> &mut f64 {
+        if i < N_INTRINSICS {
+            &mut self.a[i]
+        } else {
+            &mut self.warp.k[(i - N_INTRINSICS).min(1)]
+        }
+    }
 }
 
 /// Normal-equation blocks at a state.
@@ -120,16 +156,16 @@ struct Blocks {
 /// Jacobian's full products cost eight times more in the 5-coefficient case).
 struct Sums {
     k: usize,
-    u: [[f64; N_INTRINSICS]; N_INTRINSICS],
-    ga: [f64; N_INTRINSICS],
+    u: [[f64; N_GLOBAL]; N_GLOBAL],
+    ga: [f64; N_GLOBAL],
 }
 
 impl Sums {
     fn new(k: usize) -> Self {
-        Self { k, u: [[0.0; N_INTRINSICS]; N_INTRINSICS], ga: [0.0; N_INTRINSICS] }
+        Self { k, u: [[0.0; N_GLOBAL]; N_GLOBAL], ga: [0.0; N_GLOBAL] }
     }
 
-    fn add(&mut self, ja: &[[f64; N_INTRINSICS]; 2], r: &nalgebra::Vector2<f64>) {
+    fn add(&mut self, ja: &[[f64; N_GLOBAL]; 2], r: &nalgebra::Vector2<f64>) {
         for i in 0..self.k {
             let (a0, a1) = (ja[0][i], ja[1][i]);
             for ((u, b0), b1) in self.u[i][..=i].iter_mut().zip(&ja[0]).zip(&ja[1]) {
@@ -149,13 +185,13 @@ fn blocks(size: ImageSize, st: &State, views: &[View], free: &[usize]) -> Blocks
     let k = free.len();
     let mut sums = Sums::new(k);
     let mut b = Blocks { cost: 0.0, u: DMatrix::zeros(k, k), ga: DVector::zeros(k), v: Vec::new(), w: Vec::new(), gb: Vec::new() };
-    let n_lens = free.iter().map(|&f| f.saturating_sub(4)).max().unwrap_or(0);
-    let mut ja = [[0.0; N_INTRINSICS]; 2];
+    let n_lens = free.iter().filter(|&&f| f < N_INTRINSICS).map(|&f| f.saturating_sub(4)).max().unwrap_or(0);
+    let mut ja = [[0.0; N_GLOBAL]; 2];
     for (view, pose) in views.iter().zip(&st.poses) {
         let pose = PoseTerms::new(pose);
         let (mut v, mut w, mut gb) = (Matrix6::zeros(), DMatrix::<f64>::zeros(k, 6), Vector6::zeros());
         for (x, q) in view {
-            let (r, ja_full, jb) = residual(&cam, &pose, n_lens, x, q);
+            let (r, ja_full, jb) = residual(&cam, &pose, n_lens, &st.warp, x, q);
             for (j, &f) in free.iter().enumerate() {
                 ja[0][j] = ja_full[(0, f)];
                 ja[1][j] = ja_full[(1, f)];
@@ -190,9 +226,15 @@ pub struct Refined {
     pub iterations: usize,
     /// Stopped on a convergence test (not the iteration limit).
     pub converged: bool,
-    /// Covariance of the free intrinsics, px^2-scaled: sigma^2 (Schur complement)^-1, with
-    /// sigma^2 = cost / (observations - free parameters).
+    /// Covariance of the free intrinsics, px^2-scaled: sigma^2 (Schur complement)^+ (the
+    /// pseudo-inverse: see `undetermined`), with sigma^2 = cost / (observations - free parameters).
     pub covariance: DMatrix<f64>,
+    /// The global parameters (indices as in `free`'s values) the data do not determine: they move
+    /// along a null direction of the normal equations, and their standard deviation is infinite.
+    pub undetermined: Vec<usize>,
+    /// The normal equations' blocks at the optimum, for the covariance of anything that depends
+    /// on the poses too ([`super::uncertainty`]).
+    pub precision: Precision,
 }
 
 /// Reduced system: the Schur complement S, its right-hand side, and the inverted view blocks.
@@ -226,7 +268,7 @@ fn reduced(b: &Blocks, lambda: f64) -> Option<Reduced> {
 fn trial_step(b: &Blocks, st: &State, free: &[usize], da: &DVector<f64>, vinv: &[Matrix6<f64>]) -> (State, f64, f64) {
     let mut trial = st.clone();
     for (j, &f) in free.iter().enumerate() {
-        trial.a[f] += da[j];
+        *trial.global_mut(f) += da[j];
     }
     let mut step2 = da.norm_squared();
     let mut gh = b.ga.dot(da);
@@ -280,12 +322,15 @@ pub fn refine(size: ImageSize, init: State, views: &[View], free: &[usize], max_
             }
         }
     }
-    let (s, _, _) = reduced(&b, 0.0)?;
+    let (s, _, vinv) = reduced(&b, 0.0)?;
     let n_obs: usize = views.iter().map(|v| 2 * v.len()).sum();
     let dof = n_obs.saturating_sub(free.len() + 6 * views.len()).max(1);
     let sigma2 = b.cost / dof as f64;
-    let covariance = s.try_inverse().map(|c| c * sigma2).unwrap_or_else(|| DMatrix::from_element(free.len(), free.len(), f64::NAN));
-    Some(Refined { state: st, cost: b.cost, iterations: it, converged, covariance })
+    let (inverse, undetermined) = pseudo_inverse(&s);
+    let covariance = inverse * sigma2;
+    let precision = Precision { free: free.to_vec(), sigma2, covariance: covariance.clone(), w: b.w, vinv };
+    let undetermined = undetermined.into_iter().map(|j| free[j]).collect();
+    Some(Refined { state: st, cost: b.cost, iterations: it, converged, covariance, undetermined, precision })
 }
 
 #[cfg(test)]
@@ -303,5 +348,25 @@ mod tests {
             // Central differences with h = 1e-6 are good to ~1e-9 here.
             assert!((num - DMatrix::from_column_slice(3, 3, ana.as_slice())).abs().max() < 1e-8, "w = {w}");
         }
+    }
+
+    #[test]
+    fn warp_jacobian_matches_finite_differences() {
+        let cam = CameraModel::pinhole(640, 480, 500.0).with_distortion([-0.2, 0.05, 0.0, 0.0, 0.0]);
+        let pose_v = Vector6::new(0.3, -0.2, 0.1, -0.05, 0.02, 0.5);
+        let pose = PoseTerms::new(&pose_v);
+        let extent = BoardExtent { x: (0.0, 0.2), y: (0.0, 0.15) };
+        let x = Point3::new(0.13, 0.04, 0.0);
+        let q = Point2::new(300.0, 200.0);
+        let at = |k: &DVector<f64>| {
+            let warp = Warp { k: [k[0], k[1]], extent: Some(extent) };
+            DVector::from_column_slice(residual(&cam, &pose, 5, &warp, &x, &q).0.as_slice())
+        };
+        let k0 = DVector::from_column_slice(&[0.002, -0.001]);
+        let num = central_diff(at, &k0, 1e-7);
+        let (_, ja, _) = residual(&cam, &pose, 5, &Warp { k: [0.002, -0.001], extent: Some(extent) }, &x, &q);
+        let ana = ja.fixed_view::<2, 2>(0, N_INTRINSICS).into_owned();
+        // The residual is linear-ish in k at this scale: central differences are good to 1e-6 px/m.
+        assert!((num - DMatrix::from_column_slice(2, 2, ana.as_slice())).abs().max() < 1e-4 * ana.abs().max(), "{ana}");
     }
 }

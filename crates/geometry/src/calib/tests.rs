@@ -7,9 +7,7 @@ use rand_chacha::ChaCha8Rng;
 use super::*;
 use synthcam_core::camera::{Distortion, Intrinsics, Lens};
 
-pub(super) fn board(cols: usize, rows: usize, square: f64) -> Vec<Point3<f64>> {
-    (0..rows).flat_map(|r| (0..cols).map(move |c| Point3::new(c as f64 * square, r as f64 * square, 0.0))).collect()
-}
+use super::testdata::board;
 
 fn synthetic(cam: &CameraModel, n_views: usize, seed: u64) -> Vec<View> {
     synthetic_spread(cam, n_views, seed, 0.05)
@@ -96,8 +94,16 @@ fn matches_opencv_on_its_own_corners() {
             pts.iter().zip(c).map(|(p, q)| (*p, Point2::new(q[0].as_f64().unwrap(), q[1].as_f64().unwrap()))).collect()
         })
         .collect();
+    let size = ImageSize { width: 640, height: 480 };
+    let robust = calibrate(&views, size, &CalibParams::default()).unwrap();
+    eprintln!("with outlier rejection: {:?}, rms {:.6}", robust.rejection, robust.rms_px);
+    for (i, v) in robust.views.iter().enumerate() {
+        let d: Vec<String> = v.outliers.iter().map(|&j| format!("{j}:{:.2}", v.residuals_px[j].norm())).collect();
+        eprintln!("view {i} rms {:.3} dropped {}", v.rms_px, d.join(" "));
+    }
+    // OpenCV keeps every point.
     let t0 = std::time::Instant::now();
-    let r = calibrate(&views, ImageSize { width: 640, height: 480 }, &CalibParams::default()).unwrap();
+    let r = calibrate(&views, size, &CalibParams { outlier_threshold: None, ..Default::default() }).unwrap();
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     let cv = &j["calibration"]["classic"];
     let kk = &cv["K"];

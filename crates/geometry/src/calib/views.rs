@@ -26,6 +26,9 @@ pub struct BoardViews {
     pub views: Vec<View>,
     /// The index (into the detections) of each view.
     pub used: Vec<usize>,
+    /// Per view, the index (into its detection's `points_px`) of each of its points: the
+    /// untrusted corners left out shift the rest.
+    pub point_indices: Vec<Vec<usize>>,
     /// The detections not used, with the reason.
     pub skipped: Vec<SkippedDetection>,
 }
@@ -60,7 +63,7 @@ pub fn views_from_detections(detections: &[Detection], target: &TargetSpec, squa
             out.skipped.push(SkippedDetection { index, reason: "board not found".into() });
             continue;
         }
-        let view = view_of(det, &board).map_err(|reason| CalibError::BadDetection { index, reason })?;
+        let (view, indices) = view_of(det, &board).map_err(|reason| CalibError::BadDetection { index, reason })?;
         if view.len() < MIN_VIEW_POINTS.min(board.len()) {
             let reason = format!("only {} points left (a view needs {MIN_VIEW_POINTS}; untrusted corners are left out)", view.len());
             out.skipped.push(SkippedDetection { index, reason });
@@ -68,12 +71,14 @@ pub fn views_from_detections(detections: &[Detection], target: &TargetSpec, squa
         }
         out.views.push(view);
         out.used.push(index);
+        out.point_indices.push(indices);
     }
     Ok(out)
 }
 
-/// One found detection's view; `Err` says why its points do not fit `board`.
-fn view_of(det: &Detection, board: &[Point3<f64>]) -> Result<View, String> {
+/// One found detection's view and the index of each of its points in the detection; `Err` says
+/// why its points do not fit `board`.
+fn view_of(det: &Detection, board: &[Point3<f64>]) -> Result<(View, Vec<usize>), String> {
     let n = board.len();
     let ids: Vec<usize> = match &det.ids {
         Some(ids) if ids.len() == det.points_px.len() => ids.iter().map(|&i| i as usize).collect(),
@@ -86,7 +91,7 @@ fn view_of(det: &Detection, board: &[Point3<f64>]) -> Result<View, String> {
     }
     let leave_out = corners_to_leave_out(det.position_sigma_px.as_deref().unwrap_or_default(), &det.untrusted);
     let pairs = ids.into_iter().zip(&det.points_px).enumerate().filter(|(k, _)| !leave_out.contains(k));
-    Ok(pairs.map(|(_, (id, p))| (board[id], Point2::new(p.x, p.y))).collect())
+    Ok(pairs.map(|(k, (id, p))| ((board[id], Point2::new(p.x, p.y)), k)).unzip())
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 
 use super::doc::{Document, Table};
 use synthcam_core::camera::{intrinsic_names, BASE_INTRINSIC_NAMES};
-use synthcam_geometry::calib::CalibResult;
+use synthcam_geometry::calib::{CalibResult, UncertaintyMap};
 
 /// The calibration as a PNG: per-view RMS and max reprojection error (bars) and every residual
 /// vector drawn at its corner in the image frame, magnified so the largest is 5 % of the image width.
@@ -64,6 +64,42 @@ pub struct CalibInputs<'a> {
     pub points_px: &'a [Vec<nalgebra::Point2<f64>>],
     /// The inputs left out: (file, reason).
     pub skipped: &'a [(String, String)],
+    /// The projection uncertainty over the image, if computed.
+    pub uncertainty: Option<&'a UncertaintyMap>,
+}
+
+/// The projection uncertainty map as a PNG: each cell coloured by its worst-direction sigma
+/// (viridis on a log scale from the smallest to the largest finite value: the covered area and
+/// the extrapolated corners differ by orders of magnitude), cells the views cover outlined.
+///
+/// # Errors
+/// Drawing or PNG encoding.
+pub fn uncertainty_png(map: &UncertaintyMap) -> Result<Vec<u8>, super::ReportError> {
+    use super::plot::{figure, FONT};
+    use plotters::prelude::*;
+    use plotters::style::colors::colormaps::ViridisRGB;
+    let g = map.grid;
+    let (iw, ih) = (f64::from(g.size.width).max(1.0), f64::from(g.size.height).max(1.0));
+    let (cw, ch) = (iw / f64::from(g.cols.max(1)), ih / f64::from(g.rows.max(1)));
+    let finite = || map.sigma_px.iter().copied().filter(|v| v.is_finite() && *v > 0.0);
+    let (lo, hi) = (finite().fold(f64::INFINITY, f64::min).min(1e300), finite().fold(1e-300, f64::max));
+    let title = format!("projection sigma, px (log scale, {lo:.3} to {hi:.3}); covered cells outlined");
+    figure(900, (900.0 * ih / iw) as u32 + 60, |root| {
+        let mut c =
+            ChartBuilder::on(root).caption(title, (FONT, 18)).margin(12).x_label_area_size(36).y_label_area_size(56).build_cartesian_2d(0.0..iw, ih..0.0)?;
+        c.configure_mesh().disable_mesh().x_desc("u px").y_desc("v px").label_style((FONT, 14)).draw()?;
+        let cell = |k: usize| {
+            let (x, y) = ((k % g.cols as usize) as f64 * cw, (k / g.cols as usize) as f64 * ch);
+            [(x, y), (x + cw, y + ch)]
+        };
+        c.draw_series(map.sigma_px.iter().enumerate().map(|(k, s)| {
+            let fill =
+                if s.is_finite() { ViridisRGB::get_color_normalized(s.max(lo).ln(), lo.ln(), hi.ln().max(lo.ln() + 1e-9)) } else { RGBColor(60, 60, 60) };
+            Rectangle::new(cell(k), fill.filled())
+        }))?;
+        c.draw_series(map.covered.iter().enumerate().filter(|(_, c)| **c).map(|(k, _)| Rectangle::new(cell(k), WHITE.stroke_width(1))))?;
+        Ok(())
+    })
 }
 
 /// The calibration report: a summary, the estimated intrinsics with their standard deviations,
@@ -85,6 +121,7 @@ pub fn document(r: &CalibResult, inputs: &CalibInputs<'_>) -> Result<Document, s
         r.iterations,
         if r.converged { "converged" } else { "not converged" }
     ));
+    doc.paragraph(search_line(r));
     doc.heading(2, "Intrinsics");
     let k = cam.intrinsics;
     let values = [k.fx, k.fy, k.cx, k.cy, k.skew].into_iter().chain(cam.lens.params());
@@ -95,12 +132,18 @@ pub fn document(r: &CalibResult, inputs: &CalibInputs<'_>) -> Result<Document, s
     }
     doc.table(t);
     doc.heading(2, "Views");
-    let mut t = Table::new(["view", "file", "points", "RMS px", "max px"]);
+    let mut t = Table::new(["view", "file", "points", "outliers", "RMS px", "max px"]);
     for (i, (v, file)) in r.views.iter().zip(inputs.files).enumerate() {
         let points = inputs.points_px.get(i).map_or(0, Vec::len);
-        t.push([i.to_string(), file.clone(), points.to_string(), format!("{:.4}", v.rms_px), format!("{:.4}", v.max_px)]);
+        t.push([i.to_string(), file.clone(), points.to_string(), v.outliers.len().to_string(), format!("{:.4}", v.rms_px), format!("{:.4}", v.max_px)]);
     }
     doc.table(t);
+    outliers_section(&mut doc, r, inputs.files);
+    if let Some(map) = inputs.uncertainty {
+        doc.heading(2, "Projection uncertainty");
+        doc.paragraph(map.summary());
+        doc.image("worst-direction projection sigma over the image", Some("uncertainty.png".into()), uncertainty_png(map)?);
+    }
     if !inputs.skipped.is_empty() {
         doc.heading(2, "Skipped inputs");
         let mut t = Table::new(["file", "reason"]);
@@ -112,4 +155,35 @@ pub fn document(r: &CalibResult, inputs: &CalibInputs<'_>) -> Result<Document, s
     doc.heading(2, "Reprojection errors");
     doc.image("reprojection error per view and residual vectors", Some("calibration.png".into()), plot_png(r, inputs.points_px)?);
     Ok(doc)
+}
+
+/// How the optimum was searched for and what the outlier rejection did, in one paragraph.
+fn search_line(r: &CalibResult) -> String {
+    let s = &r.search;
+    let rj = &r.rejection;
+    let restart = if s.restart_improved { "a restart found a lower optimum, which is the result" } else { "no restart ended lower" };
+    let outliers = match rj.threshold_sigmas {
+        Some(k) => format!(
+            "outliers beyond {k} robust sigma ({:.4} px, threshold {:.4} px): {} dropped in {} rounds; RMS with every point {:.4} px",
+            rj.sigma_px, rj.threshold_px, rj.dropped, rj.rounds, rj.rms_before_px
+        ),
+        None => "outlier rejection off (every point kept)".into(),
+    };
+    format!("Optimum: {} starts, {} perturbed restarts, {restart}. {outliers}.", s.starts, s.restarts)
+}
+
+/// The points dropped as outliers, per view (none: no section).
+fn outliers_section(doc: &mut Document, r: &CalibResult, files: &[String]) {
+    if r.rejection.dropped == 0 {
+        return;
+    }
+    doc.heading(2, "Outliers");
+    let mut t = Table::new(["view", "file", "point", "residual px"]);
+    for (i, (v, file)) in r.views.iter().zip(files).enumerate() {
+        for &j in &v.outliers {
+            let residual = v.residuals_px.get(j).map_or(f64::NAN, |e| e.norm());
+            t.push([i.to_string(), file.clone(), j.to_string(), format!("{residual:.3}")]);
+        }
+    }
+    doc.table(t);
 }

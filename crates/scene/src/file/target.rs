@@ -26,6 +26,8 @@ pub enum TargetTable {
         margin: Option<f64>,
         /// Background grey level.
         background: Option<f64>,
+        /// The board's warp `[kx, ky]`, metres (mrcal's sag at the centre along x and y; default flat).
+        warp_m: Option<[f64; 2]>,
     },
     /// The course dot grid.
     DotGrid {
@@ -68,6 +70,8 @@ pub enum TargetTable {
         margin: Option<f64>,
         /// Background grey level.
         background: Option<f64>,
+        /// The board's warp `[kx, ky]`, metres (mrcal's sag at the centre along x and y; default flat).
+        warp_m: Option<[f64; 2]>,
     },
     /// Kalibr's AprilGrid.
     Aprilgrid {
@@ -93,6 +97,8 @@ pub enum TargetTable {
         margin: Option<f64>,
         /// Background grey level.
         background: Option<f64>,
+        /// The board's warp `[kx, ky]`, metres (mrcal's sag at the centre along x and y; default flat).
+        warp_m: Option<[f64; 2]>,
     },
     /// The S-path dot target.
     SPath {
@@ -115,7 +121,7 @@ impl TargetTable {
     /// The target this table describes (not yet validated).
     pub fn to_target(&self) -> Target {
         match *self {
-            TargetTable::Chessboard { squares, square_m, margin_m, dark, light, margin, background } => {
+            TargetTable::Chessboard { squares, square_m, margin_m, dark, light, margin, background, warp_m } => {
                 let d = Chessboard::default();
                 let light = light.unwrap_or(d.light);
                 Target::Chessboard(Chessboard {
@@ -126,6 +132,7 @@ impl TargetTable {
                     light,
                     margin: margin.unwrap_or(light),
                     background: background.unwrap_or(d.background),
+                    warp_m: warp_m.unwrap_or_default(),
                 })
             }
             TargetTable::DotGrid { n, edge_m, dot_radius_m, margin_m, dark, light, background } => {
@@ -142,12 +149,12 @@ impl TargetTable {
                     background: background.unwrap_or(d.background),
                 })
             }
-            TargetTable::Charuco { squares, square_m, marker_m, dictionary, legacy, first_id, margin_m, dark, light, margin, background } => {
+            TargetTable::Charuco { squares, square_m, marker_m, dictionary, legacy, first_id, margin_m, dark, light, margin, background, warp_m } => {
                 let board = Charuco { squares, square_m, marker_m, dictionary, legacy: legacy.unwrap_or(false), first_id: first_id.unwrap_or(0) };
-                let look = look(margin_m.unwrap_or(0.5 * square_m), [dark, light, margin, background]);
+                let look = look(margin_m.unwrap_or(0.5 * square_m), [dark, light, margin, background], warp_m);
                 Target::Charuco(CharucoTarget { board, look })
             }
-            TargetTable::Aprilgrid { tags, tag_m, spacing, family, border_bits, first_id, margin_m, dark, light, margin, background } => {
+            TargetTable::Aprilgrid { tags, tag_m, spacing, family, border_bits, first_id, margin_m, dark, light, margin, background, warp_m } => {
                 let d = AprilGrid::default();
                 let grid = AprilGrid {
                     tags,
@@ -157,7 +164,7 @@ impl TargetTable {
                     border_bits: border_bits.unwrap_or(d.border_bits),
                     first_id: first_id.unwrap_or(0),
                 };
-                let look = look(margin_m.unwrap_or(spacing * tag_m), [dark, light, margin, background]);
+                let look = look(margin_m.unwrap_or(spacing * tag_m), [dark, light, margin, background], warp_m);
                 Target::AprilGrid(AprilGridTarget { grid, look })
             }
             TargetTable::SPath { style, dot_radius_m, start_dot_radius_m, dark, light, background } => {
@@ -177,9 +184,16 @@ impl TargetTable {
 }
 
 /// A coded board's look from its optional grey levels `[dark, light, margin, background]` (the
-/// margin defaults to `light`).
-fn look(margin_m: f64, [dark, light, margin, background]: [Option<f64>; 4]) -> BoardLook {
+/// margin defaults to `light`) and warp.
+fn look(margin_m: f64, [dark, light, margin, background]: [Option<f64>; 4], warp_m: Option<[f64; 2]>) -> BoardLook {
     let d = BoardLook::default();
     let light = light.unwrap_or(d.light);
-    BoardLook { margin_m, dark: dark.unwrap_or(d.dark), light, margin: margin.unwrap_or(light), background: background.unwrap_or(d.background) }
+    BoardLook {
+        margin_m,
+        dark: dark.unwrap_or(d.dark),
+        light,
+        margin: margin.unwrap_or(light),
+        background: background.unwrap_or(d.background),
+        warp_m: warp_m.unwrap_or_default(),
+    }
 }

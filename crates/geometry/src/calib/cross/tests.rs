@@ -1,34 +1,11 @@
 //! Tests of `cross`: a model too simple for its lens shows in the held-out error; options.
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector2, Vector3};
-use rand::{Rng, SeedableRng};
-use rand_distr::{Distribution, Normal};
+use rand::SeedableRng;
 
 use super::*;
-use crate::calib::tests::board;
+use crate::calib::testdata::{wide_views, with_noise};
 use crate::calib::CalibModel;
 use synthcam_core::camera::{Fisheye, Intrinsics, Lens};
-
-/// `n` views of an 8 x 6 board (3 cm squares) 0.3-0.45 m away, its centre up to `max_deg` off
-/// the axis, tilted by up to 0.5 rad; only views wholly in the image.
-fn wide_views(cam: &CameraModel, n: usize, max_deg: f64, rng: &mut impl Rng) -> Vec<View> {
-    let pts = board(8, 6, 0.03);
-    let mut views = Vec::new();
-    while views.len() < n {
-        let (off, around) = (rng.random_range(0.0..max_deg).to_radians(), rng.random_range(0.0..std::f64::consts::TAU));
-        let dir = Vector3::new(off.sin() * around.cos(), off.sin() * around.sin(), off.cos());
-        let face = UnitQuaternion::rotation_between(&Vector3::z(), &dir).unwrap_or_else(UnitQuaternion::identity);
-        let tilt_axis = nalgebra::Unit::new_normalize(Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 0.0));
-        let rot = face * UnitQuaternion::from_axis_angle(&tilt_axis, rng.random_range(0.0..0.5));
-        let t = dir * rng.random_range(0.3..0.45) - rot * Vector3::new(0.105, 0.075, 0.0);
-        let pose = Isometry3::from_parts(Translation3::from(t), rot);
-        let v: View = pts.iter().map(|p| (*p, cam.project(&(pose * p)))).filter(|(_, pr)| pr.visible()).map(|(p, pr)| (p, pr.pixel_px)).collect();
-        if v.len() == pts.len() {
-            views.push(v);
-        }
-    }
-    views
-}
 
 /// A fisheye lens (f 400 px) seen in 15 views up to 65 degrees off-axis, corners with noise of
 /// `sigma` px.
@@ -39,12 +16,8 @@ fn fisheye_views(sigma: f64) -> (CameraModel, Vec<View>) {
         lens: Lens::Fisheye(Fisheye { k: [0.05, -0.01, 0.002, -0.0005] }),
     };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let noise = Normal::new(0.0, sigma).expect("sigma");
-    let views = wide_views(&truth, 15, 65.0, &mut rng)
-        .into_iter()
-        .map(|v| v.into_iter().map(|(x, q)| (x, q + Vector2::new(noise.sample(&mut rng), noise.sample(&mut rng)))).collect())
-        .collect();
-    (truth, views)
+    let views = wide_views(&truth, 15, 65.0, &mut rng);
+    (truth, with_noise(&views, sigma, &mut rng))
 }
 
 #[test]
