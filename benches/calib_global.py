@@ -128,13 +128,16 @@ def one_set(model, seed, d, bin_, outliers, extra=(), warp=None):
         corners = [np.array(im["points_px"], np.float64).reshape(-1, 1, 2) for im in found]
         cv2.setNumThreads(1)
         t0 = time.perf_counter()
-        if model == "fisheye":
-            crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
-            cv2.fisheye.calibrate([objp.reshape(-1, 1, 3)] * len(corners), corners, (1280, 1024), None, None,
-                                  flags=cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW, criteria=crit)
-        else:
-            cv2.calibrateCamera([objp] * len(corners), corners, (1280, 1024), None, None)
-        out["cv_ms"] = (time.perf_counter() - t0) * 1e3
+        try:
+            if model == "fisheye":
+                crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+                cv2.fisheye.calibrate([objp.reshape(-1, 1, 3)] * len(corners), corners, (1280, 1024), None, None,
+                                      flags=cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW, criteria=crit)
+            else:
+                cv2.calibrateCamera([objp] * len(corners), corners, (1280, 1024), None, None)
+            out["cv_ms"] = (time.perf_counter() - t0) * 1e3
+        except cv2.error as e:
+            out["cv_failed"] = str(e).splitlines()[0]
     return out
 
 
@@ -181,11 +184,12 @@ def main():
                 rs.append(one_set(m, a.seed + k, d, a.synthcam, a.outliers, extra))
         z = [v for r in rs for v in r["z"]]
         cv = [r["cv_ms"] for r in rs if "cv_ms" in r]
+        cv_failed = sum("cv_failed" in r for r in rs)
         print(f"| {m} | {max(r['ratio'] for r in rs):.4f} | {max(r['diff'] for r in rs):.4f} | {100 * np.mean(np.array(z) <= 1):.0f} % | "
-              f"{100 * np.mean(np.array(z) <= 2):.0f} % | {sum(r['restart_improved'] for r in rs)} | {statistics.median(r['inside'] for r in rs):.4f} | "
-              f"{statistics.median(r['time_ms'] for r in rs):.1f} | {statistics.median(cv):.1f} |" if cv else
+              f"{100 * np.mean(np.array(z) <= 2):.0f} % | {sum(r['restart_improved'] for r in rs)} | {statistics.median(r['inside'] or float('nan') for r in rs):.4f} | "
+              f"{statistics.median(r['time_ms'] for r in rs):.1f} | {statistics.median(cv):.1f}{f' ({cv_failed} sets: OpenCV error)' if cv_failed else ''} |" if cv else
               f"| {m} | {max(r['ratio'] for r in rs):.4f} | {max(r['diff'] for r in rs):.4f} | {100 * np.mean(np.array(z) <= 1):.0f} % | "
-              f"{100 * np.mean(np.array(z) <= 2):.0f} % | {sum(r['restart_improved'] for r in rs)} | {statistics.median(r['inside'] for r in rs):.4f} | "
+              f"{100 * np.mean(np.array(z) <= 2):.0f} % | {sum(r['restart_improved'] for r in rs)} | {statistics.median(r['inside'] or float('nan') for r in rs):.4f} | "
               f"{statistics.median(r['time_ms'] for r in rs):.1f} | - |", flush=True)
         if a.outliers:
             moved = sum(len(r["moved"]) for r in rs)

@@ -6,6 +6,8 @@ Usage (from the repository root, after `cargo build --release`):
 
 The corners are OpenCV 5.0's `classic` corners stored in the reference file (13 views, 9x6, square 1).
 synthcam reads them from a detections JSON written here; its `time_ms` is the calibration alone.
+Both keep every point (`--keep-outliers`: OpenCV has no outlier rejection), so the objective is
+the same.
 Prints both results, the median times and their ratio.
 """
 import argparse, json, os, statistics, subprocess, sys, tempfile, time
@@ -39,7 +41,7 @@ def main() -> int:
         json.dump(det, open(dj, "w"))
         st = []
         for _ in range(a.repeat):
-            p = subprocess.run([a.synthcam, "calibrate", dj, "--target", f"chessboard:{cols}x{rows}", "--square", "1", "--json", out], capture_output=True, text=True)
+            p = subprocess.run([a.synthcam, "calibrate", dj, "--target", f"chessboard:{cols}x{rows}", "--square", "1", "--json", out, "--keep-outliers"], capture_output=True, text=True)
             if p.returncode != 0:
                 print(p.stderr, file=sys.stderr)
                 return 1

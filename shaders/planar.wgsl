@@ -36,9 +36,12 @@ fn plane_value(b: vec2<f32>) -> f32 {
 // uniform homography, rows scaled) Sherman-Morrison gives the tangent plane's
 // H' = H - (H r3)(g^T H) / (lambda + g^T H r3), scaled as H. Over a pixel's footprint the tangent
 // plane departs from the paraboloid by curvature x footprint^2 (1e-7 m for a 3 mm sag over 30 cm
-// and a 1 mm footprint). Off unless P.warp.w is 1 (no views, no objects: scene validation).
+// and a 1 mm footprint). Only in the pipelines compiled WARPED (crates/render/src/gpu_scene.rs
+// `pipeline_variant`; no views, no objects: scene validation).
+override WARPED: bool = false;
+
 fn warp_view(ray: Ray) {
-    if (P.warp.w == 0.0) { return; }
+    if (!WARPED) { return; }
     let d = ray_d(ray);
     let o = vec3<f32>(P.tfc0.w, P.tfc1.w, P.tfc2.w);
     let dir = vec3<f32>(dot(P.tfc0.xyz, d), dot(P.tfc1.xyz, d), dot(P.tfc2.xyz, d));

@@ -24,12 +24,23 @@ pub fn lens_variant(lens: &Lens) -> usize {
     }
 }
 
+/// Pipeline variants: each lens variant, flat or warped board (the shader's `WARPED` pipeline
+/// constant: llvmpipe runs a branch under a lane mask even when no lane takes it, so the warp's
+/// tangent planes cost flat boards nothing only when compiled out).
+pub const PIPELINE_VARIANTS: usize = 2 * LENS_VARIANTS.len();
+
+/// The index of `scene`'s pipeline variant: its [`lens_variant`], plus [`LENS_VARIANTS`]`.len()`
+/// for a warped board.
+pub fn pipeline_variant(scene: &Scene) -> usize {
+    lens_variant(&scene.camera.lens) + LENS_VARIANTS.len() * usize::from(scene.target.warp().is_some())
+}
+
 /// Everything the compute pass reads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GpuScene {
     /// Uniform block.
     pub params: Params,
-    /// The pipeline variant of the scene's lens ([`lens_variant`]).
+    /// The scene's pipeline variant ([`pipeline_variant`]).
     pub lens_variant: usize,
     /// Dots: centre (camera frame, metres) and radius.
     pub dots: Vec<[f32; 4]>,
@@ -175,7 +186,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     if views.is_empty() {
         views.push([0.0; 4]);
     }
-    Ok(GpuScene { params: p, lens_variant: lens_variant(&cam.lens), dots, tile_start, tile_items, tile_flat, views })
+    Ok(GpuScene { params: p, lens_variant: pipeline_variant(scene), dots, tile_start, tile_items, tile_flat, views })
 }
 
 /// The lens model's uniforms (see `Params`); `split` from [`super::bend::split_radii`].

@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::buffers::{Buffers, READBACK, STORAGE_DST, STORAGE_SRC};
 use super::context::{BackendChoice, GpuContext};
-use super::gpu_scene::{gpu_scene, lens_variant, scene_pass_kind, GpuScene, PassKind, LENS_VARIANTS};
+use super::gpu_scene::{gpu_scene, pipeline_variant, scene_pass_kind, GpuScene, PassKind, LENS_VARIANTS, PIPELINE_VARIANTS};
 use super::shader::SHADER;
 use super::tiles::{TileCornerRays, TILE_PX};
 use super::{GreyImage, RenderError};
@@ -29,7 +29,7 @@ pub struct Renderer {
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
     /// Per target kind, coarse / fine, lens variant (`gpu_scene::LENS_VARIANTS`).
-    pipelines: [[[OnceLock<wgpu::ComputePipeline>; LENS_VARIANTS.len()]; 2]; PassKind::COUNT],
+    pipelines: [[[OnceLock<wgpu::ComputePipeline>; PIPELINE_VARIANTS]; 2]; PassKind::COUNT],
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     buffers: Mutex<Buffers>,
@@ -135,13 +135,15 @@ impl Renderer {
         }
     }
 
-    /// The pipeline of pass `kind` (coarse or fine) for lens `variant`, compiled on first use.
+    /// The pipeline of pass `kind` (coarse or fine) for pipeline `variant`
+    /// ([`super::gpu_scene::pipeline_variant`]), compiled on first use.
     fn pipeline(&self, kind: PassKind, fine: bool, variant: usize) -> &wgpu::ComputePipeline {
         self.pipelines[kind as usize][usize::from(fine)][variant].get_or_init(|| {
             let entry = kind.entry_points()[usize::from(fine)];
             let t0 = std::time::Instant::now();
-            let (model, tilt) = LENS_VARIANTS[variant];
-            let constants = [("LENS_MODEL", model), ("LENS_TILT", f64::from(u8::from(tilt))), ("PASS_KIND", f64::from(kind as u32))];
+            let (model, tilt) = LENS_VARIANTS[variant % LENS_VARIANTS.len()];
+            let warped = f64::from(u8::from(variant >= LENS_VARIANTS.len()));
+            let constants = [("LENS_MODEL", model), ("LENS_TILT", f64::from(u8::from(tilt))), ("PASS_KIND", f64::from(kind as u32)), ("WARPED", warped)];
             let p = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: Some(&self.pipeline_layout),
@@ -260,7 +262,7 @@ impl Renderer {
     /// the chessboard's coarse and fine passes), which then overlap each other and the CPU's
     /// layout of the scene instead of following one another.
     fn compile_ahead<'s>(&'s self, scope: &'s std::thread::Scope<'s, '_>, scene: &Scene) {
-        let variant = lens_variant(&scene.camera.lens);
+        let variant = pipeline_variant(scene);
         let kind = scene_pass_kind(scene);
         let limb = (kind == PassKind::SPath).then_some((PassKind::SPathLimb, false));
         let objects = if scene.objects.is_empty() { Vec::new() } else { vec![(PassKind::Objects, false), (PassKind::Objects, true)] };

@@ -3,9 +3,9 @@
 //!
 //! Starts: Zhang's closed form for the OpenCV models (the pinhole part is globally determined
 //! by the homographies; the distortion starts at zero, as in OpenCV), and for the models beyond
-//! five coefficients also the five-coefficient fit ([`ladder_start`]); for fisheye the focal
+//! five coefficients also the five-coefficient fit (`ladder_start`); for fisheye the focal
 //! length search of [`super::init_wide`] under the equidistant lens; for Double Sphere the
-//! lowest points of the cost's profile over `xi`, started from a fisheye fit ([`ds_starts`]),
+//! lowest points of the cost's profile over `xi`, started from a fisheye fit (`ds_starts`),
 //! and the base start (`xi = 0, alpha = 0.5` at the best focal length); every start refined to
 //! convergence.
 //! Kalibr and basalt start the unified / Double Sphere models from one fixed `xi`; the cost
@@ -13,10 +13,10 @@
 //! rays as a shorter focal length does), and a single start can settle in the valley's wrong
 //! end. A start given by the user ([`super::CalibParams::initial`]) is one more start.
 //!
-//! Then the check: from the best fit, the intrinsics are perturbed ([`restart_cameras`]: focal
+//! Then the check: from the best fit, the intrinsics are perturbed (`restart_cameras`: focal
 //! length x 0.7 and x 1.4, Double Sphere's `xi` moved with it along the valley), every view's
 //! pose is re-solved under the perturbed camera and Levenberg-Marquardt runs again (on a
-//! subsample of each view, [`restart_check`]). A restart that ends lower replaces the fit, so the
+//! subsample of each view, `restart_check`). A restart that ends lower replaces the fit, so the
 //! reported optimum is never above what the restarts find, and [`Search::restart_improved`]
 //! says whether one did.
 //!

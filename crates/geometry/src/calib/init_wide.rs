@@ -73,7 +73,7 @@ pub fn sparse(views: &[View]) -> Vec<View> {
 }
 
 /// The sum of squared reprojection errors of `views` under `cam`, every view's pose solved from
-/// its homography ([`view_pose`]); `None` where a view has no pose.
+/// its homography (`view_pose`); `None` where a view has no pose.
 pub fn cost_under(cam: &CameraModel, views: &[View]) -> Option<f64> {
     views.iter().map(|v| view_pose(cam, v).map(|(_, c)| c)).sum()
 }
