@@ -1,4 +1,4 @@
-//! Boards that are not flat (issue 39 item 4): a warped chessboard and ChArUco board render where
+//! Boards that are not flat (issue 39 item 4): a warped chessboard, ChArUco board and AprilGrid render where
 //! their truth says (the detector finds the corners as close to the truth as on a flat board,
 //! although the warp moves them by pixels), a warp of zero renders byte-identical to a
 //! flat board, and a warp the renderer cannot yet combine with an effect is a typed error.
@@ -8,7 +8,7 @@ use synthcam::detect::target::{detect, TargetSpec};
 use synthcam::detect::ImageF32;
 use synthcam::prelude::*;
 use synthcam::scene::truth::truth_labels;
-use synthcam::target::{BoardLook, CharucoTarget};
+use synthcam::target::{AprilGrid, AprilGridTarget, BoardLook, CharucoTarget};
 
 use crate::common::{camera, chessboard_scene, renderer};
 
@@ -30,6 +30,7 @@ fn with_warp(scene: &Scene, warp_m: [f64; 2]) -> Scene {
     match &mut s.target {
         Target::Chessboard(b) => b.warp_m = warp_m,
         Target::Charuco(c) => c.look.warp_m = warp_m,
+        Target::AprilGrid(g) => g.look.warp_m = warp_m,
         _ => unreachable!("a board"),
     }
     s
@@ -54,9 +55,19 @@ fn warped_boards_render_where_their_truth_is() {
         board: Charuco { squares: [12, 9], square_m: 0.045, marker_m: 0.033, dictionary: Dictionary::Dict5x5_100, legacy: false, first_id: 0 },
         look: BoardLook { margin_m: 0.02, ..Default::default() },
     });
-    // (AprilGrid boards take the same coded-board path in the shader; on this scene the AprilGrid
-    // detector finds no flat board either, so they are not in this detection-based check.)
-    for (name, flat) in [("chessboard", chess), ("charuco", charuco)] {
+    // An AprilGrid posed as assets/scenes/aprilgrid_k1.toml poses one (turned about 145 degrees
+    // about x; the chessboard scene's pose shows it with its tags mirrored, which the AprilGrid
+    // detector does not read), its centre on the axis.
+    let grid = AprilGrid { tags: [6, 4], tag_m: 0.045, ..Default::default() };
+    let [_, _, x1, y1] = grid.extent_m();
+    let rot = nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::x_axis(), 2.53);
+    let t = nalgebra::Vector3::new(0.0, 0.0, 0.8) - rot * nalgebra::Vector3::new(0.5 * x1, 0.5 * y1, 0.0);
+    let aprilgrid = Scene {
+        target: Target::AprilGrid(AprilGridTarget { grid, look: BoardLook { margin_m: 0.02, ..Default::default() } }),
+        cam_from_target: nalgebra::Isometry3::from_parts(t.into(), rot),
+        ..chess.clone()
+    };
+    for (name, flat) in [("chessboard", chess), ("charuco", charuco), ("aprilgrid", aprilgrid)] {
         let (frms, fmax, _) = corner_errors(&flat);
         eprintln!("{name} flat: detected against the truth RMS {frms:.4} px, max {fmax:.4} px");
         for warp in [[0.003, -0.002], [-0.004, 0.001]] {
