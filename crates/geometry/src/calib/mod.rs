@@ -14,6 +14,7 @@ pub mod model;
 pub mod outliers;
 pub mod precision;
 pub mod refine;
+pub mod rig;
 pub mod uncertainty;
 pub mod views;
 pub mod zhang;
@@ -23,6 +24,7 @@ pub use cross::{cross_validate, CrossValidation, Fold};
 pub use global::Search;
 pub use model::{CalibModel, CALIB_MODELS};
 pub use outliers::Rejection;
+pub use rig::{calibrate_rig, RigCamera, RigCameraResult, RigResult};
 pub use uncertainty::UncertaintyMap;
 
 use nalgebra::{Point3, Vector2, Vector3, Vector6};
@@ -303,6 +305,8 @@ pub fn calibrate(views: &[View], size: ImageSize, params: &CalibParams) -> Resul
     })
 }
 
+#[cfg(test)]
+mod rig_tests;
 #[cfg(test)]
 mod robust_tests;
 #[cfg(test)]
