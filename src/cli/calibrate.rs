@@ -20,6 +20,7 @@ use detections::{keep_first_size, load_detections, Found};
 
 mod detections;
 mod output;
+mod rig;
 
 use output::{uncertainty_out, RejectionOut, SearchOut, UncertaintyOut};
 
@@ -82,6 +83,11 @@ pub struct CalibrateArgs {
     /// at infinity (mrcal's default).
     #[arg(long, value_name = "M")]
     pub uncertainty_range: Option<f64>,
+    /// A rig: each input is one camera (a folder of its images, or its detections JSON; the
+    /// camera is named after it), frames matched by file name; every camera's intrinsics and
+    /// `cam0_from_cam` estimated in one bundle adjustment (JSON `cameras[i]`).
+    #[arg(long)]
+    pub rig: bool,
     /// Cross-validate over K folds of the views (K >= 2; view i in fold i mod K): each fold
     /// calibrated on the rest, its held-out views' RMS and its projection's difference from the
     /// full calibration in the JSON's `cross_validation`.
@@ -319,7 +325,10 @@ fn view_outs(found: &[Found], r: &CalibResult) -> Vec<ViewOut> {
 /// Run `calibrate`.
 pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     check_args(args)?;
-    let (found, skipped) = keep_first_size(load_detections(args)?);
+    if args.rig {
+        return rig::run_rig(args, &params_of(args)?);
+    }
+    let (found, skipped) = keep_first_size(load_detections(&args.inputs, args)?);
     let Some(first) = found.first() else { anyhow::bail!("the board was found in none of the inputs") };
     let size = ImageSize { width: first.width as u32, height: first.height as u32 };
     let views: Vec<View> = found.iter().map(|f| f.view.clone()).collect();

@@ -30,6 +30,7 @@ mod open_scenario;
 mod options_proptest;
 mod progress;
 mod real_sets;
+mod rig_calibration;
 mod robot_motion;
 mod robustness;
 mod robustness_experiment;

@@ -106,12 +106,12 @@ fn from_json(path: &PathBuf, args: &CalibrateArgs) -> anyhow::Result<Detections>
 }
 
 /// The detections of the inputs: one detections JSON, or images detected here.
-pub(super) fn load_detections(args: &CalibrateArgs) -> anyhow::Result<Detections> {
-    if args.inputs.len() == 1 && args.inputs[0].extension().is_some_and(|e| e == "json") {
-        return from_json(&args.inputs[0], args);
+pub(super) fn load_detections(paths: &[PathBuf], args: &CalibrateArgs) -> anyhow::Result<Detections> {
+    if paths.len() == 1 && paths[0].extension().is_some_and(|e| e == "json") {
+        return from_json(&paths[0], args);
     }
     let (mut inputs, mut skipped) = (Inputs::default(), Vec::new());
-    let files = super::super::detect::expand_images(&args.inputs)?;
+    let files = super::super::detect::expand_images(paths)?;
     let bar = super::super::progress::bar(files.len() as u64, "detect", "images");
     for f in bar.wrap_iter(files.into_iter()) {
         let name = f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned());

@@ -1,0 +1,142 @@
+//! `calibrate --rig CAM0 CAM1 [...]`: one input per camera, frames matched by file name,
+//! [`synthcam::calib::calibrate_rig`], and the rig's JSON.
+
+use anyhow::Context;
+use serde::Serialize;
+use synthcam::calib::{calibrate_rig, CalibParams, RigCamera, RigResult};
+use synthcam::camera::{intrinsic_names, ImageSize, Lens};
+use synthcam::dataset::write_atomic;
+
+use super::detections::{keep_first_size, load_detections, Found};
+use super::{named, CalibrateArgs};
+
+#[derive(Debug, Serialize)]
+struct Pose {
+    #[serde(rename = "R")]
+    r: [[f64; 3]; 3],
+    t_m: [f64; 3],
+}
+
+#[derive(Debug, Serialize)]
+struct CameraOut {
+    name: String,
+    model: &'static str,
+    image_size: [u32; 2],
+    #[serde(rename = "K")]
+    k: [[f64; 3]; 3],
+    /// The lens parameters in the model's order (`synthcam::camera::intrinsic_names`).
+    lens: Vec<f64>,
+    std: serde_json::Value,
+    cam0_from_cam: Pose,
+    rotation_std_deg: [f64; 3],
+    translation_std_m: [f64; 3],
+    rms_px: f64,
+    points: usize,
+    views: usize,
+}
+
+#[derive(Debug, Serialize)]
+struct RigOut {
+    /// Over every camera's points, px (as `stereoCalibrate`'s).
+    rms_px: f64,
+    cameras: Vec<CameraOut>,
+    frames: Vec<String>,
+    iterations: usize,
+    time_ms: f64,
+}
+
+/// One camera's detections: its name (the input's file name) and the boards found.
+fn camera_inputs(args: &CalibrateArgs) -> anyhow::Result<Vec<(String, Vec<Found>)>> {
+    args.inputs
+        .iter()
+        .map(|input| {
+            let name = input.file_stem().map_or_else(|| input.display().to_string(), |n| n.to_string_lossy().into_owned());
+            let (found, skipped) = keep_first_size(load_detections(std::slice::from_ref(input), args)?);
+            for s in &skipped {
+                eprintln!("{name}: skipped {} ({})", s.file, s.reason);
+            }
+            anyhow::ensure!(!found.is_empty(), "camera {name}: the board was found in none of its inputs");
+            Ok((name, found))
+        })
+        .collect()
+}
+
+/// Run `calibrate --rig`.
+pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Result<()> {
+    anyhow::ensure!(args.inputs.len() >= 2, "--rig takes one input (a folder of images or a detections JSON) per camera, at least 2");
+    anyhow::ensure!(!args.board_warp && args.cross_validate.is_none(), "--rig does not take --board-warp or --cross-validate yet");
+    let per_cam = camera_inputs(args)?;
+    let mut frames: Vec<String> = per_cam.iter().flat_map(|(_, f)| f.iter().map(|x| x.file.clone())).collect();
+    frames.sort();
+    frames.dedup();
+    let cams: Vec<RigCamera> = per_cam
+        .iter()
+        .map(|(name, found)| RigCamera {
+            name: name.clone(),
+            size: ImageSize { width: found[0].width as u32, height: found[0].height as u32 },
+            params: *params,
+            views: frames.iter().map(|n| found.iter().find(|f| &f.file == n).map(|f| f.view.clone())).collect(),
+        })
+        .collect();
+    let t0 = std::time::Instant::now();
+    let r = calibrate_rig(&cams, params.max_iterations).context("calibrating the rig")?;
+    let time_ms = t0.elapsed().as_secs_f64() * 1e3;
+    print_rig(&r);
+    if let Some(p) = &args.json {
+        let out = RigOut { rms_px: r.rms_px, cameras: camera_outs(&r, &cams, args), frames, iterations: r.iterations, time_ms };
+        write_atomic(p, &serde_json::to_vec_pretty(&out)?)?;
+    }
+    Ok(())
+}
+
+fn print_rig(r: &RigResult) {
+    println!("{} cameras; RMS {:.4} px over every camera's points ({} iterations)", r.cameras.len(), r.rms_px, r.iterations);
+    for c in &r.cameras {
+        let t = c.cam0_from_cam.translation.vector;
+        let angle = c.cam0_from_cam.rotation.angle().to_degrees();
+        println!(
+            "{}: RMS {:.4} px, fx {:.3} fy {:.3}; cam0_from_cam t = [{:.5}, {:.5}, {:.5}] m (sigma {:.2e} m), rotation {:.4} deg (sigma {:.2e} deg)",
+            c.name,
+            c.rms_px,
+            c.camera.intrinsics.fx,
+            c.camera.intrinsics.fy,
+            t.x,
+            t.y,
+            t.z,
+            c.translation_std.iter().map(|s| s * s).sum::<f64>().sqrt(),
+            angle,
+            c.rotation_std_deg.iter().map(|s| s * s).sum::<f64>().sqrt()
+        );
+    }
+}
+
+fn camera_outs(r: &RigResult, cams: &[RigCamera], args: &CalibrateArgs) -> Vec<CameraOut> {
+    r.cameras
+        .iter()
+        .zip(cams)
+        .map(|(c, cam)| {
+            let k = c.camera.intrinsics;
+            let n_lens = args.model.n_lens_params();
+            let lens = match c.camera.lens {
+                Lens::DoubleSphere(d) => vec![d.xi, d.alpha],
+                l => l.params()[..n_lens].to_vec(),
+            };
+            let m = c.cam0_from_cam.rotation.to_rotation_matrix();
+            let t = c.cam0_from_cam.translation.vector;
+            CameraOut {
+                name: c.name.clone(),
+                model: args.model.name(),
+                image_size: [cam.size.width, cam.size.height],
+                k: [[k.fx, k.skew, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
+                lens,
+                std: named(&intrinsic_names(c.camera.lens.kind()), &c.std),
+                cam0_from_cam: Pose { r: std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)])), t_m: [t.x, t.y, t.z] },
+                rotation_std_deg: c.rotation_std_deg,
+                translation_std_m: c.translation_std,
+                rms_px: c.rms_px,
+                points: c.points,
+                views: cam.views.iter().filter(|v| v.is_some()).count(),
+            }
+        })
+        .collect()
+}
