@@ -45,16 +45,20 @@ fn a_rendered_stereo_rig_calibrates_to_its_true_baseline() {
         std::fs::write(right.join(&name), synthcam::dataset::encode_png(&i1).expect("png")).expect("write");
         written += 1;
     }
-    let json = dir.join("rig.json");
+    let (json, camchain) = (dir.join("rig.json"), dir.join("camchain.yaml"));
     let o = Command::new(bin())
         .args(["calibrate", "--rig"])
         .arg(&left)
         .arg(&right)
-        .args(["--target", "chessboard:8x6", "--square", "0.03", "--json"])
+        .args(["--target", "chessboard:8x6", "--square", "0.03", "--model", "opencv4", "--json"])
         .arg(&json)
+        .arg("--kalibr-yaml")
+        .arg(&camchain)
         .output()
         .expect("run");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let chain = std::fs::read_to_string(&camchain).expect("camchain");
+    assert!(chain.contains("cam0:\n  camera_model: pinhole") && chain.contains("cam1:\n  T_cn_cnm1:") && chain.contains("distortion_model: radtan"), "{chain}");
     let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("parse");
     let cams = j["cameras"].as_array().expect("cameras");
     assert_eq!((cams.len(), cams[0]["name"].as_str(), cams[1]["name"].as_str()), (2, Some("left"), Some("right")));
@@ -72,5 +76,14 @@ fn a_rendered_stereo_rig_calibrates_to_its_true_baseline() {
     eprintln!("rig from renders: baseline error {:.4} mm, rotation {:.5} deg, right fx {fx1:.3} (1120), rms {:.4} px", dt * 1e3, dr, j["rms_px"]);
     assert!(dt <= 5e-5 && dr <= 0.002, "{} mm, {dr} deg", dt * 1e3);
     assert!((fx1 - 1120.0).abs() < 0.5);
+    // A missing camera folder is a clear error.
+    let o = Command::new(bin())
+        .args(["calibrate", "--rig"])
+        .arg(&left)
+        .arg(dir.join("nope"))
+        .args(["--target", "chessboard:8x6", "--square", "0.03"])
+        .output()
+        .expect("run");
+    assert!(!o.status.success() && !String::from_utf8_lossy(&o.stderr).contains("panicked"));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,9 +1,10 @@
 //! `calibrate --rig CAM0 CAM1 [...]`: one input per camera, frames matched by file name,
-//! [`synthcam::calib::calibrate_rig`], and the rig's JSON.
+//! [`synthcam::calib::calibrate_rig`], the rig's JSON and (`--kalibr-yaml`) its Kalibr camchain.
 
 use anyhow::Context;
 use serde::Serialize;
 use synthcam::calib::{calibrate_rig, CalibParams, RigCamera, RigResult};
+use synthcam::camera::formats::kalibr_camchain;
 use synthcam::camera::{intrinsic_names, ImageSize, Lens};
 use synthcam::dataset::write_atomic;
 
@@ -65,6 +66,10 @@ fn camera_inputs(args: &CalibrateArgs) -> anyhow::Result<Vec<(String, Vec<Found>
 pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Result<()> {
     anyhow::ensure!(args.inputs.len() >= 2, "--rig takes one input (a folder of images or a detections JSON) per camera, at least 2");
     anyhow::ensure!(!args.board_warp && args.cross_validate.is_none(), "--rig does not take --board-warp or --cross-validate yet");
+    anyhow::ensure!(
+        args.opencv_yaml.is_none() && args.ros_yaml.is_none() && args.mrcal.is_none() && args.plot.is_none() && args.report.is_none(),
+        "--rig writes --json and --kalibr-yaml (a camchain) only, so far"
+    );
     let per_cam = camera_inputs(args)?;
     let mut frames: Vec<String> = per_cam.iter().flat_map(|(_, f)| f.iter().map(|x| x.file.clone())).collect();
     frames.sort();
@@ -82,6 +87,17 @@ pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Res
     let r = calibrate_rig(&cams, params.max_iterations).context("calibrating the rig")?;
     let time_ms = t0.elapsed().as_secs_f64() * 1e3;
     print_rig(&r);
+    // A format that cannot hold a camera fails before anything is written.
+    let camchain = match &args.kalibr_yaml {
+        Some(p) => {
+            let (models, poses): (Vec<_>, Vec<_>) = r.cameras.iter().map(|c| (c.camera, c.cam0_from_cam)).unzip();
+            Some((p, kalibr_camchain(&models, &poses)?))
+        }
+        None => None,
+    };
+    if let Some((p, text)) = camchain {
+        write_atomic(p, text.as_bytes())?;
+    }
     if let Some(p) = &args.json {
         let out = RigOut { rms_px: r.rms_px, cameras: camera_outs(&r, &cams, args), frames, iterations: r.iterations, time_ms };
         write_atomic(p, &serde_json::to_vec_pretty(&out)?)?;

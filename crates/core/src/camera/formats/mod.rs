@@ -133,6 +133,11 @@ pub fn ros_yaml(cam: &CameraModel, camera_name: &str) -> Result<String, CameraFi
 /// # Errors
 /// [`CameraFileError::Unsupported`] for skew, or OpenCV terms beyond `k1 k2 p1 p2`.
 pub fn kalibr_yaml(cam: &CameraModel) -> Result<String, CameraFileError> {
+    Ok(format!("cam0:\n{}", kalibr_block(cam)?))
+}
+
+/// One camera's fields of a Kalibr camchain (indented under its `camN:`).
+fn kalibr_block(cam: &CameraModel) -> Result<String, CameraFileError> {
     let k = &cam.intrinsics;
     if k.skew != 0.0 {
         return Err(unsupported("Kalibr camchain", format!("Kalibr's intrinsics have no skew (skew = {})", k.skew)));
@@ -147,12 +152,37 @@ pub fn kalibr_yaml(cam: &CameraModel) -> Result<String, CameraFileError> {
         Lens::DoubleSphere(d) => ("ds", [d.xi, d.alpha].iter().chain(&base).copied().collect(), "none", Vec::new()),
     };
     Ok(format!(
-        "cam0:\n  camera_model: {model}\n  intrinsics: [{}]\n  distortion_model: {dmodel}\n  distortion_coeffs: [{}]\n  resolution: [{}, {}]\n",
+        "  camera_model: {model}\n  intrinsics: [{}]\n  distortion_model: {dmodel}\n  distortion_coeffs: [{}]\n  resolution: [{}, {}]\n",
         list(&intr),
         list(&d),
         cam.size.width,
         cam.size.height
     ))
+}
+
+/// A rig's Kalibr camchain: `cam0`, `cam1`, ... each with its intrinsics and, after the first,
+/// `T_cn_cnm1` (`camN_from_cam(N-1)`, 4 x 4, metres) from the rig's `cam0_from_cam` poses.
+///
+/// # Errors
+/// As [`kalibr_yaml`] for any camera; [`CameraFileError::Unsupported`] when the pose list's
+/// length is not the cameras'.
+pub fn kalibr_camchain(cams: &[CameraModel], cam0_from_cam: &[nalgebra::Isometry3<f64>]) -> Result<String, CameraFileError> {
+    if cams.len() != cam0_from_cam.len() {
+        return Err(unsupported("Kalibr camchain", format!("{} cameras, {} poses", cams.len(), cam0_from_cam.len())));
+    }
+    let mut out = String::new();
+    for (n, (cam, pose)) in cams.iter().zip(cam0_from_cam).enumerate() {
+        out += &format!("cam{n}:\n");
+        if n > 0 {
+            let t = (pose.inverse() * cam0_from_cam[n - 1]).to_homogeneous();
+            out += "  T_cn_cnm1:\n";
+            for r in 0..4 {
+                out += &format!("  - [{}]\n", list(&[t[(r, 0)], t[(r, 1)], t[(r, 2)], t[(r, 3)]]));
+            }
+        }
+        out += &kalibr_block(cam)?;
+    }
+    Ok(out)
 }
 
 /// mrcal `.cameramodel` (`LENSMODEL_OPENCV4`, `5`, `8` or `12`), extrinsics at the origin.

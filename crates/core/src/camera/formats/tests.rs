@@ -69,3 +69,37 @@ fn formats_refuse_what_they_cannot_hold() {
     assert!(matches!(read("hello: 1"), Err(CameraFileError::Parse(_))));
     assert!(read("%YAML:1.0\nimage_width: 10\n").is_err());
 }
+
+#[test]
+fn a_kalibr_camchain_chains_the_rig_poses() {
+    use nalgebra::{Isometry3, Matrix4, Translation3, UnitQuaternion, Vector3};
+    let a = cam(Lens::OpenCv(Distortion::from_array([-0.25, 0.12, 1e-3, -5e-4, 0.0])), 0.0);
+    let b = cam(Lens::Fisheye(Fisheye { k: [0.05, -0.01, 0.002, -0.0005] }), 0.0);
+    let poses = [
+        Isometry3::identity(),
+        Isometry3::from_parts(Translation3::new(0.12, 0.0, 0.001), UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -0.035)),
+        Isometry3::from_parts(Translation3::new(0.0, -0.05, 0.02), UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.5)),
+    ];
+    let text = kalibr_camchain(&[a, b, a], &poses).expect("camchain");
+    // Read the T_cn_cnm1 blocks back by name and chain them: cam0_from_camN.
+    let mut chained = vec![Isometry3::identity()];
+    for n in 1..3 {
+        let block = text.split(&format!("cam{n}:\n")).nth(1).expect("block");
+        let rows: Vec<Vec<f64>> = block
+            .lines()
+            .skip(1)
+            .take(4)
+            .map(|l| l.trim_start_matches("  - [").trim_end_matches(']').split(", ").map(|v| v.parse().expect("number")).collect())
+            .collect();
+        let t = Matrix4::from_fn(|r, c| rows[r][c]);
+        let cn_from_cnm1 =
+            Isometry3::from_parts(Translation3::new(t[(0, 3)], t[(1, 3)], t[(2, 3)]), UnitQuaternion::from_matrix(&t.fixed_view::<3, 3>(0, 0).into_owned()));
+        let prev = chained[n - 1];
+        chained.push(prev * cn_from_cnm1.inverse());
+    }
+    for (got, want) in chained.iter().zip(&poses) {
+        assert!((got.to_homogeneous() - want.to_homogeneous()).abs().max() < 1e-12, "{got} vs {want}");
+    }
+    assert!(text.contains("cam1:\n  T_cn_cnm1:") && text.contains("distortion_model: equidistant") && !text.contains("cam0:\n  T_cn_cnm1"));
+    assert!(kalibr_camchain(&[a, b], &poses).is_err());
+}
