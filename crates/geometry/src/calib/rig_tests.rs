@@ -125,3 +125,35 @@ fn bad_rigs_are_typed_errors() {
     let disjoint = [rig_camera("a", &c, CalibModel::OpenCv5, va), rig_camera("b", &c, CalibModel::OpenCv5, vb)];
     assert!(matches!(calibrate_rig(&disjoint, 50), Err(CalibError::Degenerate { .. })));
 }
+
+mod slow {
+    use super::*;
+
+    #[test]
+    fn extrinsic_sigmas_cover_the_errors_over_20_data_sets() {
+        let (c0, c1) = (pinhole(1000.0, -0.2), pinhole(1010.0, -0.15));
+        let cam0_from_cam1 = Isometry3::from_parts(Translation3::new(0.12, 0.0, 0.0), UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -2f64.to_radians()));
+        let (mut within1, mut within2, mut n) = (0, 0, 0);
+        for seed in 0..20u64 {
+            let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
+            let f = frames(16, &mut rng);
+            let v0 = noisy(views_of(&c0, &Isometry3::identity(), &f), 0.02, &mut rng);
+            let v1 = noisy(views_of(&c1, &cam0_from_cam1.inverse(), &f), 0.02, &mut rng);
+            let params = CalibParams { outlier_threshold: None, ..Default::default() };
+            let cams = [RigCamera { name: "l".into(), size: c0.size, params, views: v0 }, RigCamera { name: "r".into(), size: c1.size, params, views: v1 }];
+            let r = calibrate_rig(&cams, 100).expect("rig");
+            let c = &r.cameras[1];
+            // Per component: translation, and the rotation vector of the estimate's error.
+            let dt = c.cam0_from_cam.translation.vector - cam0_from_cam1.translation.vector;
+            let dr = (cam0_from_cam1.rotation.inverse() * c.cam0_from_cam.rotation).scaled_axis().map(f64::to_degrees);
+            for (e, s) in dt.iter().zip(c.translation_std).chain(dr.iter().zip(c.rotation_std_deg)) {
+                n += 1;
+                within1 += usize::from(e.abs() <= s);
+                within2 += usize::from(e.abs() <= 2.0 * s);
+            }
+        }
+        let (p1, p2) = (within1 as f64 / n as f64, within2 as f64 / n as f64);
+        eprintln!("extrinsics over 20 data sets: {:.0} % within 1 sigma, {:.0} % within 2 ({n} components)", 100.0 * p1, 100.0 * p2);
+        assert!((0.55..=0.8).contains(&p1) && p2 >= 0.88, "{p1} {p2}");
+    }
+}
