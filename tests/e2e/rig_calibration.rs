@@ -75,6 +75,9 @@ fn a_rendered_stereo_rig_calibrates_to_its_true_baseline() {
     let fx1 = cams[1]["K"][0][0].as_f64().expect("fx");
     eprintln!("rig from renders: baseline error {:.4} mm, rotation {:.5} deg, right fx {fx1:.3} (1120), rms {:.4} px", dt * 1e3, dr, j["rms_px"]);
     assert!(dt <= 5e-5 && dr <= 0.002, "{} mm, {dr} deg", dt * 1e3);
+    let (rows_mean, rows_max) = (j["rectified_row_error_mean_px"].as_f64().expect("mean"), j["rectified_row_error_max_px"].as_f64().expect("max"));
+    eprintln!("rectified rows: mean {rows_mean:.4} px, max {rows_max:.4} px");
+    assert!(rows_mean <= 0.02, "{rows_mean}");
     assert!((fx1 - 1120.0).abs() < 0.5);
     // A missing camera folder is a clear error.
     let o = Command::new(bin())

@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use serde::Serialize;
-use synthcam::calib::{calibrate_rig, CalibParams, RigCamera, RigResult};
+use synthcam::calib::{calibrate_rig, rectified_row_errors, CalibParams, RigCamera, RigResult};
 use synthcam::camera::formats::kalibr_camchain;
 use synthcam::camera::{intrinsic_names, ImageSize, Lens};
 use synthcam::dataset::write_atomic;
@@ -44,6 +44,10 @@ struct RigOut {
     frames: Vec<String>,
     iterations: usize,
     time_ms: f64,
+    /// The first two cameras' corners after Bouguet's rectification: their row difference, px
+    /// (`calib::rectified_row_errors`); null without a shared corner.
+    rectified_row_error_mean_px: Option<f64>,
+    rectified_row_error_max_px: Option<f64>,
 }
 
 /// One camera's detections: its name (the input's file name) and the boards found.
@@ -87,6 +91,10 @@ pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Res
     let r = calibrate_rig(&cams, params.max_iterations).context("calibrating the rig")?;
     let time_ms = t0.elapsed().as_secs_f64() * 1e3;
     print_rig(&r);
+    let rows = rectified_row_errors(&r, &cams);
+    if let Some((mean, max)) = rows {
+        println!("rectified rows of {} and {}: mean {mean:.4} px, max {max:.4} px", r.cameras[0].name, r.cameras[1].name);
+    }
     // A format that cannot hold a camera fails before anything is written.
     let camchain = match &args.kalibr_yaml {
         Some(p) => {
@@ -99,7 +107,15 @@ pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Res
         write_atomic(p, text.as_bytes())?;
     }
     if let Some(p) = &args.json {
-        let out = RigOut { rms_px: r.rms_px, cameras: camera_outs(&r, &cams, args), frames, iterations: r.iterations, time_ms };
+        let out = RigOut {
+            rms_px: r.rms_px,
+            cameras: camera_outs(&r, &cams, args),
+            frames,
+            iterations: r.iterations,
+            time_ms,
+            rectified_row_error_mean_px: rows.map(|r| r.0),
+            rectified_row_error_max_px: rows.map(|r| r.1),
+        };
         write_atomic(p, &serde_json::to_vec_pretty(&out)?)?;
     }
     Ok(())

@@ -24,7 +24,7 @@ pub use cross::{cross_validate, CrossValidation, Fold};
 pub use global::Search;
 pub use model::{CalibModel, CALIB_MODELS};
 pub use outliers::Rejection;
-pub use rig::{calibrate_rig, RigCamera, RigCameraResult, RigResult};
+pub use rig::{calibrate_rig, rectified_row_errors, RigCamera, RigCameraResult, RigResult};
 pub use uncertainty::UncertaintyMap;
 
 use nalgebra::{Point3, Vector2, Vector3, Vector6};

@@ -68,7 +68,8 @@ fn a_stereo_pair_recovers_its_baseline_to_micrometres() {
     let v0 = noisy(views_of(&c0, &Isometry3::identity(), &f), 0.005, &mut rng);
     let v1 = noisy(views_of(&c1, &cam0_from_cam1.inverse(), &f), 0.005, &mut rng);
     assert!(v1.iter().filter(|v| v.is_some()).count() >= 12);
-    let r = calibrate_rig(&[rig_camera("left", &c0, CalibModel::OpenCv5, v0), rig_camera("right", &c1, CalibModel::OpenCv5, v1)], 100).expect("rig");
+    let cams = [rig_camera("left", &c0, CalibModel::OpenCv5, v0), rig_camera("right", &c1, CalibModel::OpenCv5, v1)];
+    let r = calibrate_rig(&cams, 100).expect("rig");
     let (dt, dr) = ext_error(&r.cameras[1].cam0_from_cam, &cam0_from_cam1);
     eprintln!(
         "stereo: baseline error {:.4} mm, rotation {:.5} deg, sigma t {:?} m, r {:?} deg; rms {:.4}",
@@ -85,6 +86,14 @@ fn a_stereo_pair_recovers_its_baseline_to_micrometres() {
     assert!(dr < 3.0 * sr && dt < 3.0 * st, "{dr} deg vs sigma {sr}, {dt} m vs {st}");
     assert!((r.cameras[1].camera.intrinsics.fx - 1010.0).abs() < 0.2);
     assert!(r.rms_px < 0.01 && r.cameras.iter().all(|c| c.translation_std.iter().all(|s| s.is_finite())));
+    let (mean, max) = rectified_row_errors(&r, &cams).expect("shared corners");
+    eprintln!("rectified rows: mean {mean:.4} px, max {max:.4} px");
+    assert!(mean < 0.01 && max < 0.05, "{mean} {max}");
+    // A wrong extrinsic shows: 0.5 degrees more toe-in.
+    let mut wrong = r.clone();
+    wrong.cameras[1].cam0_from_cam.rotation =
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.5f64.to_radians()) * wrong.cameras[1].cam0_from_cam.rotation;
+    assert!(rectified_row_errors(&wrong, &cams).is_some_and(|(m, _)| m > 1.0));
 }
 
 #[test]
