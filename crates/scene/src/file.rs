@@ -41,6 +41,7 @@ use serde::Deserialize;
 mod camera;
 pub mod effects;
 pub mod object;
+pub mod rig;
 mod target;
 
 pub use camera::{CameraSpec, ModelName};
@@ -133,8 +134,12 @@ impl RenderSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneSpec {
-    /// `[camera]`.
-    pub camera: CameraSpec,
+    /// `[camera]` (or `[[cameras]]`, not both).
+    #[serde(default)]
+    pub camera: Option<CameraSpec>,
+    /// `[[cameras]]`: a rig ([`rig`]); `[pose]` is then `rig_from_target`.
+    #[serde(default)]
+    pub cameras: Vec<rig::RigCameraSpec>,
     /// `[target]`.
     pub target: TargetTable,
     /// `[pose]` (or `[facing]`, not both).
@@ -182,6 +187,47 @@ impl SceneSpec {
     /// # Errors
     /// As [`SceneSpec::to_scene`], and a mesh that does not load ([`SceneError::Object`]).
     pub fn to_scene_with(&self, load: MeshLoader<'_>) -> Result<Scene, SceneError> {
+        match (&self.camera, self.cameras.is_empty()) {
+            (Some(camera), true) => self.scene_of(camera, &Isometry3::identity(), load),
+            (None, false) => Err(SceneError::InvalidField {
+                field: "cameras".into(),
+                reason: "this scene is a rig (`[[cameras]]`): render it with SceneSpec::to_rig_scenes_with (`synthcam render` does)".into(),
+            }),
+            _ => Err(Self::one_camera_table()),
+        }
+    }
+
+    /// A rig's scenes, one per `[[cameras]]` entry with its name (or the one `[camera]`, named
+    /// `cam0`): each camera's `cam_from_target = cam_from_rig rig_from_target`.
+    ///
+    /// # Errors
+    /// As [`SceneSpec::to_scene_with`] for each camera, and a bad `[[cameras]]` entry (named).
+    pub fn to_rig_scenes_with(&self, load: MeshLoader<'_>) -> Result<Vec<(String, Scene)>, SceneError> {
+        match (&self.camera, self.cameras.is_empty()) {
+            (Some(camera), true) => Ok(vec![("cam0".into(), self.scene_of(camera, &Isometry3::identity(), load)?)]),
+            (None, false) if !self.objects.is_empty() => Err(SceneError::InvalidField {
+                field: "object".into(),
+                reason: "objects are not placed in a rig's scenes yet (render each camera as its own scene)".into(),
+            }),
+            (None, false) => rig::rig_cameras(&self.cameras)?
+                .into_iter()
+                .map(|(name, camera, cam_from_rig)| {
+                    let scene = self
+                        .scene_of(&camera, &cam_from_rig, load)
+                        .map_err(|e| SceneError::InvalidField { field: format!("cameras.{name}"), reason: e.to_string() })?;
+                    Ok((name, scene))
+                })
+                .collect(),
+            _ => Err(Self::one_camera_table()),
+        }
+    }
+
+    fn one_camera_table() -> SceneError {
+        SceneError::InvalidField { field: "camera".into(), reason: "a scene needs `[camera]` or `[[cameras]]`, not both".into() }
+    }
+
+    /// The scene of `camera` at `cam_from_rig` (the identity for a single camera).
+    fn scene_of(&self, camera: &CameraSpec, cam_from_rig: &Isometry3<f64>, load: MeshLoader<'_>) -> Result<Scene, SceneError> {
         let render = effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?;
         if render.effects.motion.follow_robot {
             return Err(SceneError::InvalidField {
@@ -189,9 +235,9 @@ impl SceneSpec {
                 reason: "only a robot scenario moves the camera with its arm; give `twist` here".into(),
             });
         }
-        let cam_from_target = self.cam_from_target()?;
+        let cam_from_target = cam_from_rig * self.cam_from_target()?;
         let objects = object::scene_objects(&self.objects, &cam_from_target, load)?;
-        let scene = Scene { camera: self.camera.to_model()?, target: self.target.to_target(), cam_from_target, render, objects };
+        let scene = Scene { camera: camera.to_model()?, target: self.target.to_target(), cam_from_target, render, objects };
         scene.validate()?;
         Ok(scene)
     }
@@ -227,6 +273,15 @@ pub fn parse_scene(text: &str) -> Result<Scene, SceneError> {
 /// As [`parse_scene`] and [`SceneSpec::to_scene_with`].
 pub fn parse_scene_with(text: &str, load: MeshLoader<'_>) -> Result<Scene, SceneError> {
     parse_spec(text)?.to_scene_with(load)
+}
+
+/// A rig's scenes from scene text ([`SceneSpec::to_rig_scenes_with`]; a single `[camera]` gives
+/// one scene named `cam0`).
+///
+/// # Errors
+/// As [`parse_scene_with`].
+pub fn parse_rig_scenes_with(text: &str, load: MeshLoader<'_>) -> Result<Vec<(String, Scene)>, SceneError> {
+    parse_spec(text)?.to_rig_scenes_with(load)
 }
 
 /// Scene text (JSON when it starts with `{`, TOML otherwise) into its spec, unvalidated.
