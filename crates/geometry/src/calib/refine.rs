@@ -141,14 +141,16 @@ impl State {
     }
 }
 
-/// Normal-equation blocks at a state.
-struct Blocks {
-    cost: f64,
-    u: DMatrix<f64>,
-    ga: DVector<f64>,
-    v: Vec<Matrix6<f64>>,
-    w: Vec<DMatrix<f64>>,
-    gb: Vec<Vector6<f64>>,
+/// Normal-equation blocks at a state: the cost, the global block `U` (intrinsics; a rig's
+/// intrinsics and extrinsics) and its gradient, and per view (frame) `V`, `W` (global x 6) and
+/// the pose's gradient. Shared with the rig's bundle adjustment (`super::rig`).
+pub(crate) struct Blocks {
+    pub(crate) cost: f64,
+    pub(crate) u: DMatrix<f64>,
+    pub(crate) ga: DVector<f64>,
+    pub(crate) v: Vec<Matrix6<f64>>,
+    pub(crate) w: Vec<DMatrix<f64>>,
+    pub(crate) gb: Vec<Vector6<f64>>,
 }
 
 /// Running sums of one view's (or all views') normal-equation terms over the free intrinsics

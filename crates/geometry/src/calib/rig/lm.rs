@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Point2, Point3, SMatrix, Vector2, Vector3, Vector6};
 
-use super::super::refine::{camera_of, drotated_drvec};
+use super::super::refine::{camera_of, drotated_drvec, Blocks};
 use super::super::{CalibError, CalibParams};
 use super::RigCamera;
 use synthcam_core::camera::N_INTRINSICS;
@@ -87,31 +87,24 @@ pub(super) fn residual(cams: &[RigCamera], lay: &Layout, st: &RigState, o: &Obs)
     (r, jg, jf)
 }
 
-/// The normal equations: cost, global block U and gradient, per frame V, W (global x 6), gradient.
-struct Normal {
-    cost: f64,
-    u: DMatrix<f64>,
-    g: DVector<f64>,
-    v: Vec<Matrix6<f64>>,
-    w: Vec<DMatrix<f64>>,
-    gf: Vec<Vector6<f64>>,
-}
+/// The normal equations (the single camera's blocks, the frames as its views).
+type Normal = Blocks;
 
 fn normal(cams: &[RigCamera], lay: &Layout, st: &RigState, obs: &[Obs]) -> Normal {
     let n = st.frames.len();
     let mut b = Normal {
         cost: 0.0,
         u: DMatrix::zeros(lay.size, lay.size),
-        g: DVector::zeros(lay.size),
+        ga: DVector::zeros(lay.size),
         v: vec![Matrix6::zeros(); n],
         w: vec![DMatrix::zeros(lay.size, 6); n],
-        gf: vec![Vector6::zeros(); n],
+        gb: vec![Vector6::zeros(); n],
     };
     for o in obs {
         let (r, jg, jf) = residual(cams, lay, st, o);
         b.cost += r.norm_squared();
         for (i, ji) in &jg {
-            b.g[*i] += ji.dot(&r);
+            b.ga[*i] += ji.dot(&r);
             for (j, jj) in &jg {
                 b.u[(*i, *j)] += ji.dot(jj);
             }
@@ -121,7 +114,7 @@ fn normal(cams: &[RigCamera], lay: &Layout, st: &RigState, obs: &[Obs]) -> Norma
             }
         }
         b.v[o.frame] += jf.transpose() * jf;
-        b.gf[o.frame] += jf.transpose() * r;
+        b.gb[o.frame] += jf.transpose() * r;
     }
     b
 }
@@ -136,9 +129,9 @@ fn solve(b: &Normal, lambda: f64) -> Option<Step> {
     for i in 0..s.nrows() {
         s[(i, i)] += lambda * b.u[(i, i)].max(1e-12);
     }
-    let mut rhs = -b.g.clone();
+    let mut rhs = -b.ga.clone();
     let mut vinv = Vec::with_capacity(b.v.len());
-    for ((v, w), gf) in b.v.iter().zip(&b.w).zip(&b.gf) {
+    for ((v, w), gf) in b.v.iter().zip(&b.w).zip(&b.gb) {
         let mut vd = *v;
         for i in 0..6 {
             vd[(i, i)] += lambda * v[(i, i)].max(1e-12) + if v[(i, i)] == 0.0 { 1.0 } else { 0.0 };
@@ -151,7 +144,7 @@ fn solve(b: &Normal, lambda: f64) -> Option<Step> {
     }
     let sinv = s.clone().try_inverse()?;
     let da = &sinv * rhs;
-    let df = b.w.iter().zip(&b.gf).zip(&vinv).map(|((w, gf), vi)| -(vi * (gf + Vector6::from_iterator((w.transpose() * &da).iter().copied())))).collect();
+    let df = b.w.iter().zip(&b.gb).zip(&vinv).map(|((w, gf), vi)| -(vi * (gf + Vector6::from_iterator((w.transpose() * &da).iter().copied())))).collect();
     Some((da, df, sinv))
 }
 
