@@ -42,9 +42,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.depth.is_none() && args.mask.is_none(), "--depth and --mask take a single-camera scene, not a rig");
     let scenes = spec.to_rig_scenes_with(&|p: &str| meshes.load(p)).with_context(|| format!("in scene {}", args.scene.display()))?;
     let renderer = super::open_renderer(&args.backend)?;
+    let stem = args.out.file_stem().map_or_else(|| "render".to_string(), |s| s.to_string_lossy().into_owned());
+    let ext = args.out.extension().map_or_else(|| "png".to_string(), |e| e.to_string_lossy().into_owned());
     for (name, scene) in &scenes {
-        let stem = args.out.file_stem().map_or_else(|| "render".to_string(), |s| s.to_string_lossy().into_owned());
-        let ext = args.out.extension().map_or_else(|| "png".to_string(), |e| e.to_string_lossy().into_owned());
         render_one(args, &renderer, scene, &args.out.with_file_name(format!("{stem}.{name}.{ext}")))?;
     }
     Ok(())

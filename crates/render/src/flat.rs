@@ -40,10 +40,12 @@ impl RayFrame {
 /// (`[0, 0]` when flat): the rays are met with both, and the box holds every point seen.
 fn plane_bbox(frames: &[RayFrame], rays: &[Vector3<f64>], z_range: [f64; 2]) -> Option<[f64; 4]> {
     let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+    // A flat board: one plane (its rays are cast once).
+    let planes = if z_range[0] == z_range[1] { &z_range[..1] } else { &z_range[..] };
     for f in frames {
         for r in rays {
             let (o, d) = f.ray(r);
-            for z in z_range {
+            for &z in planes {
                 let t = (z - o.z) / d.z;
                 if !(t > 0.0) || !t.is_finite() {
                     return None;

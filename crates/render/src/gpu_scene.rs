@@ -170,7 +170,9 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
                 (p.h0, p.h1, p.h2) = (h0, h1, h2);
             }
             p.vw = [view_set.samples, u32::from(view_set.per_row), (view_set.spread_px.min(1e30) as f32).to_bits(), 0];
-            warp_params(&mut p, scene);
+            if let Some(sharp) = view_set.views.first() {
+                warp_params(&mut p, scene, sharp)?;
+            }
             (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], bits)
         }
         Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
@@ -240,13 +242,13 @@ fn planar_params(p: &mut Params, scene: &Scene, lattice: Option<&CellLattice>) -
 }
 
 /// A warped board's uniforms (`Params::warp`, `warp_c`, `tfc*`; all zero for a flat one): the
-/// sharp view's pose and the `lambda` of its homography's row scaling ([`super::views::homography`]).
-fn warp_params(p: &mut Params, scene: &Scene) {
-    let Some(Warp { k, extent: Some(e) }) = scene.target.warp() else { return };
+/// sharp view's pose and the `lambda` of its homography's row scaling
+/// ([`super::views::homography_scaled`]; a warped board has that one view: scene validation).
+fn warp_params(p: &mut Params, scene: &Scene, sharp: &synthcam_scene::views::ExposureView) -> Result<(), RenderError> {
+    let Some(Warp { k, extent: Some(e) }) = scene.target.warp() else { return Ok(()) };
+    let (_, scale) = super::views::homography_scaled(sharp)?;
     let r = scene.cam_from_target.rotation.to_rotation_matrix();
     let t = scene.cam_from_target.translation.vector;
-    let m = nalgebra::Matrix3::from_columns(&[r.matrix().column(0).into_owned(), r.matrix().column(1).into_owned(), t]);
-    let Some(scale) = m.try_inverse().map(|h| h.abs().max()).filter(|s| *s > 0.0 && s.is_finite()) else { return };
     let rt = r.matrix().transpose();
     let centre = -(rt * t);
     p.warp = [k[0] as f32, k[1] as f32, (1.0 / scale) as f32, 1.0];
@@ -254,6 +256,7 @@ fn warp_params(p: &mut Params, scene: &Scene) {
     for (row, out) in [&mut p.tfc0, &mut p.tfc1, &mut p.tfc2].into_iter().enumerate() {
         *out = [rt[(row, 0)] as f32, rt[(row, 1)] as f32, rt[(row, 2)] as f32, centre[row] as f32];
     }
+    Ok(())
 }
 
 /// The S-path's parameters, its dots in the camera frame, and per tile the dots whose footprint

@@ -16,6 +16,15 @@ use synthcam_scene::views::{ExposureView, ViewSet};
 /// # Errors
 /// [`RenderError::Degenerate`] when the target plane contains the view's centre.
 pub fn homography(view: &ExposureView) -> Result<Matrix3<f64>, RenderError> {
+    homography_scaled(view).map(|(h, _)| h)
+}
+
+/// [`homography`] and the factor its unscaled form was divided by (a warped board's tangent
+/// planes need it: `shaders/planar.wgsl` `warp_view`).
+///
+/// # Errors
+/// As [`homography`].
+pub fn homography_scaled(view: &ExposureView) -> Result<(Matrix3<f64>, f64), RenderError> {
     let r = view.cam_from_target.rotation.to_rotation_matrix();
     let t = view.cam_from_target.translation.vector;
     let m = r.matrix();
@@ -26,7 +35,7 @@ pub fn homography(view: &ExposureView) -> Result<Matrix3<f64>, RenderError> {
     if !(scale > 0.0) || !scale.is_finite() {
         return Err(RenderError::Degenerate("singular plane homography".into()));
     }
-    Ok(h / scale)
+    Ok((h / scale, scale))
 }
 
 /// The views' homographies as the shader reads them: three rows (`xyz`, 0) per view.

@@ -156,7 +156,9 @@ impl Target {
     /// (on a warped board, off the plane by the warp's sag).
     pub fn feature_points_m(&self) -> Vec<Point3<f64>> {
         let flat = self.flat_feature_points_m();
-        match self.warp() {
+        // The warp's extent from these same points (Target::warp would list them again).
+        let warp = self.warp_m().and_then(|k| Some(Warp { k, extent: Some(BoardExtent::of(flat.iter().copied())?) }));
+        match warp {
             Some(w) => flat.iter().map(|p| w.apply(p)).collect(),
             None => flat,
         }

@@ -28,8 +28,8 @@
 use nalgebra::{Point2, Vector2, Vector3, Vector6};
 
 use super::refine::{pose_vector, refine, vector_of, Refined, State, View, Warp};
-use super::{init_wide, zhang, CalibError, CalibParams};
-use synthcam_core::camera::{CameraModel, DoubleSphere, ImageSize, Lens, LensKind, N_INTRINSICS};
+use super::{init_wide, zhang, CalibError, CalibModel, CalibParams};
+use synthcam_core::camera::{CameraModel, DoubleSphere, ImageSize, Lens, LensKind, MAX_LENS_PARAMS, N_INTRINSICS};
 
 /// The profile's `xi` grid: this range in this many steps; `alpha` over (0, 1) in
 /// [`DS_ALPHA_STEPS`] steps for each.
@@ -75,16 +75,17 @@ pub(super) fn fit(views: &[View], size: ImageSize, params: &CalibParams, free: &
     let mut search = Search { starts: starts.len(), best_restart_ratio: f64::INFINITY, ..Default::default() };
     let singular = || CalibError::Degenerate { reason: "the normal equations are singular".into() };
     let best = best_of(starts.into_iter().filter_map(|s| refine(size, s, views, free, params.max_iterations))).ok_or_else(singular)?;
-    Ok(restart_check(best, views, size, params, free, &mut search))
+    let best = restart_check(best, views, size, params, free, &mut search);
+    Ok((best, search))
 }
 
 /// The perturbed-restart check of `best`. The restarts run on about
 /// [`init_wide::SEARCH_POINTS`] points per view (a quarter of the cost or less), against `best`
 /// polished on the same points; a restart that ends lower there is refined on every point and
 /// replaces `best` if it ends lower there too.
-fn restart_check(best: Refined, views: &[View], size: ImageSize, params: &CalibParams, free: &[usize], search: &mut Search) -> (Refined, Search) {
+fn restart_check(best: Refined, views: &[View], size: ImageSize, params: &CalibParams, free: &[usize], search: &mut Search) -> Refined {
     let sparse = init_wide::sparse(views);
-    let Some(reference) = refine(size, best.state.clone(), &sparse, free, params.max_iterations) else { return (best, *search) };
+    let Some(reference) = refine(size, best.state.clone(), &sparse, free, params.max_iterations) else { return best };
     let camera = super::refine::camera_of(size, best.state.kind, &best.state.a);
     let mut out = best;
     for cam in restart_cameras(&camera, free) {
@@ -99,7 +100,7 @@ fn restart_check(best: Refined, views: &[View], size: ImageSize, params: &CalibP
             }
         }
     }
-    (out, *search)
+    out
 }
 
 /// The run with the lowest finite cost.
@@ -141,11 +142,8 @@ fn ladder_start(zhang: &State, views: &[View], size: ImageSize, params: &CalibPa
     if params.model.n_lens_params() <= 5 {
         return None;
     }
-    let mut free: Vec<usize> = vec![0, 1, 2, 3];
-    if params.estimate_skew {
-        free.push(4);
-    }
-    free.extend((0..5).filter(|i| !params.fix_distortion[*i]).map(|i| 5 + i));
+    // The five-coefficient model's free set under the user's options (the start is flat).
+    let free = super::free_parameters(&CalibParams { model: CalibModel::OpenCv5, board_warp: None, ..*params });
     refine(size, zhang.clone(), views, &free, params.max_iterations).map(|r| r.state)
 }
 
@@ -172,10 +170,11 @@ fn ds_starts(size: ImageSize, views: &[View], params: &CalibParams) -> Vec<State
     let radii = observed_radii(views, &kb.state.poses);
     let d: Vec<f64> = radii.iter().map(|&r| lens.distort(&Vector2::new(r, 0.0)).x).collect();
     let sparse = init_wide::sparse(views);
-    let mut free: Vec<usize> = vec![0, 1, 2, 3, 6];
-    if params.estimate_skew {
-        free.push(4);
-    }
+    // Everything but xi (alpha free whatever the user fixes: this is a start).
+    let mut fix_distortion = [false; MAX_LENS_PARAMS];
+    fix_distortion[0] = true;
+    let free =
+        super::free_parameters(&CalibParams { model: CalibModel::DoubleSphere, estimate_skew: params.estimate_skew, fix_distortion, ..Default::default() });
     let mut profile: Vec<Refined> = Vec::new();
     for i in 0..=DS_XI_STEPS {
         let xi = DS_XI_RANGE.0 + (DS_XI_RANGE.1 - DS_XI_RANGE.0) * i as f64 / DS_XI_STEPS as f64;
@@ -201,10 +200,7 @@ fn ds_starts(size: ImageSize, views: &[View], params: &CalibParams) -> Vec<State
 /// The Kannala-Brandt calibration of the views, every lens coefficient free.
 fn fisheye_fit(size: ImageSize, views: &[View], params: &CalibParams) -> Option<Refined> {
     let start = wide_start(size, init_wide::base_lens(LensKind::Fisheye), views)?;
-    let mut free = vec![0, 1, 2, 3, 5, 6, 7, 8];
-    if params.estimate_skew {
-        free.push(4);
-    }
+    let free = super::free_parameters(&CalibParams { model: CalibModel::Fisheye, estimate_skew: params.estimate_skew, ..Default::default() });
     refine(size, start, views, &free, params.max_iterations)
 }
 

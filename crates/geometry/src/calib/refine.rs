@@ -240,10 +240,11 @@ pub struct Refined {
 }
 
 /// Reduced system: the Schur complement S, its right-hand side, and the inverted view blocks.
-type Reduced = (DMatrix<f64>, DVector<f64>, Vec<Matrix6<f64>>);
+pub(crate) type Reduced = (DMatrix<f64>, DVector<f64>, Vec<Matrix6<f64>>);
 
-/// Schur-complement reduced system for the intrinsics at damping `lambda`.
-fn reduced(b: &Blocks, lambda: f64) -> Option<Reduced> {
+/// Schur-complement reduced system for the intrinsics (a rig's global block) at damping
+/// `lambda`; `None` when a view's block is singular.
+pub(crate) fn reduced(b: &Blocks, lambda: f64) -> Option<Reduced> {
     let k = b.u.nrows();
     let mut s = b.u.clone();
     for i in 0..k {

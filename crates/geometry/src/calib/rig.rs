@@ -126,25 +126,35 @@ pub fn calibrate_rig(cams: &[RigCamera], max_iterations: usize) -> Result<RigRes
     let poses: Vec<Vec<Option<Isometry3<f64>>>> = singles.iter().map(|(_, p, _)| p.clone()).collect();
     let ext = initial_extrinsics(cams, &poses)?;
     let frames = initial_frames(&poses, &ext);
+    // The frames some camera saw are the parameters; `slot[k]`: frame k's place among them.
+    let mut seen = 0;
+    let slot: Vec<Option<usize>> = frames
+        .iter()
+        .map(|f| {
+            f.map(|_| {
+                seen += 1;
+                seen - 1
+            })
+        })
+        .collect();
     // Every point of every view, less those each camera's own calibration dropped as outliers.
     let obs: Vec<Obs> = cams
         .iter()
         .enumerate()
-        .flat_map(|(c, cam)| cam.views.iter().enumerate().filter_map(move |(k, v)| v.as_ref().map(|v| (c, k, v))))
-        .flat_map(|(c, k, v)| {
+        .flat_map(|(c, cam)| cam.views.iter().zip(&slot).enumerate().filter_map(move |(k, (v, f))| Some((c, k, (*f)?, v.as_ref()?))))
+        .flat_map(|(c, k, frame, v)| {
             let dropped = &singles[c].2[k];
-            v.iter().enumerate().filter(move |(j, _)| !dropped.contains(j)).map(move |(_, (x, q))| Obs { cam: c, frame: k, x: *x, q: *q })
+            v.iter().enumerate().filter(move |(j, _)| !dropped.contains(j)).map(move |(_, (x, q))| Obs { cam: c, frame, x: *x, q: *q })
         })
-        .filter(|o| frames[o.frame].is_some())
         .collect();
     let state = RigState {
         a: singles.iter().map(|(r, _, _)| vector_of(&r.camera)).collect(),
         ext: ext.iter().skip(1).map(pose_vector).collect(),
-        frames: frames.iter().map(|f| f.map_or_else(Vector6::zeros, |f| pose_vector(&f))).collect(),
+        frames: frames.iter().flatten().map(pose_vector).collect(),
     };
     let layout = Layout::new(cams);
     let (st, cov, iterations) = lm(cams, &layout, state, &obs, max_iterations)?;
-    Ok(result(cams, &layout, &st, &cov, &obs, frames.iter().map(Option::is_some).collect(), iterations))
+    Ok(result(cams, &layout, &st, &cov, &obs, &slot, iterations))
 }
 
 /// `camN_from_cam0` per camera (identity for camera 0) from the frames both see.
@@ -169,7 +179,7 @@ fn initial_frames(poses: &[Vec<Option<Isometry3<f64>>>], ext: &[Isometry3<f64>])
     (0..poses[0].len()).map(|k| poses.iter().zip(ext).find_map(|(p, e)| p[k].map(|camc_from_board| e.inverse() * camc_from_board))).collect()
 }
 
-fn result(cams: &[RigCamera], lay: &Layout, st: &RigState, cov: &DMatrix<f64>, obs: &[Obs], seen: Vec<bool>, iterations: usize) -> RigResult {
+fn result(cams: &[RigCamera], lay: &Layout, st: &RigState, cov: &DMatrix<f64>, obs: &[Obs], slot: &[Option<usize>], iterations: usize) -> RigResult {
     let mut ss = vec![(0.0, 0usize); cams.len()];
     for o in obs {
         ss[o.cam].0 += residual(cams, lay, st, o).0.norm_squared();
@@ -202,12 +212,7 @@ fn result(cams: &[RigCamera], lay: &Layout, st: &RigState, cov: &DMatrix<f64>, o
         .collect();
     let total: f64 = ss.iter().map(|s| s.0).sum();
     let n: usize = ss.iter().map(|s| s.1).sum();
-    RigResult {
-        cameras,
-        rms_px: (total / n.max(1) as f64).sqrt(),
-        cam0_from_board: st.frames.iter().zip(seen).map(|(f, s)| s.then(|| iso(f))).collect(),
-        iterations,
-    }
+    RigResult { cameras, rms_px: (total / n.max(1) as f64).sqrt(), cam0_from_board: slot.iter().map(|s| s.map(|i| iso(&st.frames[i]))).collect(), iterations }
 }
 
 /// `cam0_from_cam` from `camN_from_cam0` and its standard deviations: the rotation's (its rvec

@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Point2, Point3, SMatrix, Vector2, Vector3, Vector6};
 
-use super::super::refine::{camera_of, drotated_drvec, Blocks};
+use super::super::refine::{camera_of, drotated_drvec, reduced, Blocks};
 use super::super::{CalibError, CalibParams};
 use super::RigCamera;
 use synthcam_core::camera::N_INTRINSICS;
@@ -119,30 +119,15 @@ fn normal(cams: &[RigCamera], lay: &Layout, st: &RigState, obs: &[Obs]) -> Norma
     b
 }
 
-/// The damped Schur system's solution: global step and per-frame steps; with the undamped
-/// inverse of the reduced matrix (the global block's covariance up to sigma^2) when `lambda` is 0.
 /// A step: the global block's, every frame's, and the reduced matrix's inverse.
 type Step = (DVector<f64>, Vec<Vector6<f64>>, DMatrix<f64>);
 
+/// The damped Schur system's solution ([`reduced`], the single camera's elimination): global
+/// step and per-frame steps, with the inverse of the reduced matrix (undamped when `lambda` is 0:
+/// the global block's covariance up to sigma^2).
 fn solve(b: &Normal, lambda: f64) -> Option<Step> {
-    let mut s = b.u.clone();
-    for i in 0..s.nrows() {
-        s[(i, i)] += lambda * b.u[(i, i)].max(1e-12);
-    }
-    let mut rhs = -b.ga.clone();
-    let mut vinv = Vec::with_capacity(b.v.len());
-    for ((v, w), gf) in b.v.iter().zip(&b.w).zip(&b.gb) {
-        let mut vd = *v;
-        for i in 0..6 {
-            vd[(i, i)] += lambda * v[(i, i)].max(1e-12) + if v[(i, i)] == 0.0 { 1.0 } else { 0.0 };
-        }
-        let vi = vd.try_inverse()?;
-        let wv = w * DMatrix::from_column_slice(6, 6, vi.as_slice());
-        s -= &wv * w.transpose();
-        rhs += &wv * DVector::from_column_slice(gf.as_slice());
-        vinv.push(vi);
-    }
-    let sinv = s.clone().try_inverse()?;
+    let (s, rhs, vinv) = reduced(b, lambda)?;
+    let sinv = s.try_inverse()?;
     let da = &sinv * rhs;
     let df = b.w.iter().zip(&b.gb).zip(&vinv).map(|((w, gf), vi)| -(vi * (gf + Vector6::from_iterator((w.transpose() * &da).iter().copied())))).collect();
     Some((da, df, sinv))
@@ -201,7 +186,6 @@ pub(super) fn lm(
         }
     }
     let (_, _, sinv) = solve(&b, 0.0).ok_or_else(singular)?;
-    let frames_seen = b.v.iter().filter(|v| v[(0, 0)] > 0.0).count();
-    let dof = (2 * obs.len()).saturating_sub(lay.size + 6 * frames_seen).max(1);
+    let dof = (2 * obs.len()).saturating_sub(lay.size + 6 * st.frames.len()).max(1);
     Ok((st, sinv * (b.cost / dof as f64), it))
 }
