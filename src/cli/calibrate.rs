@@ -42,22 +42,27 @@ pub struct CalibrateArgs {
     /// Also estimate the skew K[0][1].
     #[arg(long)]
     pub skew: bool,
-    /// Lens model: opencv4, opencv5, opencv8, opencv12, opencv14, fisheye, double-sphere.
-    #[arg(long, default_value = "opencv5", value_parser = |s: &str| s.parse::<CalibModel>())]
-    pub model: CalibModel,
+    /// Lens model: opencv4, opencv5, opencv8, opencv12, opencv14, fisheye, double-sphere. With
+    /// --rig, one for every camera or one per camera in the inputs' order (`--model fisheye
+    /// --model opencv5`, or `--model fisheye,opencv5`).
+    #[arg(long, default_value = "opencv5", value_delimiter = ',', value_parser = |s: &str| s.parse::<CalibModel>())]
+    pub model: Vec<CalibModel>,
     /// Write the result as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write the result as OpenCV FileStorage YAML.
+    /// Write the result as OpenCV FileStorage YAML (--rig with two cameras: the stereo pair's
+    /// K1 D1 K2 D2 R T E F and stereoRectify's R1 R2 P1 P2 Q).
     #[arg(long)]
     pub opencv_yaml: Option<PathBuf>,
-    /// Write the result as a ROS camera_info YAML.
+    /// Write the result as a ROS camera_info YAML (--rig: one file per camera, `PATH` with the
+    /// camera's name before the extension; a stereo pair's with its rectification R and P).
     #[arg(long)]
     pub ros_yaml: Option<PathBuf>,
     /// Write the result as a Kalibr camchain YAML.
     #[arg(long)]
     pub kalibr_yaml: Option<PathBuf>,
-    /// Write the result as an mrcal .cameramodel.
+    /// Write the result as an mrcal .cameramodel (--rig: one per camera, named as --ros-yaml's,
+    /// extrinsics `rt_cam_ref` = camN_from_cam0).
     #[arg(long)]
     pub mrcal: Option<PathBuf>,
     /// Plot per-view errors and residual vectors to this PNG.
@@ -256,7 +261,20 @@ fn check_args(args: &CalibrateArgs) -> anyhow::Result<()> {
         args.target.board_points_m(args.square).is_some(),
         "calibrate takes a chessboard, ChArUco or AprilGrid target (chessboard:COLSxROWS, charuco:NXxNY:DICT:RATIO, aprilgrid:NXxNY:tag36h11:SPACING)"
     );
+    anyhow::ensure!(
+        args.model.len() == 1 || (args.rig && args.model.len() == args.inputs.len()),
+        "--model takes one model, or with --rig one per camera ({} inputs), got {}",
+        args.inputs.len(),
+        args.model.len()
+    );
     Ok(())
+}
+
+impl CalibrateArgs {
+    /// The model of camera `i` (the single camera's is `model(0)`).
+    fn model(&self, i: usize) -> CalibModel {
+        self.model.get(i).or(self.model.first()).copied().unwrap_or_default()
+    }
 }
 
 /// The library's options from the command line's.
@@ -268,7 +286,7 @@ fn params_of(args: &CalibrateArgs) -> anyhow::Result<CalibParams> {
         None
     };
     let outlier_threshold = (!args.keep_outliers).then_some(args.outlier_threshold);
-    Ok(CalibParams { estimate_skew: args.skew, model: args.model, outlier_threshold, board_warp, ..Default::default() })
+    Ok(CalibParams { estimate_skew: args.skew, model: args.model(0), outlier_threshold, board_warp, ..Default::default() })
 }
 
 /// Each view's line of the JSON.
@@ -307,7 +325,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     // Files the chosen formats cannot hold fail before anything is written.
     let files = export_files(args, &r.camera, r.rms_px)?;
     let k = r.camera.intrinsics;
-    let n_lens = args.model.n_lens_params();
+    let n_lens = args.model(0).n_lens_params();
     let (dist, xi, alpha) = match r.camera.lens {
         Lens::DoubleSphere(d) => (None, Some(d.xi), Some(d.alpha)),
         l => (Some(l.params()[..n_lens].to_vec()), None, None),
@@ -317,7 +335,7 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     let out = Output {
         image_size: [size.width, size.height],
         rms_px: r.rms_px,
-        model: args.model.name(),
+        model: args.model(0).name(),
         k: [[k.fx, k.skew, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
         dist,
         xi,
@@ -350,7 +368,8 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.report {
         let files: Vec<String> = found.iter().map(|f| f.file.clone()).collect();
         let skipped: Vec<(String, String)> = out.skipped.iter().map(|s| (s.file.clone(), s.reason.clone())).collect();
-        let inputs = CalibInputs { model: args.model.name(), lens_params: n_lens, files: &files, points_px: &pts, skipped: &skipped, uncertainty: Some(&map) };
+        let inputs =
+            CalibInputs { model: args.model(0).name(), lens_params: n_lens, files: &files, points_px: &pts, skipped: &skipped, uncertainty: Some(&map) };
         write_report(dir, &document(&r, &inputs)?)?;
     }
     Ok(())

@@ -1,10 +1,12 @@
 //! `calibrate --rig CAM0 CAM1 [...]`: one input per camera, frames matched by file name,
 //! [`synthcam::calib::calibrate_rig`], the rig's JSON and (`--kalibr-yaml`) its Kalibr camchain.
 
+use std::path::{Path, PathBuf};
+
 use anyhow::Context;
 use serde::Serialize;
-use synthcam::calib::{calibrate_rig, rectified_row_errors, CalibParams, RigCamera, RigResult};
-use synthcam::camera::formats::kalibr_camchain;
+use synthcam::calib::{calibrate_rig, essential_fundamental, rectified_row_errors, stereo_rectify, CalibParams, RigCamera, RigResult};
+use synthcam::camera::formats::{kalibr_camchain, mrcal_cameramodel_at, opencv_stereo_yaml, ros_yaml, ros_yaml_rectified, StereoPair};
 use synthcam::camera::{intrinsic_names, ImageSize, Lens};
 use synthcam::dataset::write_atomic;
 
@@ -70,9 +72,11 @@ fn camera_inputs(args: &CalibrateArgs) -> anyhow::Result<Vec<(String, Vec<Found>
 pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Result<()> {
     anyhow::ensure!(args.inputs.len() >= 2, "--rig takes one input (a folder of images or a detections JSON) per camera, at least 2");
     anyhow::ensure!(!args.board_warp && args.cross_validate.is_none(), "--rig does not take --board-warp or --cross-validate yet");
+    anyhow::ensure!(args.plot.is_none() && args.report.is_none(), "--rig does not write --plot or --report yet");
     anyhow::ensure!(
-        args.opencv_yaml.is_none() && args.ros_yaml.is_none() && args.mrcal.is_none() && args.plot.is_none() && args.report.is_none(),
-        "--rig writes --json and --kalibr-yaml (a camchain) only, so far"
+        args.opencv_yaml.is_none() || args.inputs.len() == 2,
+        "--opencv-yaml with --rig writes a stereo pair: give two cameras, got {}",
+        args.inputs.len()
     );
     let per_cam = camera_inputs(args)?;
     let mut frames: Vec<String> = per_cam.iter().flat_map(|(_, f)| f.iter().map(|x| x.file.clone())).collect();
@@ -80,11 +84,21 @@ pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Res
     frames.dedup();
     let cams: Vec<RigCamera> = per_cam
         .iter()
-        .map(|(name, found)| RigCamera {
-            name: name.clone(),
-            size: ImageSize { width: found[0].width as u32, height: found[0].height as u32 },
-            params: *params,
-            views: frames.iter().map(|n| found.iter().find(|f| &f.file == n).map(|f| f.view.clone())).collect(),
+        .enumerate()
+        .map(|(i, (name, found))| {
+            let missing = frames.iter().filter(|n| !found.iter().any(|f| &f.file == *n)).count();
+            if missing > 0 {
+                eprintln!(
+                    "{name}: no board in {missing} of the {} frames (no image of that name, or not detected): those frames count as not seen by {name}",
+                    frames.len()
+                );
+            }
+            RigCamera {
+                name: name.clone(),
+                size: ImageSize { width: found[0].width as u32, height: found[0].height as u32 },
+                params: CalibParams { model: args.model(i), ..*params },
+                views: frames.iter().map(|n| found.iter().find(|f| &f.file == n).map(|f| f.view.clone())).collect(),
+            }
         })
         .collect();
     let t0 = std::time::Instant::now();
@@ -96,15 +110,8 @@ pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Res
         println!("rectified rows of {} and {}: mean {mean:.4} px, max {max:.4} px", r.cameras[0].name, r.cameras[1].name);
     }
     // A format that cannot hold a camera fails before anything is written.
-    let camchain = match &args.kalibr_yaml {
-        Some(p) => {
-            let (models, poses): (Vec<_>, Vec<_>) = r.cameras.iter().map(|c| (c.camera, c.cam0_from_cam)).unzip();
-            Some((p, kalibr_camchain(&models, &poses)?))
-        }
-        None => None,
-    };
-    if let Some((p, text)) = camchain {
-        write_atomic(p, text.as_bytes())?;
+    for (p, text) in rig_files(args, &r)? {
+        write_atomic(&p, text.as_bytes())?;
     }
     if let Some(p) = &args.json {
         let out = RigOut {
@@ -119,6 +126,54 @@ pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Res
         write_atomic(p, &serde_json::to_vec_pretty(&out)?)?;
     }
     Ok(())
+}
+
+/// `path` with `name` before its extension (`out/cam.yaml` -> `out/cam.left.yaml`).
+fn per_camera_path(path: &Path, name: &str) -> PathBuf {
+    let stem = path.file_stem().map_or_else(|| "camera".to_string(), |s| s.to_string_lossy().into_owned());
+    match path.extension() {
+        Some(ext) => path.with_file_name(format!("{stem}.{name}.{}", ext.to_string_lossy())),
+        None => path.with_file_name(format!("{stem}.{name}")),
+    }
+}
+
+/// The camera files asked for, as (path, text); an error if a format cannot hold the rig.
+fn rig_files(args: &CalibrateArgs, r: &RigResult) -> anyhow::Result<Vec<(PathBuf, String)>> {
+    let mut out = Vec::new();
+    let models: Vec<_> = r.cameras.iter().map(|c| c.camera).collect();
+    if let Some(p) = &args.kalibr_yaml {
+        let poses: Vec<_> = r.cameras.iter().map(|c| c.cam0_from_cam).collect();
+        out.push((p.clone(), kalibr_camchain(&models, &poses)?));
+    }
+    let pair = match r.cameras.as_slice() {
+        [c0, c1] if args.opencv_yaml.is_some() || args.ros_yaml.is_some() => {
+            let cam1_from_cam0 = c1.cam0_from_cam.inverse();
+            let rect = stereo_rectify(&c0.camera, &c1.camera, &cam1_from_cam0).context("rectifying the pair")?;
+            let (e, f) = essential_fundamental(&c0.camera, &c1.camera, &cam1_from_cam0);
+            let (r1, r2, p1, p2, q) = (rect.r1, rect.r2, rect.p1, rect.p2, rect.q);
+            Some(StereoPair { cam0: &c0.camera, cam1: &c1.camera, cam1_from_cam0, e, f, r1, r2, p1, p2, q, rms_px: r.rms_px })
+        }
+        _ => None,
+    };
+    if let (Some(p), Some(pair)) = (&args.opencv_yaml, &pair) {
+        out.push((p.clone(), opencv_stereo_yaml(pair)?));
+    }
+    if let Some(p) = &args.ros_yaml {
+        for (i, c) in r.cameras.iter().enumerate() {
+            let text = match &pair {
+                Some(s) if i == 0 => ros_yaml_rectified(&c.camera, &c.name, &s.r1, &s.p1)?,
+                Some(s) => ros_yaml_rectified(&c.camera, &c.name, &s.r2, &s.p2)?,
+                None => ros_yaml(&c.camera, &c.name)?,
+            };
+            out.push((per_camera_path(p, &c.name), text));
+        }
+    }
+    if let Some(p) = &args.mrcal {
+        for c in &r.cameras {
+            out.push((per_camera_path(p, &c.name), mrcal_cameramodel_at(&c.camera, &c.cam0_from_cam.inverse())?));
+        }
+    }
+    Ok(out)
 }
 
 fn print_rig(r: &RigResult) {
@@ -146,9 +201,10 @@ fn camera_outs(r: &RigResult, cams: &[RigCamera], args: &CalibrateArgs) -> Vec<C
     r.cameras
         .iter()
         .zip(cams)
-        .map(|(c, cam)| {
+        .enumerate()
+        .map(|(i, (c, cam))| {
             let k = c.camera.intrinsics;
-            let n_lens = args.model.n_lens_params();
+            let n_lens = args.model(i).n_lens_params();
             let lens = match c.camera.lens {
                 Lens::DoubleSphere(d) => vec![d.xi, d.alpha],
                 l => l.params()[..n_lens].to_vec(),
@@ -157,7 +213,7 @@ fn camera_outs(r: &RigResult, cams: &[RigCamera], args: &CalibrateArgs) -> Vec<C
             let t = c.cam0_from_cam.translation.vector;
             CameraOut {
                 name: c.name.clone(),
-                model: args.model.name(),
+                model: args.model(i).name(),
                 image_size: [cam.size.width, cam.size.height],
                 k: [[k.fx, k.skew, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
                 lens,

@@ -37,7 +37,7 @@ pub(super) fn print_result(args: &CalibrateArgs, r: &CalibResult, map: &Uncertai
         "fx {:.4} +- {:.4}  fy {:.4} +- {:.4}  cx {:.4} +- {:.4}  cy {:.4} +- {:.4}  skew {:.4}",
         k.fx, r.std[0], k.fy, r.std[1], k.cx, r.std[2], k.cy, r.std[3], k.skew
     );
-    let n_lens = args.model.n_lens_params();
+    let n_lens = args.model(0).n_lens_params();
     let lens_names = &r.camera.lens.kind().param_names()[..n_lens];
-    println!("{} ({}) = {:?}", args.model, lens_names.join(", "), &r.camera.lens.params()[..n_lens]);
+    println!("{} ({}) = {:?}", args.model(0), lens_names.join(", "), &r.camera.lens.params()[..n_lens]);
 }

@@ -13,6 +13,7 @@ pub mod init_wide;
 pub mod model;
 pub mod outliers;
 pub mod precision;
+pub mod rectify;
 pub mod refine;
 pub mod rig;
 pub mod uncertainty;
@@ -24,6 +25,7 @@ pub use cross::{cross_validate, CrossValidation, Fold};
 pub use global::Search;
 pub use model::{CalibModel, CALIB_MODELS};
 pub use outliers::Rejection;
+pub use rectify::{essential_fundamental, stereo_rectify, StereoRectification};
 pub use rig::{calibrate_rig, rectified_row_errors, RigCamera, RigCameraResult, RigResult};
 pub use uncertainty::UncertaintyMap;
 

@@ -235,41 +235,27 @@ fn extrinsic_out(e: &Vector6<f64>, cov: &DMatrix<f64>, col: usize) -> (Isometry3
     (iso(e).inverse(), rot_std, std::array::from_fn(|i| ct[(i, i)].sqrt()))
 }
 
-/// The row (epipolar) error of the first two cameras' corners after rectification: Bouguet's
-/// rotations as OpenCV's `stereoRectify` computes them (each camera turned by half the relative
-/// rotation, then both about the baseline so it lies along x), every corner seen by both cameras
-/// in a frame unprojected by its camera, rotated, and the difference of the two rows at the mean
-/// of the cameras' `fy`: (mean, max) px over the corners both see; `None` without a shared
-/// corner. The check ROS's `camera_calibration` and OpenCV's tutorial report.
-///
-/// Reference: J.-Y. Bouguet, Camera Calibration Toolbox for Matlab, `rectify_stereo_pair.m`;
-/// OpenCV `cvStereoRectify`.
+/// The row (epipolar) error of the first two cameras' corners after rectification
+/// ([`super::rectify::stereo_rectify`], OpenCV's `stereoRectify`): every corner seen by both
+/// cameras in a frame unprojected by its camera, rotated into its rectified frame, projected
+/// with the rectified focal length; (mean, max) px of the row difference (the column difference
+/// for a vertical pair) over the corners both see; `None` without a shared corner or when the
+/// pair cannot be rectified. The check ROS's `camera_calibration` and OpenCV's tutorial report.
 pub fn rectified_row_errors(r: &RigResult, cams: &[RigCamera]) -> Option<(f64, f64)> {
     let (c0, c1) = (r.cameras.first()?, r.cameras.get(1)?);
-    let cam1_from_cam0 = c1.cam0_from_cam.inverse();
-    let om = cam1_from_cam0.rotation.scaled_axis();
-    let r_r = UnitQuaternion::from_scaled_axis(-0.5 * om);
-    let t = r_r * cam1_from_cam0.translation.vector;
-    let idx = if t.x.abs() > t.y.abs() { 0 } else { 1 };
-    let mut uu = Vector3::zeros();
-    uu[idx] = if t[idx] > 0.0 { 1.0 } else { -1.0 };
-    let ww = t.cross(&uu);
-    let w_r = match ww.norm() {
-        n if n > 0.0 => UnitQuaternion::from_scaled_axis(ww * ((t[idx].abs() / t.norm()).clamp(-1.0, 1.0).acos() / n)),
-        _ => UnitQuaternion::identity(),
-    };
-    let (r1, r2) = (w_r * r_r.inverse(), w_r * r_r);
-    let f = 0.5 * (c0.camera.intrinsics.fy + c1.camera.intrinsics.fy);
-    let row = |cam: &CameraModel, rot: &UnitQuaternion<f64>, q: &nalgebra::Point2<f64>| {
+    let rect = super::rectify::stereo_rectify(&c0.camera, &c1.camera, &c1.cam0_from_cam.inverse()).ok()?;
+    let axis = usize::from(!rect.vertical);
+    let f = rect.focal_px();
+    let row = |cam: &CameraModel, rot: &Matrix3<f64>, q: &nalgebra::Point2<f64>| {
         let v = rot * cam.unproject_ray(q).ok()?;
-        (v.z > 0.0).then(|| f * v.y / v.z)
+        (v.z > 0.0).then(|| f * v[axis] / v.z)
     };
     let mut errs = Vec::new();
     for (v0, v1) in cams.first()?.views.iter().zip(&cams.get(1)?.views) {
         let (Some(v0), Some(v1)) = (v0, v1) else { continue };
         for (x, q0) in v0 {
             let Some((_, q1)) = v1.iter().find(|(x1, _)| (x1 - x).norm() < 1e-12) else { continue };
-            if let (Some(y0), Some(y1)) = (row(&c0.camera, &r1, q0), row(&c1.camera, &r2, q1)) {
+            if let (Some(y0), Some(y1)) = (row(&c0.camera, &rect.r1, q0), row(&c1.camera, &rect.r2, q1)) {
                 errs.push((y0 - y1).abs());
             }
         }

@@ -1,5 +1,6 @@
 //! Dataset generation: render the images of one shard of a [`DatasetPlan`] into
-//! `DIR/images/000123.png` + `DIR/images/000123.json`, resumably, and write the shard's manifest.
+//! `DIR/images/000123.png` + `DIR/images/000123.json` (a rig: `DIR/images/<camera>/000123.png`,
+//! every camera of frame k from the same target pose), resumably, and write the shard's manifest.
 //!
 //! - Shard `I/N` renders the k with `k % N == I`; image k is the same in every shard layout and
 //!   every run (its pose and noise seed depend only on the spec's seed and k).
@@ -17,12 +18,14 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::manifest::{manifest_text, sha256_hex, shard_manifest_name, ManifestEntry, ManifestPose};
-use super::poses::{check_feasible, sample_view, scene_of, SampledView};
+use super::manifest::{manifest_text, sha256_hex, shard_manifest_name};
+use super::poses::{check_feasible, sample_view, SampledView};
+use shots::{entries_of, image_dirs, shot_file, Shot, Written};
+
+mod shots;
 pub use super::shard::Shard;
 use super::spec::DatasetPlan;
 use super::{encode_image, io::truth_json, write_atomic, write_png_and_json, DatasetError};
-use synthcam_core::math::so3::rvec_from_rotation;
 use synthcam_render::{GreyImage, Renderer};
 use synthcam_scene::effects::Encoding;
 use synthcam_scene::truth::truth_labels;
@@ -99,26 +102,11 @@ fn write_err(path: &Path, source: std::io::Error) -> DatasetError {
     DatasetError::Write { path: path.display().to_string(), source }
 }
 
-fn manifest_entry(view: &SampledView, png: &[u8], encoding: Encoding) -> ManifestEntry {
-    let file = image_file_as(view.k, encoding);
-    ManifestEntry {
-        k: view.k,
-        truth: format!("images/{:06}.json", view.k),
-        file,
-        sha256: sha256_hex(png),
-        seed: view.render_seed,
-        cam_from_target: ManifestPose {
-            rvec: rvec_from_rotation(&view.cam_from_target.rotation.to_rotation_matrix()).into(),
-            t_m: view.cam_from_target.translation.vector.into(),
-        },
-        joints_rad: view.joints_rad,
-    }
-}
-
 /// Create the folder and its `spec.toml` copy (refusing a folder that holds another spec).
-fn prepare_folder(params: &GenerateParams) -> Result<(), DatasetError> {
-    let images = params.out_dir.join("images");
-    std::fs::create_dir_all(&images).map_err(|e| write_err(&images, e))?;
+fn prepare_folder(plan: &DatasetPlan, params: &GenerateParams) -> Result<(), DatasetError> {
+    for images in image_dirs(plan, &params.out_dir) {
+        std::fs::create_dir_all(&images).map_err(|e| write_err(&images, e))?;
+    }
     let copy = params.out_dir.join(SPEC_COPY);
     match std::fs::read_to_string(&copy) {
         Ok(existing) if existing == params.spec_text => Ok(()),
@@ -145,9 +133,9 @@ fn remove_leftovers(images: &Path, shard: Shard) -> Result<u64, DatasetError> {
     Ok(removed)
 }
 
-/// The encoded bytes of image k when its image decodes completely at `size` and its JSON parses.
-fn existing_png(dir: &Path, k: u64, size: (u32, u32), encoding: Encoding) -> Option<Vec<u8>> {
-    let png_path = dir.join(image_file_as(k, encoding));
+/// The encoded bytes of `file` when it decodes completely at `size` and its JSON parses.
+fn existing_png(dir: &Path, file: &str, size: (u32, u32)) -> Option<Vec<u8>> {
+    let png_path = dir.join(file);
     let png = std::fs::read(&png_path).ok()?;
     let json = std::fs::read(png_path.with_extension("json")).ok()?;
     serde_json::from_slice::<serde_json::Value>(&json).ok()?;
@@ -155,15 +143,16 @@ fn existing_png(dir: &Path, k: u64, size: (u32, u32), encoding: Encoding) -> Opt
     ((img.width(), img.height()) == size).then_some(png)
 }
 
-/// Encode and write one rendered image; returns its manifest entry.
+/// Encode and write one rendered image.
 fn finish_image(
     dir: &Path,
-    view: &SampledView,
+    file: String,
+    shot: Shot<'_>,
     scene: &Scene,
     img: &GreyImage,
     extras: [bool; 2],
     times: &Mutex<StageTimes>,
-) -> Result<ManifestEntry, DatasetError> {
+) -> Result<Written, DatasetError> {
     let t0 = Instant::now();
     let truth = truth_labels(scene);
     let t1 = Instant::now();
@@ -171,19 +160,19 @@ fn finish_image(
     let png = encode_image(img, &output)?;
     let t2 = Instant::now();
     let json = truth_json(&truth)?;
-    let path = dir.join(image_file_as(view.k, output.encoding));
+    let path = dir.join(&file);
     if extras.iter().any(|e| *e) {
         super::extras::write_extras(&path, &synthcam_scene::depth::depth_mask(scene), extras[0], extras[1])?;
     }
     write_png_and_json(&path, &png, &json)?;
-    let entry = manifest_entry(view, &png, output.encoding);
+    let written = Written { k: shot.view.k, cam: shot.cam, file, sha256: sha256_hex(&png) };
     let t3 = Instant::now();
     if let Ok(mut t) = times.lock() {
         t.truth_s += (t1 - t0).as_secs_f64();
         t.encode_s += (t2 - t1).as_secs_f64();
         t.write_s += (t3 - t2).as_secs_f64();
     }
-    Ok(entry)
+    Ok(written)
 }
 
 /// Generate one shard of `plan` (see the module docs).
@@ -202,28 +191,42 @@ pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams
     check_feasible(plan)?;
     let ks: Vec<u64> = (0..plan.count).filter(|k| params.shard.contains(*k)).collect();
     let views: Vec<SampledView> = ks.par_iter().map(|k| sample_view(plan, *k)).collect::<Result<_, _>>()?;
-    prepare_folder(params)?;
+    prepare_folder(plan, params)?;
     let dir = params.out_dir.as_path();
-    let removed_tmp = remove_leftovers(&dir.join("images"), params.shard)?;
-    let size = (plan.camera.size.width, plan.camera.size.height);
-    let existing: Vec<Option<Vec<u8>>> = views.par_iter().map(|v| existing_png(dir, v.k, size, plan.render.effects.output.encoding)).collect();
-    let mut entries: Vec<ManifestEntry> = Vec::with_capacity(views.len());
-    let mut todo: Vec<&SampledView> = Vec::new();
-    for (v, png) in views.iter().zip(&existing) {
-        match png {
-            Some(png) => entries.push(manifest_entry(v, png, plan.render.effects.output.encoding)),
-            None => todo.push(v),
+    let mut removed_tmp = 0;
+    for images in image_dirs(plan, dir) {
+        removed_tmp += remove_leftovers(&images, params.shard)?;
+    }
+    let cams: Vec<Option<usize>> = if plan.rig.is_empty() { vec![None] } else { (0..plan.rig.len()).map(Some).collect() };
+    let shots: Vec<Shot<'_>> = views.iter().flat_map(|view| cams.iter().map(move |&cam| Shot { view, cam })).collect();
+    let size_of = |cam: Option<usize>| {
+        let c = cam.and_then(|i| plan.rig.get(i)).map_or(plan.camera, |m| m.camera);
+        (c.size.width, c.size.height)
+    };
+    let existing: Vec<Option<Written>> = shots
+        .par_iter()
+        .map(|s| {
+            let file = shot_file(plan, s.view.k, s.cam);
+            let png = existing_png(dir, &file, size_of(s.cam))?;
+            Some(Written { k: s.view.k, cam: s.cam, file, sha256: sha256_hex(&png) })
+        })
+        .collect();
+    let mut written: Vec<Written> = Vec::with_capacity(shots.len());
+    let mut todo: Vec<Shot<'_>> = Vec::new();
+    for (s, w) in shots.iter().zip(existing) {
+        match w {
+            Some(w) => written.push(w),
+            None => todo.push(*s),
         }
     }
-    let kept = entries.len() as u64;
-    let total = views.len() as u64;
+    let kept = written.len() as u64;
+    let total = shots.len() as u64;
     let times = Mutex::new(StageTimes { prepare_s: wall.elapsed().as_secs_f64(), ..Default::default() });
     progress(kept, total);
-    let new_entries = render_all(renderer, plan, dir, &todo, params.jobs, &times, &|n| progress(n, total), kept)?;
+    written.extend(render_all(renderer, plan, dir, &todo, params.jobs, &times, &|n| progress(n, total), kept)?);
     let rendered = todo.len() as u64;
-    entries.extend(new_entries);
     let manifest = dir.join(shard_manifest_name(params.shard.index, params.shard.count));
-    write_atomic(&manifest, manifest_text(&entries)?.as_bytes())?;
+    write_atomic(&manifest, manifest_text(&entries_of(plan, &views, &written))?.as_bytes())?;
     let times = times.into_inner().unwrap_or_default();
     Ok(GenerateReport { images: total, kept, rendered, removed_tmp, wall_s: wall.elapsed().as_secs_f64(), times, manifest })
 }
@@ -236,14 +239,14 @@ fn render_all(
     renderer: &Renderer,
     plan: &DatasetPlan,
     dir: &Path,
-    todo: &[&SampledView],
+    todo: &[Shot<'_>],
     jobs: usize,
     times: &Mutex<StageTimes>,
     progress: &(dyn Fn(u64) + Sync),
     done_before: u64,
-) -> Result<Vec<ManifestEntry>, DatasetError> {
+) -> Result<Vec<Written>, DatasetError> {
     let done = std::sync::atomic::AtomicU64::new(done_before);
-    let results: Mutex<Vec<ManifestEntry>> = Mutex::new(Vec::with_capacity(todo.len()));
+    let results: Mutex<Vec<Written>> = Mutex::new(Vec::with_capacity(todo.len()));
     let failure: Mutex<Option<DatasetError>> = Mutex::new(None);
     let failed = || failure.lock().map(|f| f.is_some()).unwrap_or(true);
     let fail = |e: DatasetError| {
@@ -252,7 +255,7 @@ fn render_all(
         }
     };
     let jobs = jobs.max(1);
-    let (tx, rx) = std::sync::mpsc::sync_channel::<(&SampledView, Scene, GreyImage)>(2 * jobs);
+    let (tx, rx) = std::sync::mpsc::sync_channel::<(Shot<'_>, Scene, GreyImage)>(2 * jobs);
     let rx = Mutex::new(rx);
     std::thread::scope(|s| {
         for _ in 0..jobs {
@@ -261,11 +264,11 @@ fn render_all(
                     Ok(r) => r.recv(),
                     Err(_) => return,
                 };
-                let Ok((view, scene, img)) = msg else { return };
+                let Ok((shot, scene, img)) = msg else { return };
                 if failed() {
                     continue;
                 }
-                match finish_image(dir, view, &scene, &img, plan.extras, times) {
+                match finish_image(dir, shot_file(plan, shot.view.k, shot.cam), shot, &scene, &img, plan.extras, times) {
                     Ok(e) => {
                         if let Ok(mut r) = results.lock() {
                             r.push(e);
@@ -276,23 +279,23 @@ fn render_all(
                 }
             });
         }
-        for view in todo {
+        for shot in todo {
             if failed() {
                 break;
             }
-            let scene = scene_of(plan, view);
+            let scene = shot.scene(plan);
             let t0 = Instant::now();
             let img = match renderer.render(&scene) {
                 Ok(img) => img,
                 Err(e) => {
-                    fail(DatasetError::Render { k: view.k, reason: e.to_string() });
+                    fail(DatasetError::Render { k: shot.view.k, reason: e.to_string() });
                     break;
                 }
             };
             if let Ok(mut t) = times.lock() {
                 t.render_s += t0.elapsed().as_secs_f64();
             }
-            if tx.send((view, scene, img)).is_err() {
+            if tx.send((*shot, scene, img)).is_err() {
                 break;
             }
         }

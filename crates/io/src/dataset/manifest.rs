@@ -40,6 +40,28 @@ pub struct ManifestEntry {
     /// Robot joints, radians (robot mode).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub joints_rad: Option<[f64; 6]>,
+    /// A rig: every camera's image of frame k, the first camera's included (the fields above are
+    /// the first camera's).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub cameras: Option<Vec<ManifestCamera>>,
+}
+
+/// One camera's image of a rig frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ManifestCamera {
+    /// The camera's name.
+    pub name: String,
+    /// Image path relative to the dataset folder (`images/<name>/NNNNNN.png`).
+    pub file: String,
+    /// SHA-256 of the image bytes.
+    pub sha256: String,
+    /// Truth JSON path.
+    pub truth: String,
+    /// Noise seed of the render.
+    pub seed: u64,
+    /// This camera's `cam_from_target`.
+    pub cam_from_target: ManifestPose,
 }
 
 /// Lowercase hex SHA-256 of `bytes`.
@@ -157,20 +179,22 @@ pub fn merge_manifests(dir: &Path, count: u64) -> Result<MergeReport, DatasetErr
 }
 
 fn verify_entry(dir: &Path, e: &ManifestEntry) -> Option<BadImage> {
-    let bad = |reason: String| Some(BadImage { k: e.k, reason });
-    match std::fs::read(dir.join(&e.file)) {
+    let files = std::iter::once((&e.file, &e.sha256, &e.truth)).chain(e.cameras.iter().flatten().map(|c| (&c.file, &c.sha256, &c.truth)));
+    files.into_iter().find_map(|(file, sha256, truth)| verify_files(dir, file, sha256, truth)).map(|reason| BadImage { k: e.k, reason })
+}
+
+/// What is wrong with one image and its truth, if anything.
+fn verify_files(dir: &Path, file: &str, sha256: &str, truth: &str) -> Option<String> {
+    match std::fs::read(dir.join(file)) {
         Ok(bytes) => {
             let sha = sha256_hex(&bytes);
-            if sha != e.sha256 {
-                return bad(format!("{}: sha256 {sha} does not match the manifest's {}", e.file, e.sha256));
+            if sha != sha256 {
+                return Some(format!("{file}: sha256 {sha} does not match the manifest's {sha256}"));
             }
         }
-        Err(err) => return bad(format!("{}: {err}", e.file)),
+        Err(err) => return Some(format!("{file}: {err}")),
     }
-    if !dir.join(&e.truth).is_file() {
-        return bad(format!("{}: missing", e.truth));
-    }
-    None
+    (!dir.join(truth).is_file()).then(|| format!("{truth}: missing"))
 }
 
 /// The message of [`DatasetError::Incomplete`]: the missing k compacted, the first 50 bad k with

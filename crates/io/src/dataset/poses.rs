@@ -93,18 +93,38 @@ fn draw_pose(rng: &mut ChaCha8Rng, plan: &DatasetPlan, centre: &Vector3<f64>) ->
     }
 }
 
-/// Whether every feature point projects inside the image, `margin_px` from its border (partial
-/// views: whether the fraction inside lies in the plan's range).
-fn meets_constraint(plan: &DatasetPlan, pts: &[Point3<f64>], cam_from_target: &Isometry3<f64>) -> bool {
+/// Whether the view meets the visibility constraint: in one camera ([`camera_meets`]), or in at
+/// least `min_cameras` of a rig's, every one of which must be able to render its image (the
+/// target in front of it, or within a fisheye's reach, as [`Scene::validate`] requires).
+fn meets_constraint(plan: &DatasetPlan, pts: &[Point3<f64>], cam0_from_target: &Isometry3<f64>) -> bool {
+    if plan.rig.is_empty() {
+        return camera_meets(plan, &plan.camera, pts, cam0_from_target);
+    }
+    let n = pts.len().max(1) as f64;
+    let mut meeting = 0;
+    for m in &plan.rig {
+        let cam_from_target = m.cam_from_cam0 * cam0_from_target;
+        let mean = pts.iter().map(|p| (cam_from_target * p).coords).sum::<Vector3<f64>>() / n;
+        if !(mean.z > 0.0 || mean.xy().norm().atan2(mean.z) < m.camera.lens.max_angle_rad()) {
+            return false;
+        }
+        meeting += usize::from(camera_meets(plan, &m.camera, pts, &cam_from_target));
+    }
+    meeting >= plan.min_cameras
+}
+
+/// Whether every feature point projects inside `camera`'s image, `margin_px` from its border
+/// (partial views: whether the fraction inside lies in the plan's range).
+fn camera_meets(plan: &DatasetPlan, camera: &synthcam_core::camera::CameraModel, pts: &[Point3<f64>], cam_from_target: &Isometry3<f64>) -> bool {
     if let Some([lo, hi]) = plan.inside_fraction {
-        let inside = pts.iter().filter(|p| plan.camera.sees_all(cam_from_target, std::slice::from_ref(*p), plan.margin_px)).count();
+        let inside = pts.iter().filter(|p| camera.sees_all(cam_from_target, std::slice::from_ref(*p), plan.margin_px)).count();
         let f = inside as f64 / pts.len().max(1) as f64;
         return f >= lo && f <= hi;
     }
     if !plan.full_target_visible {
         return true;
     }
-    plan.camera.sees_all(cam_from_target, pts, plan.margin_px)
+    camera.sees_all(cam_from_target, pts, plan.margin_px)
 }
 
 fn constraint_name(plan: &DatasetPlan) -> &'static str {
@@ -176,6 +196,18 @@ pub fn scene_of(plan: &DatasetPlan, view: &SampledView) -> Scene {
     let mut scene = Scene { camera: plan.camera, target: plan.target.clone(), cam_from_target: view.cam_from_target, render, objects: Vec::new() };
     plan.objects.place(&mut scene, plan.seed, view.k);
     scene
+}
+
+/// Camera `i`'s scene of a sampled view of a rig dataset: [`scene_of`] (the same `[ranges]`
+/// draws for every camera) seen through camera `i` (`cam_from_cam0 * cam0_from_target`), with a
+/// noise seed of its own (camera 0 keeps the view's). `None` when `i` is not a rig camera.
+pub fn rig_scene_of(plan: &DatasetPlan, view: &SampledView, i: usize) -> Option<Scene> {
+    let m = plan.rig.get(i)?;
+    let mut scene = scene_of(plan, view);
+    scene.camera = m.camera;
+    scene.cam_from_target = m.cam_from_cam0 * view.cam_from_target;
+    scene.render.seed = view.render_seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    Some(scene)
 }
 
 #[cfg(test)]

@@ -39,8 +39,14 @@ pub struct DatasetSpec {
     pub count: u64,
     /// Master seed: image k's pose and noise seed depend only on (seed, k).
     pub seed: u64,
-    /// `[camera]`.
-    pub camera: CameraSpec,
+    /// `[camera]` (or `[[cameras]]`, a rig).
+    #[serde(default)]
+    pub camera: Option<CameraSpec>,
+    /// `[[cameras]]`: a rig (as in scene files: each a camera table plus `name` and
+    /// `rig_from_cam`); every camera of image k sees the same target pose, its images in
+    /// `images/<name>/`. The poses are sampled in the first camera's frame.
+    #[serde(default)]
+    pub cameras: Vec<synthcam_scene::file::rig::RigCameraSpec>,
     /// `[target]`.
     pub target: TargetTable,
     /// `[render]` (optional; `seed` is not allowed here).
@@ -112,6 +118,9 @@ pub enum PosesSpec {
         inside_fraction: Option<Vec<f64>>,
         /// Margin of the visibility constraint, pixels (default 0).
         margin_px: Option<f64>,
+        /// A rig: the visibility constraint must hold in at least this many cameras (default 1;
+        /// views that one camera alone sees are normal in rig data).
+        min_cameras: Option<usize>,
     },
     /// The course's calibration views (sweep.rs): a rotation of uniform angle in [0, pi/10] about a
     /// uniform random axis, camera position x, y in [-0.4, 0.4] m and z in [-6, -3] m relative to
@@ -182,6 +191,17 @@ pub enum PoseMode {
     Robot(Cell),
 }
 
+/// One camera of a rig dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigMember {
+    /// Its name (its images' folder).
+    pub name: String,
+    /// The camera.
+    pub camera: CameraModel,
+    /// Its pose relative to the first camera, `cam_from_cam0`.
+    pub cam_from_cam0: nalgebra::Isometry3<f64>,
+}
+
 /// A validated spec: everything the generator needs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DatasetPlan {
@@ -189,8 +209,12 @@ pub struct DatasetPlan {
     pub count: u64,
     /// Master seed.
     pub seed: u64,
-    /// Camera.
+    /// Camera (a rig's first camera: the poses are sampled in its frame).
     pub camera: CameraModel,
+    /// A rig's cameras, the first included (empty: one camera).
+    pub rig: Vec<RigMember>,
+    /// A rig: the visibility constraint must hold in at least this many cameras.
+    pub min_cameras: usize,
     /// Target.
     pub target: Target,
     /// Render settings (the seed is replaced per image).
@@ -275,7 +299,7 @@ impl DatasetSpec {
         if self.render.seed.is_some() {
             return Err(invalid("render.seed", "per-image noise seeds derive from the top-level `seed`; remove it"));
         }
-        let camera = self.camera.to_model().map_err(SceneError::from)?;
+        let (camera, rig) = self.cameras_of()?;
         let target = self.target.to_target();
         let render = synthcam_scene::file::effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?;
         let ranges = self.effect_ranges(&render)?;
@@ -292,6 +316,10 @@ impl DatasetSpec {
         let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target, &camera)?;
         let inside_fraction = self.poses.inside_fraction()?;
         let objects = super::objects::DatasetObjects::load(&self.objects, &self.occluders, meshes)?;
+        if !rig.is_empty() && !objects.is_empty() {
+            return Err(invalid("cameras", "objects and occluders are not placed for rigs yet: use one [camera]"));
+        }
+        let min_cameras = self.poses.min_cameras(rig.len())?;
         if !objects.is_empty() && (matches!(target, Target::SPath(_)) || render.effects.needs_views()) {
             return Err(invalid("object", "objects are rendered with planar targets and without defocus, motion or a rolling shutter"));
         }
@@ -300,6 +328,8 @@ impl DatasetSpec {
             count: self.count,
             seed: self.seed,
             camera,
+            rig,
+            min_cameras,
             target,
             render,
             mode,
@@ -310,6 +340,28 @@ impl DatasetSpec {
             objects,
             extras,
         })
+    }
+
+    /// The camera poses are sampled for, and the rig (empty for one `[camera]`), each camera
+    /// checked.
+    fn cameras_of(&self) -> Result<(CameraModel, Vec<RigMember>), SpecError> {
+        match (&self.camera, self.cameras.as_slice()) {
+            (Some(c), []) => Ok((c.to_model().map_err(SceneError::from)?, Vec::new())),
+            (None, []) => Err(invalid("camera", "a dataset needs a [camera] table or a [[cameras]] rig")),
+            (Some(_), _) => Err(invalid("cameras", "give [camera] or [[cameras]], not both")),
+            (None, cams) => {
+                let checked = synthcam_scene::file::rig::rig_cameras(cams)?;
+                let cam0_from_rig = checked[0].2;
+                let rig = checked
+                    .into_iter()
+                    .map(|(name, spec, cam_from_rig)| {
+                        let camera = spec.to_model().map_err(|e| invalid(&format!("cameras.{name}"), e.to_string()))?;
+                        Ok(RigMember { name, camera, cam_from_cam0: cam_from_rig * cam0_from_rig.inverse() })
+                    })
+                    .collect::<Result<Vec<_>, SpecError>>()?;
+                Ok((rig[0].camera, rig))
+            }
+        }
     }
 
     /// The `[ranges]`, each checked: a known field, `lo <= hi`, and both ends valid settings.

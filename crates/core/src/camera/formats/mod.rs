@@ -4,6 +4,10 @@
 //! refuses, with [`CameraFileError::Unsupported`], a camera its format cannot hold (no silent
 //! truncation); [`read()`] reads every file written here back.
 //!
+//! Stereo pairs: [`opencv_stereo_yaml`] (`stereoCalibrate` + `stereoRectify`'s matrices),
+//! [`ros_yaml_rectified`] per camera, [`mrcal_cameramodel_at`] with a rig pose, and
+//! [`kalibr_camchain`] for any number of cameras.
+//!
 //! | format | OpenCV models | fisheye | Double Sphere | skew |
 //! |---|---|---|---|---|
 //! | OpenCV YAML | 4, 5, 8, 12, 14 values | `D` 4 x 1, `model: fisheye` | no | yes |
@@ -54,6 +58,25 @@ fn k_row_major(cam: &CameraModel) -> [f64; 9] {
     [k.fx, k.skew, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0]
 }
 
+/// OpenCV's distortion matrix of `cam`: (`model`, rows, values).
+fn opencv_distortion(cam: &CameraModel) -> Result<(&'static str, usize, Vec<f64>), CameraFileError> {
+    match cam.lens {
+        Lens::OpenCv(d) => Ok(("opencv", 1, d.coefficients()[..d.opencv_len().max(5)].to_vec())),
+        Lens::Fisheye(f) => Ok(("fisheye", 4, f.k.to_vec())),
+        Lens::DoubleSphere(_) => Err(unsupported("OpenCV YAML", "OpenCV has no Double Sphere model")),
+    }
+}
+
+/// One `!!opencv-matrix` node.
+fn cv_matrix(name: &str, rows: usize, values: &[f64]) -> String {
+    let cols = values.len() / rows.max(1);
+    format!("{name}: !!opencv-matrix\n   rows: {rows}\n   cols: {cols}\n   dt: d\n   data: [ {} ]\n", list(values))
+}
+
+fn row_major<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> Vec<f64> {
+    (0..R).flat_map(|r| (0..C).map(move |c| m[(r, c)])).collect()
+}
+
 /// OpenCV `FileStorage` YAML: `image_width`, `image_height`, `camera_matrix`,
 /// `distortion_coefficients` (OpenCV: 1 x N with N the shortest of 4, 5, 8, 12, 14 that holds
 /// every coefficient, at least 5; fisheye: 4 x 1 and `model: fisheye`), `avg_reprojection_error`.
@@ -61,19 +84,79 @@ fn k_row_major(cam: &CameraModel) -> [f64; 9] {
 /// # Errors
 /// [`CameraFileError::Unsupported`] for a Double Sphere camera.
 pub fn opencv_yaml(cam: &CameraModel, rms_px: f64) -> Result<String, CameraFileError> {
-    let (model, rows, d) = match cam.lens {
-        Lens::OpenCv(d) => ("opencv", 1, d.coefficients()[..d.opencv_len().max(5)].to_vec()),
-        Lens::Fisheye(f) => ("fisheye", 4, f.k.to_vec()),
-        Lens::DoubleSphere(_) => return Err(unsupported("OpenCV YAML", "OpenCV has no Double Sphere model")),
-    };
-    let cols = d.len() / rows;
+    let (model, rows, d) = opencv_distortion(cam)?;
     Ok(format!(
-        "%YAML:1.0\n---\nmodel: \"{model}\"\nimage_width: {}\nimage_height: {}\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ {} ]\ndistortion_coefficients: !!opencv-matrix\n   rows: {rows}\n   cols: {cols}\n   dt: d\n   data: [ {} ]\navg_reprojection_error: {rms_px:.12e}\n",
+        "%YAML:1.0\n---\nmodel: \"{model}\"\nimage_width: {}\nimage_height: {}\n{}{}avg_reprojection_error: {rms_px:.12e}\n",
         cam.size.width,
         cam.size.height,
-        list(&k_row_major(cam)),
-        list(&d),
+        cv_matrix("camera_matrix", 3, &k_row_major(cam)),
+        cv_matrix("distortion_coefficients", rows, &d),
     ))
+}
+
+/// A calibrated stereo pair with its rectification, in OpenCV's names (`stereoCalibrate` and
+/// `stereoRectify`): `R`, `T` map camera 0's frame into camera 1's (`x1 = R x0 + T`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StereoPair<'a> {
+    /// Camera 0 (`K1`, `D1`).
+    pub cam0: &'a CameraModel,
+    /// Camera 1 (`K2`, `D2`).
+    pub cam1: &'a CameraModel,
+    /// `cam1_from_cam0` (`R`, `T`).
+    pub cam1_from_cam0: nalgebra::Isometry3<f64>,
+    /// Essential matrix.
+    pub e: nalgebra::Matrix3<f64>,
+    /// Fundamental matrix.
+    pub f: nalgebra::Matrix3<f64>,
+    /// Rectifying rotation of camera 0.
+    pub r1: nalgebra::Matrix3<f64>,
+    /// Rectifying rotation of camera 1.
+    pub r2: nalgebra::Matrix3<f64>,
+    /// Rectified projection of camera 0.
+    pub p1: nalgebra::Matrix3x4<f64>,
+    /// Rectified projection of camera 1.
+    pub p2: nalgebra::Matrix3x4<f64>,
+    /// Disparity-to-depth mapping.
+    pub q: nalgebra::Matrix4<f64>,
+    /// RMS reprojection error over both cameras' points, px.
+    pub rms_px: f64,
+}
+
+/// OpenCV `FileStorage` YAML of a stereo pair: `image_width`, `image_height` (camera 0's),
+/// `model`, `K1`, `D1`, `K2`, `D2`, `R`, `T`, `E`, `F`, `R1`, `R2`, `P1`, `P2`, `Q` and `rms`,
+/// the matrices `stereoCalibrate` and `stereoRectify` return, under their documented names
+/// (`cv2.FileStorage(path).getNode("R1").mat()`). Camera 1's size is `image_width_2`,
+/// `image_height_2`.
+///
+/// # Errors
+/// As [`opencv_yaml`] for either camera; [`CameraFileError::Unsupported`] for a fisheye beside a
+/// pinhole (OpenCV's stereo functions take one model for both).
+pub fn opencv_stereo_yaml(pair: &StereoPair<'_>) -> Result<String, CameraFileError> {
+    let (m0, rows0, d0) = opencv_distortion(pair.cam0)?;
+    let (m1, rows1, d1) = opencv_distortion(pair.cam1)?;
+    if m0 != m1 {
+        return Err(unsupported("OpenCV stereo YAML", format!("OpenCV's stereo functions take one model for both cameras, got {m0} and {m1}")));
+    }
+    let t = pair.cam1_from_cam0.translation.vector;
+    let r = pair.cam1_from_cam0.rotation.to_rotation_matrix();
+    let mut out = format!(
+        "%YAML:1.0\n---\nmodel: \"{m0}\"\nimage_width: {}\nimage_height: {}\nimage_width_2: {}\nimage_height_2: {}\n",
+        pair.cam0.size.width, pair.cam0.size.height, pair.cam1.size.width, pair.cam1.size.height
+    );
+    out += &cv_matrix("K1", 3, &k_row_major(pair.cam0));
+    out += &cv_matrix("D1", rows0, &d0);
+    out += &cv_matrix("K2", 3, &k_row_major(pair.cam1));
+    out += &cv_matrix("D2", rows1, &d1);
+    out += &cv_matrix("R", 3, &row_major(r.matrix()));
+    out += &cv_matrix("T", 3, &[t.x, t.y, t.z]);
+    for (name, m) in [("E", &pair.e), ("F", &pair.f), ("R1", &pair.r1), ("R2", &pair.r2)] {
+        out += &cv_matrix(name, 3, &row_major(m));
+    }
+    out += &cv_matrix("P1", 3, &row_major(&pair.p1));
+    out += &cv_matrix("P2", 3, &row_major(&pair.p2));
+    out += &cv_matrix("Q", 4, &row_major(&pair.q));
+    out += &format!("rms: {:.12e}\n", pair.rms_px);
+    Ok(out)
 }
 
 /// A camera as ROS's `sensor_msgs/CameraInfo` holds it (the rectification R is the identity).
@@ -110,21 +193,35 @@ pub fn ros_camera_info(cam: &CameraModel) -> Result<RosCameraInfo, CameraFileErr
     Ok(RosCameraInfo { distortion_model, d, k: k_row_major(cam), p })
 }
 
-/// ROS `camera_info` YAML ([`ros_camera_info`]).
+/// ROS `camera_info` YAML ([`ros_camera_info`]; rectification the identity, projection
+/// `[K | 0]`).
 ///
 /// # Errors
 /// As [`ros_camera_info`].
 pub fn ros_yaml(cam: &CameraModel, camera_name: &str) -> Result<String, CameraFileError> {
+    let p = ros_camera_info(cam)?.p;
+    ros_yaml_rectified(cam, camera_name, &nalgebra::Matrix3::identity(), &nalgebra::Matrix3x4::from_row_slice(&p))
+}
+
+/// ROS `camera_info` YAML of one camera of a stereo pair: its rectification matrix `R` (the
+/// rectifying rotation, `R1` or `R2` of `stereoRectify`) and projection matrix `P` (`P1` or
+/// `P2`, whose column 3 holds `f * Tx`, negative for a right camera, as ROS's `Tx = -fx' B`), as
+/// ROS's `camera_calibration` writes `left.yaml` and `right.yaml`.
+///
+/// # Errors
+/// As [`ros_camera_info`].
+pub fn ros_yaml_rectified(cam: &CameraModel, camera_name: &str, r: &nalgebra::Matrix3<f64>, p: &nalgebra::Matrix3x4<f64>) -> Result<String, CameraFileError> {
     let info = ros_camera_info(cam)?;
     Ok(format!(
-        "image_width: {}\nimage_height: {}\ncamera_name: {camera_name}\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: [{}]\ndistortion_model: {}\ndistortion_coefficients:\n  rows: 1\n  cols: {}\n  data: [{}]\nrectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nprojection_matrix:\n  rows: 3\n  cols: 4\n  data: [{}]\n",
+        "image_width: {}\nimage_height: {}\ncamera_name: {camera_name}\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: [{}]\ndistortion_model: {}\ndistortion_coefficients:\n  rows: 1\n  cols: {}\n  data: [{}]\nrectification_matrix:\n  rows: 3\n  cols: 3\n  data: [{}]\nprojection_matrix:\n  rows: 3\n  cols: 4\n  data: [{}]\n",
         cam.size.width,
         cam.size.height,
         list(&info.k),
         info.distortion_model,
         info.d.len(),
         list(&info.d),
-        list(&info.p)
+        list(&row_major(r)),
+        list(&row_major(p))
     ))
 }
 
@@ -190,6 +287,17 @@ pub fn kalibr_camchain(cams: &[CameraModel], cam0_from_cam: &[nalgebra::Isometry
 /// # Errors
 /// [`CameraFileError::Unsupported`] for skew, tilt terms, fisheye or Double Sphere cameras.
 pub fn mrcal_cameramodel(cam: &CameraModel) -> Result<String, CameraFileError> {
+    mrcal_cameramodel_at(cam, &nalgebra::Isometry3::identity())
+}
+
+/// mrcal `.cameramodel` of one camera of a rig: `extrinsics` is mrcal's `rt_cam_ref`, the
+/// rotation vector and translation of `cam_from_ref` (the reference frame being the rig's,
+/// camera 0's for a rig calibrated here), so `mrcal.cameramodel(path).extrinsics_rt_fromref()`
+/// returns it.
+///
+/// # Errors
+/// As [`mrcal_cameramodel`].
+pub fn mrcal_cameramodel_at(cam: &CameraModel, cam_from_ref: &nalgebra::Isometry3<f64>) -> Result<String, CameraFileError> {
     let k = &cam.intrinsics;
     if k.skew != 0.0 {
         return Err(unsupported("mrcal", format!("mrcal's OpenCV models have no skew (skew = {})", k.skew)));
@@ -202,11 +310,15 @@ pub fn mrcal_cameramodel(cam: &CameraModel) -> Result<String, CameraFileError> {
         return Err(unsupported("mrcal", "mrcal has no tilted-sensor (14-value) OpenCV model"));
     }
     let intr: Vec<f64> = [k.fx, k.fy, k.cx, k.cy].iter().chain(&d.coefficients()[..n]).copied().collect();
+    let r = cam_from_ref.rotation.scaled_axis();
+    let t = cam_from_ref.translation.vector;
+    let extrinsics = [r.x, r.y, r.z, t.x, t.y, t.z];
     Ok(format!(
-        "# generated by synthcam\n{{\n    'lensmodel':  'LENSMODEL_OPENCV{n}',\n    'intrinsics': [ {} ],\n    'imagersize': [ {}, {} ],\n    'extrinsics': [ 0, 0, 0, 0, 0, 0 ],\n}}\n",
+        "# generated by synthcam\n{{\n    'lensmodel':  'LENSMODEL_OPENCV{n}',\n    'intrinsics': [ {} ],\n    'imagersize': [ {}, {} ],\n    'extrinsics': [ {} ],\n}}\n",
         list(&intr),
         cam.size.width,
-        cam.size.height
+        cam.size.height,
+        list(&extrinsics)
     ))
 }
 

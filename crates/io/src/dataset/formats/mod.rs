@@ -161,6 +161,14 @@ pub fn export_folder(
     opts: &ExportOptions,
     tick: Tick<'_>,
 ) -> Result<ExportReport, FormatError> {
+    if folder.entries.iter().any(|e| e.cameras.is_some()) {
+        // Each format holds one image stream; exporting the first camera alone would drop data.
+        return Err(FormatError::Unsupported {
+            format: format.name(),
+            reason: "a rig dataset ([[cameras]]) has one image per camera per frame; the exports hold one camera's stream (read images/<camera>/ directly)"
+                .into(),
+        });
+    }
     let output = out.map_or_else(|| format.default_output(&folder.dir), Path::to_path_buf);
     let (files, bytes) = match format {
         Format::Coco => {

@@ -15,6 +15,21 @@ impl PosesSpec {
         }
     }
 
+    /// A rig's `min_cameras` (default 1), within 1..=cameras; only board mode takes it, and only
+    /// for a rig.
+    pub(super) fn min_cameras(&self, cameras: usize) -> Result<usize, SpecError> {
+        match self {
+            PosesSpec::Board { min_cameras: Some(n), .. } if cameras == 0 => {
+                Err(invalid("poses.min_cameras", format!("applies to [[cameras]] rigs; this dataset has one [camera] (got {n})")))
+            }
+            PosesSpec::Board { min_cameras: Some(n), .. } if *n == 0 || *n > cameras => {
+                Err(invalid("poses.min_cameras", format!("must be in 1..={cameras} (the rig's cameras), got {n}")))
+            }
+            PosesSpec::Board { min_cameras: Some(n), .. } => Ok(*n),
+            _ => Ok(1),
+        }
+    }
+
     /// The validated mode, whether the visibility constraint applies, and its margin.
     pub(super) fn to_mode(&self, target: &Target, camera: &CameraModel) -> Result<(PoseMode, bool, f64), SpecError> {
         match self {

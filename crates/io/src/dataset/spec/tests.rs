@@ -2,7 +2,7 @@
 
 use super::*;
 
-const EXAMPLES: [(&str, &str); 11] = [
+const EXAMPLES: [(&str, &str); 12] = [
     ("tiny", include_str!("../../../../../assets/specs/tiny.toml")),
     ("chessboard_1280", include_str!("../../../../../assets/specs/chessboard_1280.toml")),
     ("course_calibration", include_str!("../../../../../assets/specs/course_calibration.toml")),
@@ -14,6 +14,7 @@ const EXAMPLES: [(&str, &str); 11] = [
     ("charuco_partial_1280", include_str!("../../../../../assets/specs/charuco_partial_1280.toml")),
     ("aprilgrid_full_1280", include_str!("../../../../../assets/specs/aprilgrid_full_1280.toml")),
     ("aprilgrid_partial_1280", include_str!("../../../../../assets/specs/aprilgrid_partial_1280.toml")),
+    ("stereo_rig_1280", include_str!("../../../../../assets/specs/stereo_rig_1280.toml")),
 ];
 
 #[test]
@@ -55,4 +56,40 @@ fn invalid_fields_are_named() {
     assert!(e.contains("poses.spread_rad"), "{e}");
     let e = parse_dataset_spec(&robot.replace("[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]", "[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]")).unwrap_err().to_string();
     assert!(e.contains("tool_from_cam_R"), "{e}");
+}
+
+/// The rig spec: cameras in order, `cam_from_cam0` from the rig poses (right_from_left = the
+/// inverse of rig_from_right, the left camera being the rig frame), every sampled frame seen
+/// whole by both cameras (`min_cameras = 2`), and the rig's bad fields named.
+#[test]
+fn a_rig_spec_places_its_cameras_and_sees_the_board_in_min_cameras() {
+    let text = EXAMPLES[11].1;
+    let plan = parse_dataset_spec(text).unwrap();
+    let names: Vec<&str> = plan.rig.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["left", "right"]);
+    assert_eq!((plan.min_cameras, plan.camera), (2, plan.rig[0].camera));
+    let rig_from_right = nalgebra::Isometry3::from_parts(
+        nalgebra::Translation3::new(0.12, 0.0, 0.0),
+        nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::y_axis(), -2f64.to_radians()),
+    );
+    assert!((plan.rig[1].cam_from_cam0.to_homogeneous() - rig_from_right.inverse().to_homogeneous()).abs().max() < 1e-12);
+    let pts = plan.target.feature_points_m();
+    for k in 0..10 {
+        let v = crate::dataset::poses::sample_view(&plan, k).unwrap();
+        for m in &plan.rig {
+            assert!(m.camera.sees_all(&(m.cam_from_cam0 * v.cam_from_target), &pts, plan.margin_px), "frame {k}, {}", m.name);
+        }
+    }
+    let bad = [
+        ("\nmin_cameras = 2", "\nmin_cameras = 3", "poses.min_cameras"),
+        ("\nmin_cameras = 2", "\nmin_cameras = 0", "poses.min_cameras"),
+        ("name = \"right\"", "name = \"left\"", "unique"),
+        ("[target]", "[camera]\nwidth = 64\nheight = 64\nfx = 50.0\nfy = 50.0\ncx = 31.5\ncy = 31.5\n[target]", "not both"),
+    ];
+    for (from, to, want) in bad {
+        let e = parse_dataset_spec(&text.replacen(from, to, 1)).unwrap_err().to_string();
+        assert!(e.contains(want), "{to}: {e}");
+    }
+    let one = EXAMPLES[0].1.replace("mode = \"board\"", "mode = \"board\"\nmin_cameras = 1");
+    assert!(parse_dataset_spec(&one).unwrap_err().to_string().contains("applies to [[cameras]] rigs"));
 }
