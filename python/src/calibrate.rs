@@ -1,8 +1,11 @@
-//! `calibrate(detections, target, square_m, image_size, ...)`.
+//! `calibrate(detections, target, square_m, image_size, ...)` and `calibrate_rig(cameras, ...)`.
 
 use nalgebra::Point2;
 use pyo3::prelude::*;
-use synthcam::calib::{calibrate as calibrate_views, views_from_detections, BoardViews, CalibModel, CalibParams, CalibResult};
+use synthcam::calib::{
+    calibrate as calibrate_views, calibrate_rig as calibrate_rig_views, rectified_row_errors, views_from_detections, BoardViews, CalibModel, CalibParams,
+    CalibResult, RigCamera,
+};
 use synthcam::camera::{intrinsic_names, ImageSize};
 use synthcam::detect::target::Detection;
 use synthcam::scene::file::CameraSpec;
@@ -150,4 +153,128 @@ pub fn calibrate<'py>(
     let params = CalibParams { estimate_skew, model, outlier_threshold, ..CalibParams::default() };
     let (r, views) = py.detach(move || calibrate_views(&views, size, &params).map(|r| (r, views))).map_err(|e| err(format!("calibrating: {}", chain(&e))))?;
     to_py(py, &output(&r, model, used, &views, &point_indices))
+}
+
+#[derive(serde::Serialize)]
+struct PoseOut {
+    #[serde(rename = "R")]
+    r: [[f64; 3]; 3],
+    t_m: [f64; 3],
+}
+
+#[derive(serde::Serialize)]
+struct RigCameraOut {
+    name: String,
+    model: &'static str,
+    #[serde(rename = "K")]
+    k: [[f64; 3]; 3],
+    dist: Vec<f64>,
+    camera: CameraSpec,
+    cam0_from_cam: PoseOut,
+    rotation_std_deg: [f64; 3],
+    translation_std_m: [f64; 3],
+    rms_px: f64,
+    views: usize,
+}
+
+#[derive(serde::Serialize)]
+struct RigOutput {
+    rms_px: f64,
+    cameras: Vec<RigCameraOut>,
+    iterations: usize,
+    rectified_row_error_mean_px: Option<f64>,
+    rectified_row_error_max_px: Option<f64>,
+}
+
+/// One camera of `calibrate_rig`'s input: `name`, `image_size` (width, height), `detections`
+/// (one per frame, `None` or `found: False` where it did not see the board) and an optional
+/// `model`.
+fn rig_camera(cam: &Bound<'_, PyAny>, spec: &synthcam::detect::target::TargetSpec, square_m: f64, params: &CalibParams) -> PyResult<RigCamera> {
+    let name: String = cam.get_item("name")?.extract()?;
+    let (w, h): (u32, u32) = cam.get_item("image_size")?.extract()?;
+    let model = match cam.get_item("model").ok().filter(|m| !m.is_none()) {
+        Some(m) => {
+            m.extract::<String>()?.parse::<CalibModel>().map_err(|e: String| pyo3::exceptions::PyValueError::new_err(format!("camera {name:?}: {e}")))?
+        }
+        None => params.model,
+    };
+    let dets: Vec<Detection> = cam
+        .get_item("detections")?
+        .try_iter()?
+        .map(|d| d.and_then(|d| if d.is_none() { Ok(Detection::default()) } else { detection_from(&d) }))
+        .collect::<PyResult<_>>()?;
+    let mut views = vec![None; dets.len()];
+    if dets.iter().any(|d| d.found) {
+        let bv = views_from_detections(&dets, spec, square_m).map_err(|e| err(format!("camera {name:?}: {}", chain(&e))))?;
+        for (v, i) in bv.views.into_iter().zip(bv.used) {
+            views[i] = Some(v);
+        }
+    }
+    Ok(RigCamera { name, size: ImageSize { width: w, height: h }, params: CalibParams { model, ..*params }, views })
+}
+
+/// Calibrate a camera rig (every camera's intrinsics and `cam0_from_cam`, with the frames' board
+/// poses, in one bundle adjustment, as Kalibr and mrcal do; OpenCV's `stereoCalibrate` for two).
+///
+/// `cameras`: one dict per camera: `name`, `image_size` (width, height), `detections` (one per
+/// synchronised frame, in the same order for every camera; `None` or `found: False` where the
+/// camera did not see the board), optional `model` (default `model`). Returns a dict: `rms_px`
+/// (over every camera's points), `cameras` (per camera `name`, `model`, `K`, `dist`, `camera`,
+/// `cam0_from_cam` {`R`, `t_m`}, `rotation_std_deg`, `translation_std_m`, `rms_px`, `views`),
+/// `iterations`, `rectified_row_error_mean_px` / `_max_px` (the first two cameras' corners after
+/// OpenCV's stereo rectification). The GIL is released while solving.
+#[pyfunction]
+#[pyo3(signature = (cameras, target, square_m, model="opencv5", outlier_threshold=Some(5.0)), text_signature = "(cameras, target, square_m, model='opencv5', outlier_threshold=5.0)")]
+pub fn calibrate_rig<'py>(
+    py: Python<'py>,
+    cameras: Vec<Bound<'py, PyAny>>,
+    target: &Bound<'py, PyAny>,
+    square_m: f64,
+    model: &str,
+    outlier_threshold: Option<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    if !(square_m > 0.0 && square_m.is_finite()) {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!("square_m must be a positive length in metres, got {square_m}")));
+    }
+    let model: CalibModel = model.parse().map_err(|e: String| pyo3::exceptions::PyValueError::new_err(e))?;
+    let spec = target_spec(target)?;
+    if spec.board_points_m(square_m).is_none() {
+        return Err(pyo3::exceptions::PyValueError::new_err("calibrate_rig takes a chessboard, ChArUco or AprilGrid target"));
+    }
+    let params = CalibParams { model, outlier_threshold, ..CalibParams::default() };
+    let cams = cameras.iter().map(|c| rig_camera(c, &spec, square_m, &params)).collect::<PyResult<Vec<_>>>()?;
+    let (r, cams) = py
+        .detach(move || calibrate_rig_views(&cams, params.max_iterations).map(|r| (r, cams)))
+        .map_err(|e| err(format!("calibrating the rig: {}", chain(&e))))?;
+    let rows = rectified_row_errors(&r, &cams);
+    let cameras = r
+        .cameras
+        .iter()
+        .zip(&cams)
+        .map(|(c, cam)| {
+            let k = c.camera.intrinsics;
+            let m = c.cam0_from_cam.rotation.to_rotation_matrix();
+            let t = c.cam0_from_cam.translation.vector;
+            RigCameraOut {
+                name: c.name.clone(),
+                model: cam.params.model.name(),
+                k: [[k.fx, k.skew, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
+                dist: c.camera.lens.params()[..cam.params.model.n_lens_params()].to_vec(),
+                camera: CameraSpec::from_model(&c.camera),
+                cam0_from_cam: PoseOut { r: std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)])), t_m: [t.x, t.y, t.z] },
+                rotation_std_deg: c.rotation_std_deg,
+                translation_std_m: c.translation_std,
+                rms_px: c.rms_px,
+                views: cam.views.iter().filter(|v| v.is_some()).count(),
+            }
+        })
+        .collect();
+    let out = RigOutput {
+        rms_px: r.rms_px,
+        cameras,
+        iterations: r.iterations,
+        rectified_row_error_mean_px: rows.map(|r| r.0),
+        rectified_row_error_max_px: rows.map(|r| r.1),
+    };
+    to_py(py, &out)
 }

@@ -32,6 +32,7 @@ fn _synthcam(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render::load_image, m)?)?;
     m.add_function(wrap_pyfunction!(detect::detect, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate::calibrate_rig, m)?)?;
     m.add_class::<sim::PySim>()?;
     Ok(())
 }

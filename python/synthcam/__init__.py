@@ -9,6 +9,7 @@ detector, calibration and the closed-loop simulator run on the rendered pixels.
     image, truth = synthcam.render(scene_toml_or_dict)      # (H, W) uint8, Truth
     found = synthcam.detect(image, "chessboard:9x6")          # Detection: points_px (N, 2)
     result = synthcam.calibrate([found, ...], "chessboard:9x6", 0.03, (1280, 1024))  # Calibration: K, dist, views
+    rig = synthcam.calibrate_rig([{"name": "left", "image_size": (1280, 1024), "detections": [...]}, ...], "chessboard:8x6", 0.03)
     for image, truth in synthcam.Dataset("out/dataset"): ...
     sim = synthcam.Sim("ur5e_chessboard"); obs = sim.observe(); sim.command(qdot, 0.1)
 
@@ -33,7 +34,7 @@ from ._synthcam import (
 )
 from .dataset import Dataset, Sample
 from .poses import facing, pose, rotation_from_rvec
-from .results import Calibration, CalibratedView, Detection, Observation, Pose, Truth
+from .results import Calibration, CalibratedView, Detection, Observation, Pose, RigCalibration, RigCamera, Truth
 
 _Text = Union[str, Dict[str, Any]]
 
@@ -111,6 +112,25 @@ def calibrate(
     return Calibration.from_dict(_synthcam.calibrate(dets, target, square_m, image_size, model, estimate_skew, outlier_threshold))
 
 
+def calibrate_rig(
+    cameras: Sequence[Dict[str, Any]],
+    target: _Text,
+    square_m: float,
+    model: str = "opencv5",
+    outlier_threshold: Optional[float] = 5.0,
+) -> RigCalibration:
+    """Calibrate a camera rig: every camera's intrinsics and ``cam0_from_cam`` with the frames'
+    board poses in one bundle adjustment (Kalibr's and mrcal's joint problem; OpenCV's
+    ``stereoCalibrate`` for two). ``cameras``: one dict per camera, ``{"name", "image_size":
+    (w, h), "detections": [one per synchronised frame, None where not seen], "model"
+    (optional)}``; see ``RigCalibration``."""
+    cams = [
+        {**c, "detections": [d.raw if isinstance(d, Detection) else d for d in c["detections"]]}
+        for c in cameras
+    ]
+    return RigCalibration.from_dict(_synthcam.calibrate_rig(cams, target, square_m, model, outlier_threshold))
+
+
 __all__ = [
     "Calibration",
     "CalibratedView",
@@ -118,6 +138,8 @@ __all__ = [
     "Detection",
     "Observation",
     "Pose",
+    "RigCalibration",
+    "RigCamera",
     "Truth",
     "Sample",
     "Sim",
@@ -125,6 +147,7 @@ __all__ = [
     "__version__",
     "adapter",
     "calibrate",
+    "calibrate_rig",
     "detect",
     "facing",
     "load_image",

@@ -7,7 +7,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, TypedDict, Union,
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Sim", "SynthcamError", "__version__", "adapter", "calibrate", "detect", "load_image", "render", "render_depth_mask"]
+__all__ = ["Sim", "SynthcamError", "__version__", "adapter", "calibrate", "calibrate_rig", "detect", "load_image", "render", "render_depth_mask"]
 __version__: str
 
 _Text = Union[str, Dict[str, Any]]
@@ -64,6 +64,15 @@ def calibrate(
     outlier_threshold: Optional[float] = 5.0,
 ) -> Dict[str, Any]:
     """Global search + Levenberg-Marquardt + outlier rejection: rms_px, K, dist, camera, std, views, used, iterations, converged, outliers_dropped, rms_before_rejection_px, uncertainty_inside_px, uncertainty_outside_px."""
+
+def calibrate_rig(
+    cameras: Sequence[Dict[str, Any]],
+    target: _Text,
+    square_m: float,
+    model: str = "opencv5",
+    outlier_threshold: Optional[float] = 5.0,
+) -> Dict[str, Any]:
+    """Joint rig calibration: rms_px, cameras (name, model, K, dist, camera, cam0_from_cam, rotation_std_deg, translation_std_m, rms_px, views), iterations, rectified_row_error_mean_px, rectified_row_error_max_px."""
 
 @final
 class Sim:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import glob
 import json
 import os
-from typing import Any, Dict, Iterator, List, NamedTuple
+from typing import Any, Dict, Iterator, List, NamedTuple, Optional
 
 import numpy as np
 
@@ -31,11 +31,15 @@ class Dataset:
     Reads `manifest.jsonl` (or, before `synthcam dataset merge`, every shard's
     `manifest-*.jsonl`); images are decoded on access. `len(ds)`, `ds[i]`, and iteration yield
     `Sample(image, truth, entry)`, which unpacks as `image, truth, entry`.
+
+    A rig dataset (`[[cameras]]`) holds every camera's image of frame k: `camera="right"` reads
+    that camera's (default: the first camera's); `entry["cameras"]` lists them all.
     """
 
-    def __init__(self, path: str | os.PathLike[str]) -> None:
+    def __init__(self, path: str | os.PathLike[str], camera: Optional[str] = None) -> None:
         self.path = os.fspath(path)
-        self.entries: List[Dict[str, Any]] = _read_manifests(self.path)
+        self.camera = camera
+        self.entries: List[Dict[str, Any]] = [_for_camera(e, camera) for e in _read_manifests(self.path)]
 
     def __len__(self) -> int:
         return len(self.entries)
@@ -53,6 +57,17 @@ class Dataset:
 
     def __repr__(self) -> str:
         return f"Dataset({self.path!r}, {len(self)} images)"
+
+
+def _for_camera(entry: Dict[str, Any], camera: Optional[str]) -> Dict[str, Any]:
+    """The entry with `file`, `truth`, `seed` and `cam_from_target` of rig camera `camera`."""
+    if camera is None:
+        return entry
+    for c in entry.get("cameras") or []:
+        if c["name"] == camera:
+            return {**entry, **{key: c[key] for key in ("file", "sha256", "truth", "seed", "cam_from_target")}}
+    names = [c["name"] for c in entry.get("cameras") or []]
+    raise SynthcamError(f"image {entry.get('k')}: no camera {camera!r} (cameras: {names or 'none, not a rig dataset'})")
 
 
 def _read_manifests(path: str) -> List[Dict[str, Any]]:

@@ -220,6 +220,66 @@ class Calibration(_DictView):
         )
 
 
+@dataclass(frozen=True)
+class RigCamera:
+    """One camera of a ``RigCalibration``."""
+
+    name: str
+    model: str
+    K: Array
+    dist: Array
+    camera: Dict[str, Any]
+    """The scene-file camera table."""
+    cam0_from_cam: Pose
+    """This camera's pose in the first camera's frame (identity for the first)."""
+    rotation_std_deg: Array
+    """Standard deviation of ``cam0_from_cam``'s rotation vector, degrees."""
+    translation_std_m: Array
+    """Standard deviation of its translation, metres."""
+    rms_px: float
+    views: int
+
+
+@dataclass(frozen=True)
+class RigCalibration(_DictView):
+    """What ``calibrate_rig`` estimated."""
+
+    rms_px: float
+    """Over every camera's points (as OpenCV's ``stereoCalibrate`` returns it)."""
+    cameras: List[RigCamera]
+    iterations: int
+    rectified_row_error_mean_px: float
+    """The first two cameras' corners after OpenCV's stereo rectification: row difference, px."""
+    rectified_row_error_max_px: float
+    raw: Dict[str, Any] = field(repr=False, compare=False)
+
+    @staticmethod
+    def from_dict(d: Dict[str, Any]) -> "RigCalibration":
+        cams = [
+            RigCamera(
+                name=c["name"],
+                model=c["model"],
+                K=np.asarray(c["K"], dtype=float),
+                dist=np.asarray(c["dist"], dtype=float),
+                camera=c["camera"],
+                cam0_from_cam=Pose.from_dict(c["cam0_from_cam"]),
+                rotation_std_deg=np.asarray(c["rotation_std_deg"], dtype=float),
+                translation_std_m=np.asarray(c["translation_std_m"], dtype=float),
+                rms_px=float(c["rms_px"]),
+                views=int(c["views"]),
+            )
+            for c in d["cameras"]
+        ]
+        return RigCalibration(
+            rms_px=float(d["rms_px"]),
+            cameras=cams,
+            iterations=int(d["iterations"]),
+            rectified_row_error_mean_px=_float_or_nan(d.get("rectified_row_error_mean_px")),
+            rectified_row_error_max_px=_float_or_nan(d.get("rectified_row_error_max_px")),
+            raw=d,
+        )
+
+
 def _float_or_nan(v: Any) -> float:
     return float("nan") if v is None else float(v)
 

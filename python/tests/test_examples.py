@@ -23,3 +23,12 @@ def test_ibvs_example_converges_below_0_5_px(root):
     final = float(re.search(r"-> ([0-9.]+) px RMS", out).group(1))
     print(out.strip())
     assert final <= 0.5
+
+
+def test_stereo_rig_example_meets_the_rig_bounds(root):
+    out = run_example(root, "stereo_rig.py")
+    print(out.strip())
+    dt_mm = float(re.search(r"baseline error ([0-9.]+) mm", out).group(1))
+    dr = float(re.search(r"rotation error ([0-9.]+) deg", out).group(1))
+    rows = float(re.search(r"rectified rows mean ([0-9.]+) px", out).group(1))
+    assert dt_mm <= 0.05 and dr <= 0.002 and rows <= 0.02

@@ -21,7 +21,7 @@
 
 mod read;
 
-pub use read::read;
+pub use read::{read, read_camchain};
 
 use super::{CameraModel, Lens};
 

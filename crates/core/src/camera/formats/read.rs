@@ -113,3 +113,66 @@ pub fn read(text: &str) -> Result<CameraModel, CameraFileError> {
         Err(parse_err("neither OpenCV, ROS, Kalibr nor mrcal keys found"))
     }
 }
+
+/// Read a Kalibr camchain (as [`super::kalibr_camchain`] writes it, or Kalibr's own
+/// `camchain-*.yaml`): each `camN:` block's camera by its fields (`camera_model`, `intrinsics`,
+/// `distortion_model`, `distortion_coeffs`, `resolution`) and `cam0_from_camN`, chained from the
+/// blocks' `T_cn_cnm1` (`camN_from_cam(N-1)`; identity for `cam0`). Other keys (`rostopic`,
+/// `cam_overlaps`, `timeshift_cam_imu`) are ignored.
+///
+/// # Errors
+/// [`CameraFileError::Parse`] for no `cam0:` block, a block out of order, or a `T_cn_cnm1` that
+/// is not 4 rows of 4 numbers with a rotation in its top-left 3 x 3; as [`read`] per camera.
+pub fn read_camchain(text: &str) -> Result<Vec<(CameraModel, nalgebra::Isometry3<f64>)>, CameraFileError> {
+    let mut blocks: Vec<(&str, String)> = Vec::new();
+    for line in text.lines() {
+        match line.strip_suffix(':').filter(|l| l.starts_with("cam") && !l.starts_with(' ')) {
+            Some(name) => blocks.push((name, String::new())),
+            None => {
+                if let Some((_, body)) = blocks.last_mut() {
+                    body.push_str(line);
+                    body.push('\n');
+                }
+            }
+        }
+    }
+    if blocks.is_empty() {
+        return Err(parse_err("no cam0: block"));
+    }
+    let mut out: Vec<(CameraModel, nalgebra::Isometry3<f64>)> = Vec::with_capacity(blocks.len());
+    for (n, (name, body)) in blocks.iter().enumerate() {
+        if *name != format!("cam{n}") {
+            return Err(parse_err(format!("expected cam{n}:, found {name}:")));
+        }
+        let cam = kalibr(body)?;
+        let cam0_from_cam = match out.last() {
+            None => nalgebra::Isometry3::identity(),
+            Some((_, cam0_from_prev)) => cam0_from_prev * transform_rows(body)?.inverse(),
+        };
+        out.push((cam, cam0_from_cam));
+    }
+    Ok(out)
+}
+
+/// `T_cn_cnm1`'s four rows `  - [a, b, c, d]` as an isometry.
+fn transform_rows(body: &str) -> Result<nalgebra::Isometry3<f64>, CameraFileError> {
+    let rows: Vec<Vec<f64>> = body
+        .split("T_cn_cnm1:")
+        .nth(1)
+        .ok_or_else(|| parse_err("a camera after cam0 has no T_cn_cnm1"))?
+        .lines()
+        .skip(1)
+        .take_while(|l| l.trim_start().starts_with("- ["))
+        .map(|l| l.trim().trim_start_matches("- [").trim_end_matches(']').split(',').map(|v| v.trim().parse::<f64>()).collect::<Result<Vec<_>, _>>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| parse_err(format!("T_cn_cnm1: {e}")))?;
+    if rows.len() != 4 || rows.iter().any(|r| r.len() != 4) {
+        return Err(parse_err("T_cn_cnm1 is not 4 rows of 4 numbers"));
+    }
+    let m = nalgebra::Matrix3::from_fn(|i, j| rows[i][j]);
+    if !((m.transpose() * m - nalgebra::Matrix3::identity()).abs().max() < 1e-6 && m.determinant() > 0.0) {
+        return Err(parse_err("T_cn_cnm1's rotation is not a rotation"));
+    }
+    let rot = nalgebra::UnitQuaternion::from_matrix(&m);
+    Ok(nalgebra::Isometry3::from_parts(nalgebra::Translation3::new(rows[0][3], rows[1][3], rows[2][3]), rot))
+}
