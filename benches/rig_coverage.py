@@ -11,7 +11,8 @@ mixed rig: `--spec assets/specs/mixed_rig_1280.toml --model fisheye,opencv4`). F
 camera after the first, each of the 6 extrinsic components (cam0_from_cam's translation x y z
 and rotation vector x y z) is compared with the spec's truth and divided by its reported sigma:
 the share of |error| / sigma within 1 and 2 (a Gaussian: 68.3 % and 95.4 %). Also the worst
-translation and rotation errors. Renders include the detector's own bias, which the sigmas
+translation and rotation errors, and every camera's fx fy cx cy error from the rig beside the
+same camera calibrated alone (`synthcam calibrate` on its folder). Renders include the detector's own bias, which the sigmas
 (from the fit's residuals) do not model.
 """
 import argparse, json, os, re, subprocess, sys, tempfile
@@ -49,6 +50,20 @@ def truth_from_spec(text):
     return out
 
 
+def intrinsics_from_spec(text):
+    """Each camera's (fx, fy, cx, cy) from its [[cameras]] table."""
+    out = []
+    for block in re.split(r"(?m)^\[\[cameras\]\]", text)[1:]:
+        block = block.split("\n[")[0]
+        out.append(np.array([float(re.search(rf"(?m)^{k} = ([-0-9.e]+)", block).group(1)) for k in ("fx", "fy", "cx", "cy")]))
+    return out
+
+
+def k_of(c):
+    K = np.asarray(c["K"])
+    return np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sets", type=int, default=20)
@@ -61,7 +76,10 @@ def main():
     a = ap.parse_args()
     text = open(a.spec).read()
     truth = truth_from_spec(text)
+    k_truth = intrinsics_from_spec(text)
+    models = a.model.split(",") * (len(truth) if "," not in a.model else 1)
     z, worst_t, worst_r = [], 0.0, 0.0
+    k_err = {"rig": [], "single": []}
     env = dict(os.environ, NODEVICE_SELECT="1")
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(a.sets):
@@ -76,6 +94,11 @@ def main():
                 print(f"set {i}: calibrate failed: {r.stderr.strip().splitlines()[-1:]}")
                 continue
             j = json.load(open(out))
+            for ci, (d, c) in enumerate(zip(dirs, j["cameras"])):
+                single = os.path.join(tmp, f"single{i}_{ci}.json")
+                subprocess.run([a.synthcam, "calibrate", d, "--target", a.target, "--square", a.square, "--model", models[ci], "--json", single], check=True, capture_output=True, env=env)
+                k_err["single"].append(np.abs(k_of(json.load(open(single))) - k_truth[ci]))
+                k_err["rig"].append(np.abs(k_of(c) - k_truth[ci]))
             for (name, R, t), c in list(zip(truth, j["cameras"]))[1:]:
                 R_est = np.asarray(c["cam0_from_cam"]["R"])
                 t_est = np.asarray(c["cam0_from_cam"]["t_m"])
@@ -85,6 +108,9 @@ def main():
                 worst_t = max(worst_t, np.linalg.norm(dt) * 1e3)
                 worst_r = max(worst_r, np.degrees(np.linalg.norm(rvec_of(R_est.T @ R))))
                 print(f"set {i} {name}: |dt| {np.linalg.norm(dt) * 1e3:.4f} mm, |dr| {np.degrees(np.linalg.norm(rvec_of(R_est.T @ R))):.5f} deg, rms {j['rms_px']:.4f} px")
+    for kind, e in k_err.items():
+        e = np.asarray(e)
+        print(f"intrinsics, {kind:6s} calibration: |error| fx fy cx cy RMS {np.sqrt((e ** 2).mean(0)).round(4).tolist()} px, max {e.max(0).round(4).tolist()} px")
     z = np.abs(np.asarray(z))
     print(f"{len(z)} extrinsic components over {a.sets} sets (seeds {a.seed}-{a.seed + a.sets - 1}): within 1 sigma {100 * np.mean(z <= 1):.1f} %, within 2 sigma {100 * np.mean(z <= 2):.1f} % "
           f"(Gaussian 68.3 / 95.4); worst translation error {worst_t:.4f} mm, rotation {worst_r:.5f} deg")

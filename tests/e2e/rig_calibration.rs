@@ -125,7 +125,7 @@ fn check_exports(dir: &Path, j: &serde_json::Value) {
     }
 }
 
-/// A missing camera folder, a model count that is not the cameras', a format that cannot hold a
+/// A missing camera folder, two cameras of one name, a model count that is not the cameras', a format that cannot hold a
 /// mixed pair (nothing written), and a camera that lacks one frame's image (that frame counts as
 /// not seen by it, said on stderr).
 fn check_bad_rig_inputs(dir: &Path, calibrate: &dyn Fn(&[&str]) -> std::process::Output) {
@@ -140,6 +140,18 @@ fn check_bad_rig_inputs(dir: &Path, calibrate: &dyn Fn(&[&str]) -> std::process:
         "0.03".as_ref(),
     ]);
     assert!(!o.status.success() && !String::from_utf8_lossy(&o.stderr).contains("panicked"));
+    let left = dir.join("ds/images/left");
+    let o = run(&[
+        "calibrate".as_ref(),
+        "--rig".as_ref(),
+        left.as_os_str(),
+        left.as_os_str(),
+        "--target".as_ref(),
+        "chessboard:8x6".as_ref(),
+        "--square".as_ref(),
+        "0.03".as_ref(),
+    ]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("two cameras are named \"left\""), "{}", String::from_utf8_lossy(&o.stderr));
     let o = calibrate(&["--model", "opencv4,opencv5,opencv8"]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("one per camera"), "{}", String::from_utf8_lossy(&o.stderr));
     let mixed = dir.join("mixed.yaml");
