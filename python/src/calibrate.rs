@@ -103,6 +103,19 @@ fn output(r: &CalibResult, model: CalibModel, used: Vec<usize>, views: &[synthca
     }
 }
 
+/// The calls' common arguments checked: a positive `square_m`, a known model, a board target.
+fn checked_args(square_m: f64, model: &str, target: &Bound<'_, PyAny>) -> PyResult<(CalibModel, synthcam::detect::target::TargetSpec)> {
+    if !(square_m > 0.0 && square_m.is_finite()) {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!("square_m must be a positive length in metres, got {square_m}")));
+    }
+    let model: CalibModel = model.parse().map_err(|e: String| pyo3::exceptions::PyValueError::new_err(e))?;
+    let spec = target_spec(target)?;
+    if spec.board_points_m(square_m).is_none() {
+        return Err(pyo3::exceptions::PyValueError::new_err("calibration takes a chessboard, ChArUco or AprilGrid target"));
+    }
+    Ok((model, spec))
+}
+
 /// Calibrate a camera from detections of a planar board (Zhang's closed form, then
 /// Levenberg-Marquardt over every view, as OpenCV's `calibrateCamera`).
 ///
@@ -139,14 +152,7 @@ pub fn calibrate<'py>(
     estimate_skew: bool,
     outlier_threshold: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    if !(square_m > 0.0 && square_m.is_finite()) {
-        return Err(pyo3::exceptions::PyValueError::new_err(format!("square_m must be a positive length in metres, got {square_m}")));
-    }
-    let model: CalibModel = model.parse().map_err(|e: String| pyo3::exceptions::PyValueError::new_err(e))?;
-    let spec = target_spec(target)?;
-    if spec.board_points_m(square_m).is_none() {
-        return Err(pyo3::exceptions::PyValueError::new_err("calibrate takes a chessboard, ChArUco or AprilGrid target"));
-    }
+    let (model, spec) = checked_args(square_m, model, target)?;
     let dets = detections.iter().map(detection_from).collect::<PyResult<Vec<Detection>>>()?;
     let BoardViews { views, used, point_indices, .. } = views_from_detections(&dets, &spec, square_m).map_err(|e| err(chain(&e)))?;
     let size = ImageSize { width: image_size.0, height: image_size.1 };
@@ -233,14 +239,7 @@ pub fn calibrate_rig<'py>(
     model: &str,
     outlier_threshold: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    if !(square_m > 0.0 && square_m.is_finite()) {
-        return Err(pyo3::exceptions::PyValueError::new_err(format!("square_m must be a positive length in metres, got {square_m}")));
-    }
-    let model: CalibModel = model.parse().map_err(|e: String| pyo3::exceptions::PyValueError::new_err(e))?;
-    let spec = target_spec(target)?;
-    if spec.board_points_m(square_m).is_none() {
-        return Err(pyo3::exceptions::PyValueError::new_err("calibrate_rig takes a chessboard, ChArUco or AprilGrid target"));
-    }
+    let (model, spec) = checked_args(square_m, model, target)?;
     let params = CalibParams { model, outlier_threshold, ..CalibParams::default() };
     let cams = cameras.iter().map(|c| rig_camera(c, &spec, square_m, &params)).collect::<PyResult<Vec<_>>>()?;
     let (r, cams) = py
