@@ -25,6 +25,7 @@ mod golden;
 mod handeye;
 mod html_report;
 mod lens_models;
+mod lighting;
 mod objects;
 mod open_scenario;
 mod options_proptest;

@@ -251,6 +251,9 @@ impl Renderer {
     /// Invalid scene, degenerate view, or a device failure.
     pub fn render_linear(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
         scene.validate()?;
+        // Lights on a flat board are one factor on its grey levels (synthcam_scene::lighting).
+        let shaded = synthcam_scene::lighting::shade(scene)?;
+        let scene: &Scene = &shaded;
         std::thread::scope(|scope| {
             self.compile_ahead(scope, scene);
             self.render_valid(scene)

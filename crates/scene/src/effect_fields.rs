@@ -4,8 +4,9 @@
 
 use super::{RenderSettings, SceneError};
 
-/// The field names [`set_field`] takes.
-pub const FIELDS: [&str; 22] = [
+/// The field names [`set_field`] takes, besides a light's ([`LIGHT_FIELDS`]).
+pub const FIELDS: [&str; 23] = [
+    "render.ambient",
     "render.noise_sigma",
     "render.blur_sigma_px",
     "sensor.exposure_s",
@@ -30,6 +31,28 @@ pub const FIELDS: [&str; 22] = [
     "motion.twist.5",
 ];
 
+/// A light's fields, `N` its index among the `[[light]]` tables (from 0): its irradiance and the
+/// components of its direction (normalised where it is used).
+pub const LIGHT_FIELDS: [&str; 4] = ["light.N.irradiance", "light.N.direction.0", "light.N.direction.1", "light.N.direction.2"];
+
+/// The slot of a `light.N.*` field.
+fn light_slot<'r>(render: &'r mut RenderSettings, field: &str) -> Result<&'r mut f64, SceneError> {
+    let rest = field.strip_prefix("light.").ok_or_else(|| unknown(field))?;
+    let (n, what) = rest.split_once('.').ok_or_else(|| unknown(field))?;
+    let n: usize = n.parse().map_err(|_| unknown(field))?;
+    let light = render.lighting.lights.get_mut(n).and_then(Option::as_mut).ok_or_else(|| SceneError::InvalidField {
+        field: field.into(),
+        reason: format!("a range for it needs a `[[light]]` table number {n} (counting from 0)"),
+    })?;
+    match what {
+        "irradiance" => Ok(&mut light.irradiance),
+        "direction.0" => Ok(&mut light.direction[0]),
+        "direction.1" => Ok(&mut light.direction[1]),
+        "direction.2" => Ok(&mut light.direction[2]),
+        _ => Err(unknown(field)),
+    }
+}
+
 fn missing(field: &str, table: &str) -> SceneError {
     SceneError::InvalidField {
         field: field.into(),
@@ -42,8 +65,16 @@ fn missing(field: &str, table: &str) -> SceneError {
 /// # Errors
 /// An unknown field, or a field of a `[sensor]` or thin lens the settings do not have.
 pub fn set_field(render: &mut RenderSettings, field: &str, value: f64) -> Result<(), SceneError> {
+    if field.starts_with("light.") {
+        *light_slot(render, field)? = value;
+        return Ok(());
+    }
     if !FIELDS.contains(&field) {
         return Err(unknown(field));
+    }
+    if field == "render.ambient" {
+        render.lighting.ambient = Some(value);
+        return Ok(());
     }
     let linked_exposure = render.effects.sensor.is_some_and(|s| s.exposure_s == render.effects.motion.exposure_s);
     let fx = &mut render.effects;
@@ -93,5 +124,8 @@ pub fn set_field(render: &mut RenderSettings, field: &str, value: f64) -> Result
 }
 
 fn unknown(field: &str) -> SceneError {
-    SceneError::InvalidField { field: format!("ranges.{field}"), reason: format!("no such numeric field; expected one of {}", FIELDS.join(", ")) }
+    SceneError::InvalidField {
+        field: format!("ranges.{field}"),
+        reason: format!("no such numeric field; expected one of {}, {}", FIELDS.join(", "), LIGHT_FIELDS.join(", ")),
+    }
 }

@@ -31,6 +31,8 @@ pub type ExactImage = Vec<Option<f64>>;
 /// 1..=64, and the scene's own validation errors.
 pub fn render_exact_planar(scene: &Scene, subdivisions: u32) -> Result<ExactImage, SceneError> {
     scene.validate()?;
+    let shaded = crate::lighting::shade(scene)?;
+    let scene: &Scene = &shaded;
     if !(1..=64).contains(&subdivisions) {
         return Err(SceneError::InvalidField { field: "subdivisions".into(), reason: format!("must be in 1..=64, got {subdivisions}") });
     }

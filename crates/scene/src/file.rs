@@ -113,6 +113,9 @@ pub struct RenderSpec {
     pub seed: Option<u64>,
     /// 8 or 16.
     pub bit_depth: Option<u8>,
+    /// The ambient term of the lighting ([`crate::lighting`]; default 1 without `[[light]]`, 0
+    /// with).
+    pub ambient: Option<f64>,
 }
 
 impl RenderSpec {
@@ -126,6 +129,7 @@ impl RenderSpec {
             seed: self.seed.unwrap_or(d.seed),
             bit_depth: self.bit_depth.unwrap_or(d.bit_depth),
             effects: d.effects,
+            lighting: crate::lighting::Lighting { ambient: self.ambient, ..d.lighting },
         }
     }
 }
@@ -166,6 +170,41 @@ pub struct SceneSpec {
     /// `[[object]]` tables (optional; [`object`]).
     #[serde(default, rename = "object")]
     pub objects: Vec<ObjectSpec>,
+    /// `[[light]]` tables (optional; [`crate::lighting`]).
+    #[serde(default, rename = "light")]
+    pub lights: Vec<LightSpec>,
+}
+
+/// One `[[light]]` table: `kind = "directional"`, `frame` (`"camera"`, default, or `"target"`),
+/// `direction = [x, y, z]` (the direction the light travels) and `irradiance` (grey levels per
+/// unit albedo on a surface facing it).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSpec {
+    /// Only `"directional"` so far (point and area lights are issue 41's next step).
+    pub kind: String,
+    /// The frame of `direction`.
+    #[serde(default)]
+    pub frame: crate::lighting::LightFrame,
+    /// The direction the light travels.
+    pub direction: [f64; 3],
+    /// Irradiance, grey levels per unit albedo.
+    pub irradiance: f64,
+}
+
+/// `settings` with the `[[light]]` tables added to its lighting.
+///
+/// # Errors
+/// [`SceneError::InvalidField`] for a kind other than `"directional"` or a bad light.
+pub fn with_lights(mut settings: RenderSettings, lights: &[LightSpec]) -> Result<RenderSettings, SceneError> {
+    for l in lights {
+        if l.kind != "directional" {
+            return Err(SceneError::InvalidField { field: "light.kind".into(), reason: format!("only \"directional\" lights so far, got {:?}", l.kind) });
+        }
+        settings.lighting.add(l.frame, l.direction, l.irradiance)?;
+    }
+    settings.lighting.validate()?;
+    Ok(settings)
 }
 
 impl SceneSpec {
@@ -228,7 +267,7 @@ impl SceneSpec {
 
     /// The scene of `camera` at `cam_from_rig` (the identity for a single camera).
     fn scene_of(&self, camera: &CameraSpec, cam_from_rig: &Isometry3<f64>, load: MeshLoader<'_>) -> Result<Scene, SceneError> {
-        let render = effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?;
+        let render = with_lights(effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?, &self.lights)?;
         if render.effects.motion.follow_robot {
             return Err(SceneError::InvalidField {
                 field: "motion.follow_robot".into(),

@@ -16,6 +16,7 @@ pub mod effects;
 pub mod exact;
 pub mod facing;
 pub mod file;
+pub mod lighting;
 pub mod motion;
 pub mod objects;
 pub mod reference;
@@ -51,11 +52,21 @@ pub struct RenderSettings {
     pub bit_depth: u8,
     /// Sensor, optics, motion and output format ([`effects`]); the default is the ideal camera.
     pub effects: effects::Effects,
+    /// Lights and the ambient term ([`lighting`]); the default leaves the target as given.
+    pub lighting: lighting::Lighting,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { samples: 16, noise_sigma: 0.0, blur_sigma_px: 0.0, seed: 0, bit_depth: 8, effects: effects::Effects::default() }
+        Self {
+            samples: 16,
+            noise_sigma: 0.0,
+            blur_sigma_px: 0.0,
+            seed: 0,
+            bit_depth: 8,
+            effects: effects::Effects::default(),
+            lighting: lighting::Lighting::default(),
+        }
     }
 }
 
@@ -122,6 +133,7 @@ impl Scene {
     /// The first invalid field, or [`SceneError::TargetBehindCamera`].
     pub fn validate(&self) -> Result<(), SceneError> {
         self.camera.validate()?;
+        lighting::shade(self)?;
         let (w, h) = (self.camera.size.width, self.camera.size.height);
         if w > 16384 || h > 16384 {
             return Err(SceneError::InvalidField { field: "camera.width/height".into(), reason: format!("{w}x{h} exceeds 16384") });

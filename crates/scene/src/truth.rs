@@ -88,6 +88,10 @@ pub struct FeatureLabel {
     /// [`super::effect_truth`]); empty without them.
     #[serde(default, skip_serializing_if = "super::effect_truth::EffectLabel::is_empty")]
     pub effects: super::effect_truth::EffectLabel,
+    /// Under lights ([`super::lighting`]): the irradiance at the feature per unit albedo,
+    /// `A + sum E cos` (its grey levels are the albedos times it); absent without lights.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub irradiance: Option<f64>,
 }
 
 /// Truth file contents.
@@ -267,6 +271,9 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
             .map(|(j, _)| j)
             .collect()
     };
+    // One normal for a flat board: one irradiance for every feature.
+    let lighting = scene.render.lighting;
+    let irradiance = (!lighting.is_neutral()).then(|| lighting.factor(&super::lighting::camera_side_normal(scene), &scene.cam_from_target));
     let features = pts
         .par_iter()
         .enumerate()
@@ -287,6 +294,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 area_px: None,
                 area_centroid_px: None,
                 effects: super::effect_truth::effect_label(scene, p),
+                irradiance,
             };
             if kind == FeatureKind::Dot {
                 let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));

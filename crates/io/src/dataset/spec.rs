@@ -77,6 +77,9 @@ pub struct DatasetSpec {
     /// `[[occluder]]` tables: random occluders ([`super::objects`]).
     #[serde(default, rename = "occluder")]
     pub occluders: Vec<super::objects::OccluderSpec>,
+    /// `[[light]]` tables (as in scene files; `[render] ambient` the ambient term).
+    #[serde(default, rename = "light")]
+    pub lights: Vec<synthcam_scene::file::LightSpec>,
     /// Also write each image's depth (`.depth.npy`, [`super::extras`]).
     #[serde(default)]
     pub depth: bool,
@@ -301,7 +304,10 @@ impl DatasetSpec {
         }
         let (camera, rig) = self.cameras_of()?;
         let target = self.target.to_target();
-        let render = synthcam_scene::file::effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?;
+        let render = synthcam_scene::file::with_lights(
+            synthcam_scene::file::effects::render_settings(&self.render, self.sensor, self.optics.as_ref(), self.motion, self.output.as_ref())?,
+            &self.lights,
+        )?;
         let ranges = self.effect_ranges(&render)?;
         // Validate camera, target and render settings with the scene's own rules (a pose straight
         // ahead keeps the depth check quiet; the sampled poses are checked per image).
@@ -316,6 +322,9 @@ impl DatasetSpec {
         let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target, &camera)?;
         let inside_fraction = self.poses.inside_fraction()?;
         let objects = super::objects::DatasetObjects::load(&self.objects, &self.occluders, meshes)?;
+        if !render.lighting.is_neutral() && !objects.is_empty() {
+            return Err(invalid("light", "objects are not shaded yet: lights take datasets without objects or occluders"));
+        }
         if !rig.is_empty() && !objects.is_empty() {
             return Err(invalid("cameras", "objects and occluders are not placed for rigs yet: use one [camera]"));
         }
@@ -373,6 +382,7 @@ impl DatasetSpec {
                 let mut probe = *render;
                 synthcam_scene::effect_fields::set_field(&mut probe, field, v)?;
                 probe.effects.validate()?;
+                probe.lighting.validate()?;
             }
             out.push((field.clone(), [lo, hi]));
         }

@@ -2,7 +2,7 @@
 
 use super::*;
 
-const EXAMPLES: [(&str, &str); 12] = [
+const EXAMPLES: [(&str, &str); 13] = [
     ("tiny", include_str!("../../../../../assets/specs/tiny.toml")),
     ("chessboard_1280", include_str!("../../../../../assets/specs/chessboard_1280.toml")),
     ("course_calibration", include_str!("../../../../../assets/specs/course_calibration.toml")),
@@ -15,6 +15,7 @@ const EXAMPLES: [(&str, &str); 12] = [
     ("aprilgrid_full_1280", include_str!("../../../../../assets/specs/aprilgrid_full_1280.toml")),
     ("aprilgrid_partial_1280", include_str!("../../../../../assets/specs/aprilgrid_partial_1280.toml")),
     ("stereo_rig_1280", include_str!("../../../../../assets/specs/stereo_rig_1280.toml")),
+    ("lit_chessboard_1280", include_str!("../../../../../assets/specs/lit_chessboard_1280.toml")),
 ];
 
 #[test]

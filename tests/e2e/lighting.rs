@@ -1,0 +1,97 @@
+//! Issue 41 item 1: directional lights and the ambient term on a flat board, against the
+//! Lambertian value worked out here from the pose (`a (A + E max(0, -n . d))`, n the board's
+//! normal on the camera's side): every pixel wholly inside a region of the board (its unlit value
+//! one of the board's grey levels) within 0.5 grey levels (the issue's bound); the background
+//! unchanged; lights the shading does not cover yet refused by name.
+
+use nalgebra::{UnitQuaternion, Vector3};
+use synthcam::scene::lighting::{LightFrame, Lighting};
+use synthcam::scene::Scene;
+
+use crate::common::{camera, chessboard_scene, renderer};
+
+fn lit(scene: &Scene, lighting: Lighting) -> Scene {
+    let mut s = scene.clone();
+    s.render.lighting = lighting;
+    s
+}
+
+/// The largest |lit - expected| over the pixels wholly inside a surface region, the count of
+/// such pixels, and the largest change of a background pixel.
+fn compare(scene: &Scene, lighting: Lighting, factor: f64) -> (f64, usize, f64) {
+    let unlit = renderer().render_linear(scene).expect("unlit");
+    let shaded = renderer().render_linear(&lit(scene, lighting)).expect("lit");
+    let synthcam::target::Target::Chessboard(b) = &scene.target else { panic!("chessboard") };
+    let (mut worst, mut n, mut background) = (0.0f64, 0, 0.0f64);
+    for (u, l) in unlit.iter().zip(&shaded) {
+        let (u, l) = (f64::from(*u), f64::from(*l));
+        if [b.dark, b.light, b.margin].iter().any(|g| (u - g).abs() < 1e-4) {
+            worst = worst.max((l - u * factor).abs());
+            n += 1;
+        } else if (u - b.background).abs() < 1e-4 {
+            background = background.max((l - u).abs());
+        }
+    }
+    (worst, n, background)
+}
+
+#[test]
+fn a_directional_light_shades_a_flat_board_by_lamberts_law() {
+    let cam = camera(640, 480, 600.0, [-0.2, 0.05, 0.0, 0.0, 0.0]);
+    let mut scene = chessboard_scene(cam, [8, 6], 0.04, 35.0, 0.8, [0.05, -0.02]);
+    scene.cam_from_target.rotation = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.3) * scene.cam_from_target.rotation;
+    // The board's normal on the camera's side, worked out from the pose.
+    let z = scene.cam_from_target.rotation * Vector3::z();
+    let n = if z.dot(&scene.cam_from_target.translation.vector) > 0.0 { -z } else { z };
+    let d = Vector3::new(0.3, -0.2, 1.0).normalize();
+    let (a, e) = (0.25, 0.9);
+    let mut lighting = Lighting { ambient: Some(a), ..Default::default() };
+    lighting.add(LightFrame::Camera, d.into(), e).expect("light");
+    let factor = a + e * (-n.dot(&d)).max(0.0);
+    let (worst, count, background) = compare(&scene, lighting, factor);
+    eprintln!("camera-frame light: factor {factor:.5}; {count} pixels inside regions, max |diff| {worst:.2e} grey levels; background moved {background:.1e}");
+    assert!(count > 20_000 && worst <= 0.5 && background == 0.0, "{count} {worst} {background}");
+    // The truth gives every feature's irradiance (the same factor on a flat board).
+    let truth = synthcam::scene::truth_labels(&lit(&scene, lighting));
+    assert!(truth.features.iter().all(|f| f.irradiance.is_some_and(|i| (i - factor).abs() < 1e-12)));
+    assert!(synthcam::scene::truth_labels(&scene).features.iter().all(|f| f.irradiance.is_none()));
+    // A target-frame light along the board's +z (into the printed side) faces it squarely at any
+    // pose: the factor is A + E.
+    let mut square = Lighting { ambient: Some(0.1), ..Default::default() };
+    square.add(LightFrame::Target, [0.0, 0.0, 1.0], 0.7).expect("light");
+    let (worst, count, _) = compare(&scene, square, 0.8);
+    eprintln!("target-frame light along +z: max |diff| {worst:.2e} over {count} pixels");
+    assert!(count > 20_000 && worst <= 0.5, "{worst}");
+    // A light from behind the board leaves only the ambient term; no light and no ambient given
+    // leaves the image as it was (every golden image depends on that).
+    let mut behind = Lighting { ambient: Some(0.5), ..Default::default() };
+    behind.add(LightFrame::Camera, n.into(), 2.0).expect("light");
+    assert!(compare(&scene, behind, 0.5).0 <= 0.5);
+    let (neutral, plain) = (renderer().render_linear(&lit(&scene, Lighting::default())).expect("neutral"), renderer().render_linear(&scene).expect("plain"));
+    assert_eq!(neutral, plain);
+}
+
+#[test]
+fn lights_the_shading_does_not_cover_are_named_errors() {
+    let cam = camera(320, 240, 300.0, [0.0; 5]);
+    let scene = chessboard_scene(cam, [6, 5], 0.04, 10.0, 0.8, [0.0, 0.0]);
+    let mut light = Lighting::default();
+    light.add(LightFrame::Camera, [0.0, 0.0, 1.0], 1.0).expect("light");
+    let mut warped = lit(&scene, light);
+    if let synthcam::target::Target::Chessboard(b) = &mut warped.target {
+        b.warp_m = [0.001, 0.0];
+    }
+    assert!(warped.validate().is_err_and(|e| e.to_string().contains("light")));
+    assert!(renderer().render(&warped).is_err());
+    let mut bad = Lighting::default();
+    assert!(bad.add(LightFrame::Camera, [0.0; 3], 1.0).is_err());
+    assert!(bad.add(LightFrame::Camera, [0.0, 0.0, 1.0], f64::NAN).is_err());
+    assert!(lit(&scene, Lighting { ambient: Some(-1.0), ..light }).validate().is_err());
+    let text = "[camera]\nwidth = 320\nheight = 240\nfx = 300.0\nfy = 300.0\ncx = 159.5\ncy = 119.5\n[target]\nkind = \"chessboard\"\nsquares = [6, 5]\nsquare_m = 0.04\n[facing]\ndistance_m = 0.8\n[render]\nambient = 0.2\n[[light]]\nkind = \"directional\"\ndirection = [0.0, 0.0, 1.0]\nirradiance = 0.8\n";
+    let spec = synthcam::scene::file::parse_spec(text).expect("spec");
+    let s = spec.to_scene().expect("scene");
+    assert_eq!(s.render.lighting.ambient, Some(0.2));
+    let point = text.replace("kind = \"directional\"", "kind = \"point\"");
+    let e = synthcam::scene::file::parse_spec(&point).and_then(|s| s.to_scene()).expect_err("point light");
+    assert!(e.to_string().contains("directional"), "{e}");
+}
