@@ -40,15 +40,18 @@ use serde::Deserialize;
 
 mod camera;
 pub mod effects;
+mod light;
 pub mod object;
 pub mod rig;
 mod target;
 
 pub use camera::{CameraSpec, ModelName};
+pub use effects::RenderSpec;
+pub use light::{with_lights, LightSpec};
 pub use object::{MeshLoader, ObjectFrame, ObjectSpec};
 pub use target::TargetTable;
 
-use super::{RenderSettings, Scene, SceneError};
+use super::{Scene, SceneError};
 use synthcam_core::math::so3::rotation_from_rvec;
 
 /// `[pose]` table: `cam_from_target`.
@@ -99,41 +102,6 @@ impl PoseSpec {
     }
 }
 
-/// `[render]` table.
-#[derive(Debug, Clone, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-pub struct RenderSpec {
-    /// Sub-samples per axis (default 16).
-    pub samples: Option<u32>,
-    /// Gaussian noise sigma, grey levels.
-    pub noise_sigma: Option<f64>,
-    /// Gaussian blur sigma, pixels.
-    pub blur_sigma_px: Option<f64>,
-    /// Noise seed.
-    pub seed: Option<u64>,
-    /// 8 or 16.
-    pub bit_depth: Option<u8>,
-    /// The ambient term of the lighting ([`crate::lighting`]; default 1 without `[[light]]`, 0
-    /// with).
-    pub ambient: Option<f64>,
-}
-
-impl RenderSpec {
-    /// Settings with defaults filled in.
-    pub fn to_settings(&self) -> RenderSettings {
-        let d = RenderSettings::default();
-        RenderSettings {
-            samples: self.samples.unwrap_or(d.samples),
-            noise_sigma: self.noise_sigma.unwrap_or(d.noise_sigma),
-            blur_sigma_px: self.blur_sigma_px.unwrap_or(d.blur_sigma_px),
-            seed: self.seed.unwrap_or(d.seed),
-            bit_depth: self.bit_depth.unwrap_or(d.bit_depth),
-            effects: d.effects,
-            lighting: crate::lighting::Lighting { ambient: self.ambient, ..d.lighting },
-        }
-    }
-}
-
 /// A whole scene file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -173,38 +141,6 @@ pub struct SceneSpec {
     /// `[[light]]` tables (optional; [`crate::lighting`]).
     #[serde(default, rename = "light")]
     pub lights: Vec<LightSpec>,
-}
-
-/// One `[[light]]` table: `kind = "directional"`, `frame` (`"camera"`, default, or `"target"`),
-/// `direction = [x, y, z]` (the direction the light travels) and `irradiance` (grey levels per
-/// unit albedo on a surface facing it).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LightSpec {
-    /// Only `"directional"` so far (point and area lights are issue 41's next step).
-    pub kind: String,
-    /// The frame of `direction`.
-    #[serde(default)]
-    pub frame: crate::lighting::LightFrame,
-    /// The direction the light travels.
-    pub direction: [f64; 3],
-    /// Irradiance, grey levels per unit albedo.
-    pub irradiance: f64,
-}
-
-/// `settings` with the `[[light]]` tables added to its lighting.
-///
-/// # Errors
-/// [`SceneError::InvalidField`] for a kind other than `"directional"` or a bad light.
-pub fn with_lights(mut settings: RenderSettings, lights: &[LightSpec]) -> Result<RenderSettings, SceneError> {
-    for l in lights {
-        if l.kind != "directional" {
-            return Err(SceneError::InvalidField { field: "light.kind".into(), reason: format!("only \"directional\" lights so far, got {:?}", l.kind) });
-        }
-        settings.lighting.add(l.frame, l.direction, l.irradiance)?;
-    }
-    settings.lighting.validate()?;
-    Ok(settings)
 }
 
 impl SceneSpec {
@@ -392,7 +328,7 @@ t_m = [-0.05, -0.04, 0.3]
             "pose": {"rvec": [0.0, 0.0, 0.0], "t_m": [0.0, 0.0, 2.0]}}"#;
         let s = parse_scene(json).unwrap();
         assert!(matches!(s.target, Target::DotGrid(DotGrid { n: 3, .. })));
-        assert_eq!(s.render, RenderSettings::default());
+        assert_eq!(s.render, crate::RenderSettings::default());
     }
 
     #[test]

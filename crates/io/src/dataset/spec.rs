@@ -21,7 +21,7 @@ use synthcam_core::camera::CameraModel;
 use synthcam_core::robot::Cell;
 use synthcam_core::target::Target;
 use synthcam_scene::file::{CameraSpec, RenderSpec, TargetTable};
-use synthcam_scene::{RenderSettings, SceneError};
+use synthcam_scene::RenderSettings;
 
 /// The spec format this build reads.
 pub const SPEC_VERSION: u32 = 1;
@@ -194,16 +194,7 @@ pub enum PoseMode {
     Robot(Cell),
 }
 
-/// One camera of a rig dataset.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RigMember {
-    /// Its name (its images' folder).
-    pub name: String,
-    /// The camera.
-    pub camera: CameraModel,
-    /// Its pose relative to the first camera, `cam_from_cam0`.
-    pub cam_from_cam0: nalgebra::Isometry3<f64>,
-}
+pub use rig::RigMember;
 
 /// A validated spec: everything the generator needs.
 #[derive(Debug, Clone, PartialEq)]
@@ -351,28 +342,6 @@ impl DatasetSpec {
         })
     }
 
-    /// The camera poses are sampled for, and the rig (empty for one `[camera]`), each camera
-    /// checked.
-    fn cameras_of(&self) -> Result<(CameraModel, Vec<RigMember>), SpecError> {
-        match (&self.camera, self.cameras.as_slice()) {
-            (Some(c), []) => Ok((c.to_model().map_err(SceneError::from)?, Vec::new())),
-            (None, []) => Err(invalid("camera", "a dataset needs a [camera] table or a [[cameras]] rig")),
-            (Some(_), _) => Err(invalid("cameras", "give [camera] or [[cameras]], not both")),
-            (None, cams) => {
-                let checked = synthcam_scene::file::rig::rig_cameras(cams)?;
-                let cam0_from_rig = checked[0].2;
-                let rig = checked
-                    .into_iter()
-                    .map(|(name, spec, cam_from_rig)| {
-                        let camera = spec.to_model().map_err(|e| invalid(&format!("cameras.{name}"), e.to_string()))?;
-                        Ok(RigMember { name, camera, cam_from_cam0: cam_from_rig * cam0_from_rig.inverse() })
-                    })
-                    .collect::<Result<Vec<_>, SpecError>>()?;
-                Ok((rig[0].camera, rig))
-            }
-        }
-    }
-
     /// The `[ranges]`, each checked: a known field, `lo <= hi`, and both ends valid settings.
     fn effect_ranges(&self, render: &RenderSettings) -> Result<Vec<(String, [f64; 2])>, SpecError> {
         let mut out = Vec::new();
@@ -409,5 +378,6 @@ pub fn parse_dataset_spec_with(text: &str, meshes: &super::MeshLibrary) -> Resul
 }
 
 mod poses_spec;
+mod rig;
 #[cfg(test)]
 mod tests;

@@ -207,3 +207,38 @@ pub fn render_settings(
     settings.bit_depth = tables.bit_depth().unwrap_or(settings.bit_depth);
     Ok(settings)
 }
+
+/// `[render]` table.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSpec {
+    /// Sub-samples per axis (default 16).
+    pub samples: Option<u32>,
+    /// Gaussian noise sigma, grey levels.
+    pub noise_sigma: Option<f64>,
+    /// Gaussian blur sigma, pixels.
+    pub blur_sigma_px: Option<f64>,
+    /// Noise seed.
+    pub seed: Option<u64>,
+    /// 8 or 16.
+    pub bit_depth: Option<u8>,
+    /// The ambient term of the lighting ([`crate::lighting`]; default 1 without `[[light]]`, 0
+    /// with).
+    pub ambient: Option<f64>,
+}
+
+impl RenderSpec {
+    /// Settings with defaults filled in.
+    pub fn to_settings(&self) -> crate::RenderSettings {
+        let d = crate::RenderSettings::default();
+        crate::RenderSettings {
+            samples: self.samples.unwrap_or(d.samples),
+            noise_sigma: self.noise_sigma.unwrap_or(d.noise_sigma),
+            blur_sigma_px: self.blur_sigma_px.unwrap_or(d.blur_sigma_px),
+            seed: self.seed.unwrap_or(d.seed),
+            bit_depth: self.bit_depth.unwrap_or(d.bit_depth),
+            effects: d.effects,
+            lighting: crate::lighting::Lighting { ambient: self.ambient, ..d.lighting },
+        }
+    }
+}
