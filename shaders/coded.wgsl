@@ -33,12 +33,13 @@ fn coded_dark(gx: i32, gy: i32) -> bool {
 
 fn coded_value(x: f32, y: f32) -> f32 {
     let o = P.lat.y; let m = P.board.w;
+    let g = shaded_greys(x, y);
     if (x >= o && x < P.lat2.x && y >= o && y < P.lat2.y) {
         let gx = clamp(lat_index(x), 0, i32(P.board.x) - 1);
         let gy = clamp(lat_index(y), 0, i32(P.board.y) - 1);
-        return select(P.grey.y, P.grey.x, coded_dark(gx, gy));
+        return select(g.y, g.x, coded_dark(gx, gy));
     }
-    if (x >= o - m && x < P.lat2.x + m && y >= o - m && y < P.lat2.y + m) { return P.grey.z; }
+    if (x >= o - m && x < P.lat2.x + m && y >= o - m && y < P.lat2.y + m) { return g.z; }
     return P.grey.w;
 }
 

@@ -276,7 +276,8 @@ fn cells_fine(ray: Ray, coded: bool) -> f32 {
         a_board = select(a_board, area, k == 1u);
         dark = dark + select(0.0, area, k >= 2u);
     }
-    let v = P.grey.w * (1.0 - a_margin) + P.grey.z * (a_margin - a_board) + P.grey.x * dark + P.grey.y * (a_board - dark);
+    let sg = shaded_greys(pc.x, pc.y);
+    let v = P.grey.w * (1.0 - a_margin) + sg.z * (a_margin - a_board) + sg.x * dark + sg.y * (a_board - dark);
     let sup = plane_supersample(ray, select(P.size.w, 0u, exact));
     return select(sup, v, exact);
 }
@@ -362,7 +363,8 @@ fn grid_fine(ray: Ray) -> f32 {
             dark = dark + max(area, 0.0);
         }
     }
-    let v = P.grey.w * (1.0 - a_plate) + P.grey.y * (a_plate - dark) + P.grey.x * dark;
+    let sg = shaded_greys(pc.x, pc.y);
+    let v = P.grey.w * (1.0 - a_plate) + sg.y * (a_plate - dark) + sg.x * dark;
     let sup = plane_supersample(ray, select(P.size.w, 0u, exact));
     return select(sup, v, exact);
 }

@@ -1,13 +1,25 @@
 // ---------------------------------------------------------------- planar targets
 
+// The grey levels at board point (x, y): as given, or under a point light (P.shade.y == 1) the
+// surface levels (dark, light, margin) times the shading there, the constant part plus the
+// lamp's inverse-square term (crates/scene/src/lighting.rs); the background is not a surface.
+fn shaded_greys(x: f32, y: f32) -> vec4<f32> {
+    if (P.shade.y == 0.0) { return P.grey; }
+    let d = vec3<f32>(x - P.lamp.x, y - P.lamp.y, -P.lamp.w);
+    let r2 = dot(d, d);
+    let s = P.shade.x + P.lamp.z / (r2 * sqrt(r2));
+    return vec4<f32>(P.grey.xyz * s, P.grey.w);
+}
+
 fn chess_value(x: f32, y: f32) -> f32 {
     let s = P.board.z; let m = P.board.w;
     let w = P.board.x * s; let h = P.board.y * s;
+    let g = shaded_greys(x, y);
     if (x >= 0.0 && x < w && y >= 0.0 && y < h) {
         let ij = i32(floor(x / s)) + i32(floor(y / s));
-        return select(P.grey.y, P.grey.x, (ij & 1) == 0);
+        return select(g.y, g.x, (ij & 1) == 0);
     }
-    if (x >= -m && x < w + m && y >= -m && y < h + m) { return P.grey.z; }
+    if (x >= -m && x < w + m && y >= -m && y < h + m) { return g.z; }
     return P.grey.w;
 }
 
@@ -18,7 +30,8 @@ fn grid_value(x: f32, y: f32) -> f32 {
     let ix = clamp(round((x + hh) / pitch), 0.0, n - 1.0);
     let iy = clamp(round((y + hh) / pitch), 0.0, n - 1.0);
     let d = vec2<f32>(x + hh - pitch * ix, y + hh - pitch * iy);
-    return select(P.grey.y, P.grey.x, dot2(d, d) < rad * rad);
+    let g = shaded_greys(x, y);
+    return select(g.y, g.x, dot2(d, d) < rad * rad);
 }
 
 fn plane_value(b: vec2<f32>) -> f32 {

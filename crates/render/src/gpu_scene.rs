@@ -173,6 +173,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
             if let Some(sharp) = view_set.views.first() {
                 warp_params(&mut p, scene, sharp)?;
             }
+            lamp_params(&mut p, scene);
             (Vec::new(), vec![0u32; (tiles_x * tiles_y + 1) as usize], bits)
         }
         Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
@@ -189,6 +190,20 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         views.push([0.0; 4]);
     }
     Ok(GpuScene { params: p, lens_variant: pipeline_variant(scene), dots, tile_start, tile_items, tile_flat, views })
+}
+
+/// A point light's uniforms (`Params::shade`, `Params::lamp`), in the target frame; nothing
+/// when the lighting is uniform over the board (the grey levels were scaled on the CPU by
+/// `synthcam_scene::lighting::shade`).
+fn lamp_params(p: &mut Params, scene: &Scene) {
+    let lighting = scene.render.lighting;
+    let Some(lamp) = lighting.points.iter().flatten().next().filter(|_| lighting.varies()) else { return };
+    let n_cam = synthcam_scene::lighting::camera_side_normal(scene);
+    let target_from_cam = scene.cam_from_target.inverse();
+    let l_t = target_from_cam * nalgebra::Point3::from(synthcam_scene::lighting::Lighting::point_in_camera(lamp, &scene.cam_from_target));
+    let n_z = (target_from_cam.rotation * n_cam).z.signum();
+    p.shade = [lighting.factor(&n_cam, &scene.cam_from_target) as f32, 1.0, 0.0, 0.0];
+    p.lamp = [l_t.x as f32, l_t.y as f32, (lamp.intensity * (n_z * l_t.z).max(0.0)) as f32, l_t.z as f32];
 }
 
 /// The lens model's uniforms (see `Params`); `split` from [`super::bend::split_radii`].

@@ -67,6 +67,13 @@ pub struct Params {
     pub tfc1: [f32; 4],
     /// Row 2 (w: the camera centre's z).
     pub tfc2: [f32; 4],
+    /// Planar targets under a point light (`synthcam_scene::lighting`): the constant part of the
+    /// shading (ambient and directional lights), 1 when the point light is on (else all 0: the
+    /// grey levels are used as they are).
+    pub shade: [f32; 4],
+    /// The point light in the target frame: `x, y`, `I max(0, n_z z)` (its intensity times the
+    /// cosine numerator, n the camera-side normal), `z`.
+    pub lamp: [f32; 4],
 }
 
 #[cfg(test)]

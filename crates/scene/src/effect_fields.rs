@@ -31,24 +31,49 @@ pub const FIELDS: [&str; 23] = [
     "motion.twist.5",
 ];
 
-/// A light's fields, `N` its index among the `[[light]]` tables (from 0): its irradiance and the
-/// components of its direction (normalised where it is used).
-pub const LIGHT_FIELDS: [&str; 4] = ["light.N.irradiance", "light.N.direction.0", "light.N.direction.1", "light.N.direction.2"];
+/// A light's fields: `light.N.*` of the N-th directional `[[light]]` (from 0), its irradiance
+/// and the components of its direction (normalised where it is used); `point.N.*` of the N-th
+/// point light, its intensity and position.
+pub const LIGHT_FIELDS: [&str; 8] = [
+    "light.N.irradiance",
+    "light.N.direction.0",
+    "light.N.direction.1",
+    "light.N.direction.2",
+    "point.N.intensity",
+    "point.N.position_m.0",
+    "point.N.position_m.1",
+    "point.N.position_m.2",
+];
 
 /// The slot of a `light.N.*` field.
 fn light_slot<'r>(render: &'r mut RenderSettings, field: &str) -> Result<&'r mut f64, SceneError> {
-    let rest = field.strip_prefix("light.").ok_or_else(|| unknown(field))?;
+    let (kind, rest) = field.split_once('.').ok_or_else(|| unknown(field))?;
     let (n, what) = rest.split_once('.').ok_or_else(|| unknown(field))?;
     let n: usize = n.parse().map_err(|_| unknown(field))?;
-    let light = render.lighting.lights.get_mut(n).and_then(Option::as_mut).ok_or_else(|| SceneError::InvalidField {
-        field: field.into(),
-        reason: format!("a range for it needs a `[[light]]` table number {n} (counting from 0)"),
-    })?;
-    match what {
-        "irradiance" => Ok(&mut light.irradiance),
-        "direction.0" => Ok(&mut light.direction[0]),
-        "direction.1" => Ok(&mut light.direction[1]),
-        "direction.2" => Ok(&mut light.direction[2]),
+    let absent =
+        || SceneError::InvalidField { field: field.into(), reason: format!("a range for it needs {kind} light number {n} (counting from 0) in `[[light]]`") };
+    let l = &mut render.lighting;
+    match (kind, what) {
+        ("light", _) => {
+            let light = l.lights.get_mut(n).and_then(Option::as_mut).ok_or_else(absent)?;
+            match what {
+                "irradiance" => Ok(&mut light.irradiance),
+                "direction.0" => Ok(&mut light.direction[0]),
+                "direction.1" => Ok(&mut light.direction[1]),
+                "direction.2" => Ok(&mut light.direction[2]),
+                _ => Err(unknown(field)),
+            }
+        }
+        ("point", _) => {
+            let lamp = l.points.get_mut(n).and_then(Option::as_mut).ok_or_else(absent)?;
+            match what {
+                "intensity" => Ok(&mut lamp.intensity),
+                "position_m.0" => Ok(&mut lamp.position_m[0]),
+                "position_m.1" => Ok(&mut lamp.position_m[1]),
+                "position_m.2" => Ok(&mut lamp.position_m[2]),
+                _ => Err(unknown(field)),
+            }
+        }
         _ => Err(unknown(field)),
     }
 }
@@ -65,7 +90,7 @@ fn missing(field: &str, table: &str) -> SceneError {
 /// # Errors
 /// An unknown field, or a field of a `[sensor]` or thin lens the settings do not have.
 pub fn set_field(render: &mut RenderSettings, field: &str, value: f64) -> Result<(), SceneError> {
-    if field.starts_with("light.") {
+    if field.starts_with("light.") || field.starts_with("point.") {
         *light_slot(render, field)? = value;
         return Ok(());
     }

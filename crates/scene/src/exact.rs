@@ -33,6 +33,9 @@ pub fn render_exact_planar(scene: &Scene, subdivisions: u32) -> Result<ExactImag
     scene.validate()?;
     let shaded = crate::lighting::shade(scene)?;
     let scene: &Scene = &shaded;
+    if scene.render.lighting.varies() {
+        return Err(SceneError::InvalidField { field: "light".into(), reason: "the exact reference shades uniform lighting only (no point light)".into() });
+    }
     if !(1..=64).contains(&subdivisions) {
         return Err(SceneError::InvalidField { field: "subdivisions".into(), reason: format!("must be in 1..=64, got {subdivisions}") });
     }

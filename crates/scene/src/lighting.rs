@@ -9,10 +9,18 @@
 //! no ambient leaves the target as it was). The background (what rays that miss the target see)
 //! is not a surface and stays as given.
 //!
+//! A point light at `L` with intensity `I` adds `I max(0, -n . u) / r^2` at a surface point `X`,
+//! `r = |X - L|`, `u = (X - L) / r` (the inverse-square law: `I` is the irradiance at 1 m on a
+//! surface facing the light).
+//!
 //! A planar target under directional lights has one normal, so its shading is one factor per
-//! image and exact: the renderer scales the target's grey levels by it ([`shade`]). Targets
-//! whose normal varies (a warped board, the S-path's beads) and objects are refused with lights
-//! until the shader shades per pixel.
+//! image and exact: the renderer scales the target's grey levels by it ([`shade`]). A point light
+//! varies over the board: the shader evaluates the factor at each pixel's board point (at the
+//! pixel centre's ray for closed-form edge coverage, at every sample where it supersamples), so
+//! a pixel's value is exact to the factor's variation across one pixel (second order: below
+//! 1e-3 grey levels for a lamp 0.1 m or more from the board). Targets whose normal varies (a
+//! warped board, the S-path's beads) and objects are refused with lights until the shader
+//! shades them.
 //!
 //! Reference: J. Lambert, *Photometria* (1760); any graphics text (e.g. Pharr, Jakob, Humphreys,
 //! *Physically Based Rendering*, 4th ed., section 4.3 on irradiance and the cosine law).
@@ -21,8 +29,11 @@ use nalgebra::Vector3;
 
 use crate::{Scene, SceneError};
 
-/// At most this many lights per scene (the settings stay `Copy`).
+/// At most this many directional lights per scene (the settings stay `Copy`).
 pub const MAX_LIGHTS: usize = 8;
+
+/// At most this many point lights (the shader's uniforms hold one).
+pub const MAX_POINT_LIGHTS: usize = 1;
 
 /// The frame a light's direction is given in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
@@ -47,6 +58,17 @@ pub struct DirectionalLight {
     pub irradiance: f64,
 }
 
+/// One point light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointLight {
+    /// The frame of `position_m`.
+    pub frame: LightFrame,
+    /// Its position, metres.
+    pub position_m: [f64; 3],
+    /// Irradiance at 1 m on a surface facing it, grey levels per unit albedo.
+    pub intensity: f64,
+}
+
 /// The lights of a scene and its ambient term.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Lighting {
@@ -54,12 +76,68 @@ pub struct Lighting {
     pub ambient: Option<f64>,
     /// Directional lights (`None` entries are unused slots).
     pub lights: [Option<DirectionalLight>; MAX_LIGHTS],
+    /// Point lights.
+    pub points: [Option<PointLight>; MAX_POINT_LIGHTS],
 }
 
 impl Lighting {
     /// Whether this lighting leaves every target as it is (no light, ambient 1 or unset).
     pub fn is_neutral(&self) -> bool {
-        self.lights.iter().all(Option::is_none) && self.ambient.is_none_or(|a| a == 1.0)
+        !self.any_light() && self.ambient.is_none_or(|a| a == 1.0)
+    }
+
+    fn any_light(&self) -> bool {
+        self.lights.iter().any(Option::is_some) || self.points.iter().any(Option::is_some)
+    }
+
+    /// Whether the shading varies over a flat board (a point light).
+    pub fn varies(&self) -> bool {
+        self.points.iter().any(Option::is_some)
+    }
+
+    /// Add a point light (at most [`MAX_POINT_LIGHTS`]).
+    ///
+    /// # Errors
+    /// [`SceneError::InvalidField`] for a non-finite position, a negative or non-finite
+    /// intensity, or one light too many.
+    pub fn add_point(&mut self, frame: LightFrame, position_m: [f64; 3], intensity: f64) -> Result<(), SceneError> {
+        if !position_m.iter().all(|v| v.is_finite()) {
+            return Err(invalid("light.position_m", format!("must be finite, got {position_m:?}")));
+        }
+        if !(intensity >= 0.0) || !intensity.is_finite() {
+            return Err(invalid("light.intensity", format!("must be finite and >= 0, got {intensity}")));
+        }
+        let slot = self.points.iter_mut().find(|l| l.is_none()).ok_or_else(|| invalid("light", format!("at most {MAX_POINT_LIGHTS} point light so far")))?;
+        *slot = Some(PointLight { frame, position_m, intensity });
+        Ok(())
+    }
+
+    /// A point light's position in the camera frame.
+    pub fn point_in_camera(l: &PointLight, cam_from_target: &nalgebra::Isometry3<f64>) -> Vector3<f64> {
+        match l.frame {
+            LightFrame::Camera => Vector3::from(l.position_m),
+            LightFrame::Target => (cam_from_target * nalgebra::Point3::from(l.position_m)).coords,
+        }
+    }
+
+    /// The irradiance factor at the surface point `p_cam` (camera frame) with camera-side normal
+    /// `normal_cam`: [`Lighting::factor`] plus every point light's inverse-square term.
+    pub fn irradiance_at(&self, p_cam: &Vector3<f64>, normal_cam: &Vector3<f64>, cam_from_target: &nalgebra::Isometry3<f64>) -> f64 {
+        self.factor(normal_cam, cam_from_target)
+            + self
+                .points
+                .iter()
+                .flatten()
+                .map(|l| {
+                    let d = p_cam - Self::point_in_camera(l, cam_from_target);
+                    let r = d.norm();
+                    if r > 0.0 {
+                        l.intensity * (-normal_cam.dot(&d)).max(0.0) / (r * r * r)
+                    } else {
+                        0.0
+                    }
+                })
+                .sum::<f64>()
     }
 
     /// Add a light (at most [`MAX_LIGHTS`]).
@@ -89,6 +167,11 @@ impl Lighting {
         if let Some(a) = self.ambient.filter(|a| !(*a >= 0.0) || !a.is_finite()) {
             return Err(invalid("render.ambient", format!("must be finite and >= 0, got {a}")));
         }
+        for p in self.points.iter().flatten() {
+            if !p.position_m.iter().all(|v| v.is_finite()) || !(p.intensity >= 0.0) || !p.intensity.is_finite() {
+                return Err(invalid("light", format!("position {:?} must be finite, intensity {} finite and >= 0", p.position_m, p.intensity)));
+            }
+        }
         for l in self.lights.iter().flatten() {
             let d = Vector3::from(l.direction);
             if !(d.norm() > 0.0) || !d.iter().all(|v| v.is_finite()) || !(l.irradiance >= 0.0) || !l.irradiance.is_finite() {
@@ -98,11 +181,12 @@ impl Lighting {
         Ok(())
     }
 
-    /// The shading factor `A + sum E_i max(0, -n . d_i)` of a surface whose camera-side normal
+    /// The shading factor `A + sum E_i max(0, -n . d_i)` (directional lights and ambient; point
+    /// lights: [`Lighting::irradiance_at`]) of a surface whose camera-side normal
     /// is `normal_cam` (camera frame), `cam_from_target` turning target-frame directions.
     pub fn factor(&self, normal_cam: &Vector3<f64>, cam_from_target: &nalgebra::Isometry3<f64>) -> f64 {
         let lit = self.lights.iter().flatten();
-        let ambient = self.ambient.unwrap_or(if lit.clone().next().is_some() { 0.0 } else { 1.0 });
+        let ambient = self.ambient.unwrap_or(if self.any_light() { 0.0 } else { 1.0 });
         ambient
             + lit
                 .map(|l| {
@@ -136,7 +220,7 @@ pub fn camera_side_normal(scene: &Scene) -> Vector3<f64> {
 
 /// The scene as the renderer draws it: the target's surface grey levels (not its background)
 /// scaled by the lighting's factor and the lighting made neutral; the scene itself when its
-/// lighting is neutral already.
+/// lighting is neutral already, or varies over the board (a point light: the shader shades).
 ///
 /// # Errors
 /// [`SceneError::InvalidField`] for lights on a target or with objects the shading does not
@@ -152,6 +236,9 @@ pub fn shade(scene: &Scene) -> Result<std::borrow::Cow<'_, Scene>, SceneError> {
     }
     if !scene.objects.is_empty() {
         return Err(invalid("light", "objects are not shaded yet: lights take scenes without objects".into()));
+    }
+    if lighting.varies() {
+        return Ok(std::borrow::Cow::Borrowed(scene));
     }
     let f = lighting.factor(&camera_side_normal(scene), &scene.cam_from_target);
     let t = &scene.target;

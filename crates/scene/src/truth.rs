@@ -271,9 +271,11 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
             .map(|(j, _)| j)
             .collect()
     };
-    // One normal for a flat board: one irradiance for every feature.
+    // One normal for a flat board; a point light's term depends on the feature's point.
     let lighting = scene.render.lighting;
-    let irradiance = (!lighting.is_neutral()).then(|| lighting.factor(&super::lighting::camera_side_normal(scene), &scene.cam_from_target));
+    let normal = super::lighting::camera_side_normal(scene);
+    let irradiance_at =
+        |p_cam: &nalgebra::Point3<f64>| (!lighting.is_neutral()).then(|| lighting.irradiance_at(&p_cam.coords, &normal, &scene.cam_from_target));
     let features = pts
         .par_iter()
         .enumerate()
@@ -294,7 +296,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 area_px: None,
                 area_centroid_px: None,
                 effects: super::effect_truth::effect_label(scene, p),
-                irradiance,
+                irradiance: irradiance_at(&p_cam),
             };
             if kind == FeatureKind::Dot {
                 let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));

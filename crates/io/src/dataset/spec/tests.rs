@@ -2,7 +2,7 @@
 
 use super::*;
 
-const EXAMPLES: [(&str, &str); 13] = [
+const EXAMPLES: [(&str, &str); 14] = [
     ("tiny", include_str!("../../../../../assets/specs/tiny.toml")),
     ("chessboard_1280", include_str!("../../../../../assets/specs/chessboard_1280.toml")),
     ("course_calibration", include_str!("../../../../../assets/specs/course_calibration.toml")),
@@ -16,6 +16,7 @@ const EXAMPLES: [(&str, &str); 13] = [
     ("aprilgrid_partial_1280", include_str!("../../../../../assets/specs/aprilgrid_partial_1280.toml")),
     ("stereo_rig_1280", include_str!("../../../../../assets/specs/stereo_rig_1280.toml")),
     ("lit_chessboard_1280", include_str!("../../../../../assets/specs/lit_chessboard_1280.toml")),
+    ("lamp_chessboard_1280", include_str!("../../../../../assets/specs/lamp_chessboard_1280.toml")),
 ];
 
 #[test]
