@@ -90,7 +90,7 @@ mod tests {
         }
         fields!(
             size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet, warp,
-            warp_c, tfc0, tfc1, tfc2
+            warp_c, tfc0, tfc1, tfc2, shade, lamp
         )
     }
 

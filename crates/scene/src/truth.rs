@@ -94,6 +94,13 @@ pub struct FeatureLabel {
     pub irradiance: Option<f64>,
 }
 
+/// Under lights, the irradiance factor at a feature (camera frame); `None` without lights. One
+/// normal for a flat board; a point light's term depends on the feature's point.
+fn feature_irradiance(scene: &Scene, p_cam: &nalgebra::Point3<f64>) -> Option<f64> {
+    let lighting = scene.render.lighting;
+    (!lighting.is_neutral()).then(|| lighting.irradiance_at(&p_cam.coords, &super::lighting::camera_side_normal(scene), &scene.cam_from_target))
+}
+
 /// Truth file contents.
 #[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct TruthLabels {
@@ -271,11 +278,6 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
             .map(|(j, _)| j)
             .collect()
     };
-    // One normal for a flat board; a point light's term depends on the feature's point.
-    let lighting = scene.render.lighting;
-    let normal = super::lighting::camera_side_normal(scene);
-    let irradiance_at =
-        |p_cam: &nalgebra::Point3<f64>| (!lighting.is_neutral()).then(|| lighting.irradiance_at(&p_cam.coords, &normal, &scene.cam_from_target));
     let features = pts
         .par_iter()
         .enumerate()
@@ -296,7 +298,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 area_px: None,
                 area_centroid_px: None,
                 effects: super::effect_truth::effect_label(scene, p),
-                irradiance: irradiance_at(&p_cam),
+                irradiance: feature_irradiance(scene, &p_cam),
             };
             if kind == FeatureKind::Dot {
                 let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));
