@@ -58,8 +58,9 @@ struct Params {
     tfc0: vec4<f32>,     // warped boards: rows of target_from_cam's rotation (xyz) and the camera centre in the target frame (w)
     tfc1: vec4<f32>,
     tfc2: vec4<f32>,
-    shade: vec4<f32>,    // planar targets under a point light: constant shading (ambient + directional), 1 when on, 0, 0 (planar.wgsl shaded_greys)
-    lamp: vec4<f32>,     // the point light in the target frame: x, y, I max(0, n_z z), z
+    shade: vec4<f32>,    // planar targets under a point light: constant shading (ambient + directional), 1 when on, gloss F0, roughness (0: none) (planar.wgsl shaded_greys)
+    lamp: vec4<f32>,     // the point light in the target frame: x, y, z, intensity
+    eye: vec4<f32>,      // the camera centre in the target frame, the camera-side normal's z (+-1)
 };
 
 // Pass kinds (crates/render/src/gpu_scene.rs `PassKind`; the test

@@ -1,14 +1,37 @@
 // ---------------------------------------------------------------- planar targets
 
 // The grey levels at board point (x, y): as given, or under a point light (P.shade.y == 1) the
-// surface levels (dark, light, margin) times the shading there, the constant part plus the
-// lamp's inverse-square term (crates/scene/src/lighting.rs); the background is not a surface.
+// surface levels (dark, light, margin) times the shading there (the constant part plus the
+// lamp's inverse-square term) plus the glossy coating's GGX reflection of the lamp
+// (crates/scene/src/lighting.rs `Gloss`); the background is not a surface.
 fn shaded_greys(x: f32, y: f32) -> vec4<f32> {
     if (P.shade.y == 0.0) { return P.grey; }
-    let d = vec3<f32>(x - P.lamp.x, y - P.lamp.y, -P.lamp.w);
-    let r2 = dot(d, d);
-    let s = P.shade.x + P.lamp.z / (r2 * sqrt(r2));
-    return vec4<f32>(P.grey.xyz * s, P.grey.w);
+    let to_l = P.lamp.xyz - vec3<f32>(x, y, 0.0);
+    let r2 = dot(to_l, to_l);
+    let nz = P.eye.w;
+    let cos_l = nz * to_l.z / sqrt(r2);
+    let s = P.shade.x + P.lamp.w * max(cos_l, 0.0) / r2;
+    return vec4<f32>(P.grey.xyz * s + vec3<f32>(ggx_grey(to_l / sqrt(r2), x, y) * P.lamp.w / r2), P.grey.w);
+}
+
+// The coating's specular grey level per unit lamp irradiance (Cook-Torrance with GGX, Smith-
+// Schlick G with k = alpha / 2, Schlick's Fresnel; times pi 255: lighting.rs `Gloss`).
+fn ggx_grey(l: vec3<f32>, x: f32, y: f32) -> f32 {
+    let rough = P.shade.w;
+    if (rough == 0.0) { return 0.0; }
+    let v = normalize(P.eye.xyz - vec3<f32>(x, y, 0.0));
+    let nz = P.eye.w;
+    let nl = nz * l.z; let nv = nz * v.z;
+    if (nl <= 0.0 || nv <= 0.0) { return 0.0; }
+    let h = normalize(l + v);
+    let a = rough * rough; let a2 = a * a;
+    let nh = max(nz * h.z, 0.0);
+    let q = nh * nh * (a2 - 1.0) + 1.0;
+    let d = a2 / (3.14159265 * q * q);
+    let k = 0.5 * a;
+    let g = nl / (nl * (1.0 - k) + k) * nv / (nv * (1.0 - k) + k);
+    let f = P.shade.z + (1.0 - P.shade.z) * pow(1.0 - max(dot(v, h), 0.0), 5.0);
+    return 3.14159265 * 255.0 * d * g * f / (4.0 * nv);
 }
 
 fn chess_value(x: f32, y: f32) -> f32 {

@@ -142,3 +142,42 @@ fn a_point_light_shades_each_pixel_by_the_inverse_square_law() {
         assert!((f.irradiance.expect("irradiance") - law(&p.coords)).abs() < 1e-9);
     }
 }
+
+/// A glossy board under a lamp beside the camera: the highlight (the render minus the same render
+/// without gloss) peaks within 1 px of the mirror-reflection point worked out here (the lamp
+/// mirrored in the board's plane, joined to the camera centre, projected through the lens), and
+/// the shader's peak value matches the library's GGX term at that pixel's board point.
+#[test]
+fn a_glossy_boards_highlight_sits_at_the_mirror_point() {
+    use synthcam::scene::lighting::Gloss;
+    let cam = camera(640, 480, 600.0, [-0.2, 0.05, 0.0, 0.0, 0.0]);
+    let scene = chessboard_scene(cam, [8, 6], 0.04, 20.0, 0.7, [0.03, 0.02]);
+    // A lamp placed so that its reflection is seen near the board's centre: on the line from the
+    // camera's mirror image through a point beside the centre.
+    let z = scene.cam_from_target.rotation * Vector3::z();
+    let aim = scene.cam_from_target * nalgebra::Point3::new(0.13, 0.11, 0.0);
+    let eye_mirrored = 2.0 * z.dot(&scene.cam_from_target.translation.vector) * z;
+    let lamp = eye_mirrored + 1.7 * (aim.coords - eye_mirrored);
+    let mut lighting = Lighting { ambient: Some(0.3), ..Default::default() };
+    lighting.add_point(LightFrame::Camera, lamp.into(), 0.2).expect("lamp");
+    let glossy = Lighting { gloss: Some(Gloss { specular: 0.04, roughness: 0.25 }), ..lighting };
+    let matte = renderer().render_linear(&lit(&scene, lighting)).expect("matte");
+    let shiny = renderer().render_linear(&lit(&scene, glossy)).expect("glossy");
+    let (k, peak) = matte.iter().zip(&shiny).map(|(m, s)| f64::from(s - m)).enumerate().fold((0, f64::MIN), |a, (k, d)| if d > a.1 { (k, d) } else { a });
+    let q = nalgebra::Point2::new((k % 640) as f64, (k / 640) as f64);
+    // The mirror point: the lamp reflected in the plane n . x = c, on the camera's line to it.
+    let n = if z.dot(&scene.cam_from_target.translation.vector) > 0.0 { -z } else { z };
+    let c = n.dot(&scene.cam_from_target.translation.vector);
+    let mirrored = lamp - 2.0 * (n.dot(&lamp) - c) * n;
+    let m = mirrored * (c / n.dot(&mirrored));
+    let want = cam.project_unchecked(&nalgebra::Point3::from(m));
+    let off = (q - want).norm();
+    let ray = cam.unproject(&q).expect("ray");
+    let library = glossy.specular_at(&(ray * (c / n.dot(&ray))), &n, &scene.cam_from_target);
+    eprintln!(
+        "highlight: peak {peak:.2} grey levels at ({}, {}), mirror point ({:.2}, {:.2}): {off:.3} px apart; the library's GGX there {library:.2}",
+        q.x, q.y, want.x, want.y
+    );
+    assert!(peak > 20.0 && off <= 1.0, "peak {peak} at {q}, mirror {want}");
+    assert!((peak - library).abs() <= 1e-3 * library, "{peak} vs {library}");
+}

@@ -201,9 +201,12 @@ fn lamp_params(p: &mut Params, scene: &Scene) {
     let n_cam = synthcam_scene::lighting::camera_side_normal(scene);
     let target_from_cam = scene.cam_from_target.inverse();
     let l_t = target_from_cam * nalgebra::Point3::from(synthcam_scene::lighting::Lighting::point_in_camera(lamp, &scene.cam_from_target));
+    let eye = target_from_cam * nalgebra::Point3::origin();
     let n_z = (target_from_cam.rotation * n_cam).z.signum();
-    p.shade = [lighting.factor(&n_cam, &scene.cam_from_target) as f32, 1.0, 0.0, 0.0];
-    p.lamp = [l_t.x as f32, l_t.y as f32, (lamp.intensity * (n_z * l_t.z).max(0.0)) as f32, l_t.z as f32];
+    let gloss = lighting.gloss.map_or([0.0; 2], |g| [g.specular as f32, g.roughness as f32]);
+    p.shade = [lighting.factor(&n_cam, &scene.cam_from_target) as f32, 1.0, gloss[0], gloss[1]];
+    p.lamp = [l_t.x as f32, l_t.y as f32, l_t.z as f32, lamp.intensity as f32];
+    p.eye = [eye.x as f32, eye.y as f32, eye.z as f32, n_z as f32];
 }
 
 /// The lens model's uniforms (see `Params`); `split` from [`super::bend::split_radii`].

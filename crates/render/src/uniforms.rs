@@ -69,11 +69,12 @@ pub struct Params {
     pub tfc2: [f32; 4],
     /// Planar targets under a point light (`synthcam_scene::lighting`): the constant part of the
     /// shading (ambient and directional lights), 1 when the point light is on (else all 0: the
-    /// grey levels are used as they are).
+    /// grey levels are used as they are), the gloss's `F0` and roughness (0: no gloss).
     pub shade: [f32; 4],
-    /// The point light in the target frame: `x, y`, `I max(0, n_z z)` (its intensity times the
-    /// cosine numerator, n the camera-side normal), `z`.
+    /// The point light in the target frame: `x, y, z`, intensity.
     pub lamp: [f32; 4],
+    /// The camera centre in the target frame `x, y, z`, and the camera-side normal's z (+-1).
+    pub eye: [f32; 4],
 }
 
 #[cfg(test)]
@@ -90,7 +91,7 @@ mod tests {
         }
         fields!(
             size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet, warp,
-            warp_c, tfc0, tfc1, tfc2, shade, lamp
+            warp_c, tfc0, tfc1, tfc2, shade, lamp, eye
         )
     }
 

@@ -69,9 +69,48 @@ pub struct PointLight {
     pub intensity: f64,
 }
 
+/// A glossy coating on the target (a laminated board): GGX microfacet reflection of the point
+/// light, added to the diffuse shading (not scaled by the albedo).
+///
+/// In grey levels the term is `pi 255 f_s E_l cos_l` with `f_s = D G F / (4 cos_l cos_v)` the
+/// Cook-Torrance BRDF (GGX `D` with `alpha = roughness^2`, Smith-Schlick `G` with `k = alpha / 2`,
+/// Schlick's Fresnel `F` from `specular` at normal incidence), `E_l` the lamp's irradiance: the
+/// scale at which a white Lambertian surface (albedo 1, BRDF `1 / pi`) shows 255.
+///
+/// Reference: B. Walter et al., "Microfacet models for refraction through rough surfaces",
+/// EGSR 2007 (GGX); B. Karis, "Real Shading in Unreal Engine 4", SIGGRAPH 2013 course notes
+/// (the `k = alpha / 2` Smith-Schlick form, Schlick's Fresnel).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gloss {
+    /// Reflectance at normal incidence (Schlick's `F0`; 0.04 for plastic film).
+    pub specular: f64,
+    /// Perceptual roughness in (0, 1]; GGX `alpha = roughness^2`.
+    pub roughness: f64,
+}
+
+impl Gloss {
+    /// The specular term in grey levels per unit lamp irradiance `E_l` (module documentation),
+    /// for unit vectors `n` (normal), `l` (to the light), `v` (to the camera).
+    pub fn grey_per_irradiance(&self, n: &Vector3<f64>, l: &Vector3<f64>, v: &Vector3<f64>) -> f64 {
+        let (nl, nv) = (n.dot(l), n.dot(v));
+        if nl <= 0.0 || nv <= 0.0 {
+            return 0.0;
+        }
+        let h = (l + v).normalize();
+        let a2 = self.roughness.powi(4);
+        let d = ggx_d(n.dot(&h).max(0.0), a2);
+        let k = 0.5 * self.roughness * self.roughness;
+        let g1 = |x: f64| x / (x * (1.0 - k) + k);
+        let f = self.specular + (1.0 - self.specular) * (1.0 - v.dot(&h).max(0.0)).powi(5);
+        std::f64::consts::PI * 255.0 * d * g1(nl) * g1(nv) * f / (4.0 * nv)
+    }
+}
+
 /// The lights of a scene and its ambient term.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Lighting {
+    /// The target's glossy coating (`[render] specular`, `roughness`); it reflects point lights.
+    pub gloss: Option<Gloss>,
     /// The ambient term `A`; `None`: 1 without lights, 0 with.
     pub ambient: Option<f64>,
     /// Directional lights (`None` entries are unused slots).
@@ -84,6 +123,22 @@ impl Lighting {
     /// Whether this lighting leaves every target as it is (no light, ambient 1 or unset).
     pub fn is_neutral(&self) -> bool {
         !self.any_light() && self.ambient.is_none_or(|a| a == 1.0)
+    }
+
+    /// The specular grey level the point lights add at `p_cam` (camera frame; the camera at the
+    /// origin), normal `normal_cam`; 0 without gloss.
+    pub fn specular_at(&self, p_cam: &Vector3<f64>, normal_cam: &Vector3<f64>, cam_from_target: &nalgebra::Isometry3<f64>) -> f64 {
+        let Some(g) = self.gloss else { return 0.0 };
+        let v = -p_cam.normalize();
+        self.points
+            .iter()
+            .flatten()
+            .map(|lamp| {
+                let to_l = Self::point_in_camera(lamp, cam_from_target) - p_cam;
+                let r2 = to_l.norm_squared();
+                g.grey_per_irradiance(normal_cam, &to_l.normalize(), &v) * lamp.intensity / r2.max(f64::MIN_POSITIVE)
+            })
+            .sum()
     }
 
     fn any_light(&self) -> bool {
@@ -164,6 +219,11 @@ impl Lighting {
     /// [`SceneError::InvalidField`] for a negative or non-finite ambient term, a zero or
     /// non-finite direction, or a negative or non-finite irradiance.
     pub fn validate(&self) -> Result<(), SceneError> {
+        if let Some(g) = self.gloss {
+            if !((0.0..=1.0).contains(&g.specular) && g.roughness > 0.0 && g.roughness <= 1.0) {
+                return Err(invalid("render.specular", format!("specular must be in [0, 1] and roughness in (0, 1], got {} and {}", g.specular, g.roughness)));
+            }
+        }
         if let Some(a) = self.ambient.filter(|a| !(*a >= 0.0) || !a.is_finite()) {
             return Err(invalid("render.ambient", format!("must be finite and >= 0, got {a}")));
         }
@@ -200,6 +260,11 @@ impl Lighting {
                 })
                 .sum::<f64>()
     }
+}
+
+/// GGX's normal distribution `D(h)` at `n . h`, `a2 = alpha^2` (Walter et al. 2007, eq. 33).
+fn ggx_d(nh: f64, a2: f64) -> f64 {
+    a2 / (std::f64::consts::PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2))
 }
 
 fn invalid(field: &str, reason: String) -> SceneError {
@@ -257,5 +322,44 @@ fn surface_greys(t: &synthcam_core::target::Target) -> [f64; 3] {
         Target::SPath(s) => [s.dark, s.light, s.light],
         Target::Charuco(c) => [c.look.dark, c.look.light, c.look.margin],
         Target::AprilGrid(g) => [g.look.dark, g.look.light, g.look.margin],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// GGX's D is a distribution of microfacet normals: its projected area integrates to one over
+    /// the hemisphere, `int D(h) (n . h) dw = 1` (Walter et al. 2007, eq. 4), for any roughness.
+    #[test]
+    fn ggx_normals_project_to_unit_area() {
+        for alpha in [0.05f64, 0.2, 0.6, 1.0] {
+            let n = 200_000;
+            let dt = std::f64::consts::FRAC_PI_2 / n as f64;
+            let integral: f64 = (0..n)
+                .map(|i| {
+                    let t = (i as f64 + 0.5) * dt;
+                    ggx_d(t.cos(), alpha * alpha) * t.cos() * t.sin() * dt * std::f64::consts::TAU
+                })
+                .sum();
+            assert!((integral - 1.0).abs() < 1e-4, "alpha {alpha}: {integral}");
+        }
+    }
+
+    /// No light and no ambient given leaves every surface as it is; a point light behind the
+    /// board adds nothing; the highlight of a coating is zero where the camera or the light is
+    /// behind the surface.
+    #[test]
+    fn neutral_and_hidden_lights_add_nothing() {
+        let id = nalgebra::Isometry3::identity();
+        let n = Vector3::new(0.0, 0.0, -1.0);
+        assert_eq!(Lighting::default().factor(&n, &id), 1.0);
+        let mut l = Lighting { ambient: Some(0.25), ..Default::default() };
+        l.add_point(LightFrame::Camera, [0.0, 0.0, 2.0], 1.0).expect("lamp");
+        assert_eq!(l.irradiance_at(&Vector3::new(0.0, 0.0, 1.0), &n, &id), 0.25);
+        let g = Gloss { specular: 0.04, roughness: 0.3 };
+        let v = Vector3::new(0.0, 0.0, -1.0);
+        assert_eq!(g.grey_per_irradiance(&n, &Vector3::new(0.0, 0.0, 1.0), &v), 0.0);
+        assert!(g.grey_per_irradiance(&n, &v, &v) > 0.0);
     }
 }

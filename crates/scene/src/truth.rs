@@ -92,13 +92,20 @@ pub struct FeatureLabel {
     /// `A + sum E cos` (its grey levels are the albedos times it); absent without lights.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub irradiance: Option<f64>,
+    /// A glossy target under a point light: the specular grey level added at the feature (the
+    /// highlight's share there); absent without gloss.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specular: Option<f64>,
 }
 
-/// Under lights, the irradiance factor at a feature (camera frame); `None` without lights. One
-/// normal for a flat board; a point light's term depends on the feature's point.
-fn feature_irradiance(scene: &Scene, p_cam: &nalgebra::Point3<f64>) -> Option<f64> {
+/// Under lights, the irradiance factor at a feature (camera frame) and, on a glossy target, the
+/// specular grey level there; `None` without lights (or gloss). One normal for a flat board; a
+/// point light's terms depend on the feature's point.
+fn feature_light(scene: &Scene, p_cam: &nalgebra::Point3<f64>) -> (Option<f64>, Option<f64>) {
     let lighting = scene.render.lighting;
-    (!lighting.is_neutral()).then(|| lighting.irradiance_at(&p_cam.coords, &super::lighting::camera_side_normal(scene), &scene.cam_from_target))
+    let n = super::lighting::camera_side_normal(scene);
+    let irradiance = (!lighting.is_neutral()).then(|| lighting.irradiance_at(&p_cam.coords, &n, &scene.cam_from_target));
+    (irradiance, lighting.gloss.map(|_| lighting.specular_at(&p_cam.coords, &n, &scene.cam_from_target)))
 }
 
 /// Truth file contents.
@@ -285,6 +292,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
             let p_cam = scene.cam_from_target * p;
             let proj = scene.camera.project(&p_cam);
             let occluded = super::objects::occluded(&scene.objects, &p_cam);
+            let (irradiance, specular) = feature_light(scene, &p_cam);
             let mut label = FeatureLabel {
                 id,
                 point_target_m: [p.x, p.y, p.z],
@@ -298,7 +306,8 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 area_px: None,
                 area_centroid_px: None,
                 effects: super::effect_truth::effect_label(scene, p),
-                irradiance: feature_irradiance(scene, &p_cam),
+                irradiance,
+                specular,
             };
             if kind == FeatureKind::Dot {
                 let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));

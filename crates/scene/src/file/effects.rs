@@ -201,6 +201,12 @@ pub fn render_settings(
     motion: Option<Motion>,
     output: Option<&OutputSpec>,
 ) -> Result<crate::RenderSettings, SceneError> {
+    if render.roughness.is_some() && render.specular.is_none() {
+        return Err(SceneError::InvalidField {
+            field: "render.roughness".into(),
+            reason: "a glossy coating needs `specular` (its reflectance at normal incidence)".into(),
+        });
+    }
     let tables = EffectTables { sensor, optics: optics.cloned(), motion, output: output.cloned() };
     let mut settings = render.to_settings();
     settings.effects = tables.to_effects()?;
@@ -225,6 +231,11 @@ pub struct RenderSpec {
     /// The ambient term of the lighting ([`crate::lighting`]; default 1 without `[[light]]`, 0
     /// with).
     pub ambient: Option<f64>,
+    /// The target's glossy coating: reflectance at normal incidence ([`crate::lighting::Gloss`];
+    /// with `roughness`, default 0.3).
+    pub specular: Option<f64>,
+    /// The coating's roughness in (0, 1] (needs `specular`).
+    pub roughness: Option<f64>,
 }
 
 impl RenderSpec {
@@ -238,7 +249,11 @@ impl RenderSpec {
             seed: self.seed.unwrap_or(d.seed),
             bit_depth: self.bit_depth.unwrap_or(d.bit_depth),
             effects: d.effects,
-            lighting: crate::lighting::Lighting { ambient: self.ambient, ..d.lighting },
+            lighting: crate::lighting::Lighting {
+                ambient: self.ambient,
+                gloss: self.specular.map(|specular| crate::lighting::Gloss { specular, roughness: self.roughness.unwrap_or(0.3) }),
+                ..d.lighting
+            },
         }
     }
 }
