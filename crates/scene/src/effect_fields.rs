@@ -5,8 +5,10 @@
 use super::{RenderSettings, SceneError};
 
 /// The field names [`set_field`] takes, besides a light's ([`LIGHT_FIELDS`]).
-pub const FIELDS: [&str; 23] = [
+pub const FIELDS: [&str; 25] = [
     "render.ambient",
+    "render.specular",
+    "render.roughness",
     "render.noise_sigma",
     "render.blur_sigma_px",
     "sensor.exposure_s",
@@ -99,6 +101,14 @@ pub fn set_field(render: &mut RenderSettings, field: &str, value: f64) -> Result
     }
     if field == "render.ambient" {
         render.lighting.ambient = Some(value);
+        return Ok(());
+    }
+    if let Some(part) = field.strip_prefix("render.").filter(|p| *p == "specular" || *p == "roughness") {
+        let gloss = render.lighting.gloss.as_mut().ok_or_else(|| SceneError::InvalidField {
+            field: field.into(),
+            reason: "a range for it needs a glossy target (`[render] specular`)".into(),
+        })?;
+        *(if part == "specular" { &mut gloss.specular } else { &mut gloss.roughness }) = value;
         return Ok(());
     }
     let linked_exposure = render.effects.sensor.is_some_and(|s| s.exposure_s == render.effects.motion.exposure_s);

@@ -2,7 +2,7 @@
 
 use super::*;
 
-const EXAMPLES: [(&str, &str); 14] = [
+const EXAMPLES: [(&str, &str); 15] = [
     ("tiny", include_str!("../../../../../assets/specs/tiny.toml")),
     ("chessboard_1280", include_str!("../../../../../assets/specs/chessboard_1280.toml")),
     ("course_calibration", include_str!("../../../../../assets/specs/course_calibration.toml")),
@@ -17,6 +17,7 @@ const EXAMPLES: [(&str, &str); 14] = [
     ("stereo_rig_1280", include_str!("../../../../../assets/specs/stereo_rig_1280.toml")),
     ("lit_chessboard_1280", include_str!("../../../../../assets/specs/lit_chessboard_1280.toml")),
     ("lamp_chessboard_1280", include_str!("../../../../../assets/specs/lamp_chessboard_1280.toml")),
+    ("glare_chessboard_1280", include_str!("../../../../../assets/specs/glare_chessboard_1280.toml")),
 ];
 
 #[test]
