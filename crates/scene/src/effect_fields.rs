@@ -104,10 +104,11 @@ pub fn set_field(render: &mut RenderSettings, field: &str, value: f64) -> Result
         return Ok(());
     }
     if let Some(part) = field.strip_prefix("render.").filter(|p| *p == "specular" || *p == "roughness") {
-        let gloss = render.lighting.gloss.as_mut().ok_or_else(|| SceneError::InvalidField {
-            field: field.into(),
-            reason: "a range for it needs a glossy target (`[render] specular`)".into(),
-        })?;
+        let gloss = render
+            .lighting
+            .gloss
+            .as_mut()
+            .ok_or_else(|| SceneError::InvalidField { field: field.into(), reason: "a range for it needs a glossy target (`[render] specular`)".into() })?;
         *(if part == "specular" { &mut gloss.specular } else { &mut gloss.roughness }) = value;
         return Ok(());
     }
