@@ -109,12 +109,8 @@ pub fn stereo_rectify(cam0: &CameraModel, cam1: &CameraModel, cam1_from_cam0: &I
 pub fn essential_fundamental(cam0: &CameraModel, cam1: &CameraModel, cam1_from_cam0: &Isometry3<f64>) -> (Matrix3<f64>, Matrix3<f64>) {
     let t = cam1_from_cam0.translation.vector;
     let e = t.cross_matrix() * cam1_from_cam0.rotation.to_rotation_matrix().matrix();
-    let k = |c: &CameraModel| {
-        let i = &c.intrinsics;
-        Matrix3::new(i.fx, i.skew, i.cx, 0.0, i.fy, i.cy, 0.0, 0.0, 1.0)
-    };
     let inv = |m: Matrix3<f64>| m.try_inverse().unwrap_or(Matrix3::from_element(f64::NAN));
-    let mut f = inv(k(cam1)).transpose() * e * inv(k(cam0));
+    let mut f = inv(cam1.intrinsics.matrix()).transpose() * e * inv(cam0.intrinsics.matrix());
     if f[(2, 2)].abs() > 0.0 {
         f /= f[(2, 2)];
     }
