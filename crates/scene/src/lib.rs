@@ -172,15 +172,24 @@ impl Scene {
             });
         }
         self.validate_objects()?;
-        let pts = self.target.feature_points_m();
-        let n = pts.len().max(1) as f64;
-        let mean_cam = pts.iter().map(|p| (self.cam_from_target * p).coords).sum::<nalgebra::Vector3<f64>>() / n;
-        // A fisheye whose reach passes 90 degrees sees targets behind the camera plane.
-        let seen = mean_cam.z > 0.0 || mean_cam.xy().norm().atan2(mean_cam.z) < self.camera.lens.max_angle_rad();
-        if !seen {
-            return Err(SceneError::TargetBehindCamera { mean_depth_m: mean_cam.z });
-        }
+        target_in_reach(&self.camera, &self.cam_from_target, &self.target.feature_points_m())
+    }
+}
+
+/// Whether `camera` can see a target whose feature points are `pts` (target frame) at
+/// `cam_from_target`: their mean in front of the camera, or within the reach of a fisheye that
+/// sees beyond 90 degrees (behind the camera plane).
+///
+/// # Errors
+/// [`SceneError::TargetBehindCamera`] with the mean depth.
+pub fn target_in_reach(camera: &synthcam_core::camera::CameraModel, cam_from_target: &Isometry3<f64>, pts: &[nalgebra::Point3<f64>]) -> Result<(), SceneError> {
+    let n = pts.len().max(1) as f64;
+    let mean_cam = pts.iter().map(|p| (cam_from_target * p).coords).sum::<nalgebra::Vector3<f64>>() / n;
+    let seen = mean_cam.z > 0.0 || mean_cam.xy().norm().atan2(mean_cam.z) < camera.lens.max_angle_rad();
+    if seen {
         Ok(())
+    } else {
+        Err(SceneError::TargetBehindCamera { mean_depth_m: mean_cam.z })
     }
 }
 

@@ -94,18 +94,16 @@ fn draw_pose(rng: &mut ChaCha8Rng, plan: &DatasetPlan, centre: &Vector3<f64>) ->
 }
 
 /// Whether the view meets the visibility constraint: in one camera ([`camera_meets`]), or in at
-/// least `min_cameras` of a rig's, every one of which must be able to render its image (the
-/// target in front of it, or within a fisheye's reach, as [`Scene::validate`] requires).
+/// least `min_cameras` of a rig's, every one of which must be able to render its image
+/// ([`synthcam_scene::target_in_reach`], as [`Scene::validate`] requires).
 fn meets_constraint(plan: &DatasetPlan, pts: &[Point3<f64>], cam0_from_target: &Isometry3<f64>) -> bool {
     if plan.rig.is_empty() {
         return camera_meets(plan, &plan.camera, pts, cam0_from_target);
     }
-    let n = pts.len().max(1) as f64;
     let mut meeting = 0;
     for m in &plan.rig {
         let cam_from_target = m.cam_from_cam0 * cam0_from_target;
-        let mean = pts.iter().map(|p| (cam_from_target * p).coords).sum::<Vector3<f64>>() / n;
-        if !(mean.z > 0.0 || mean.xy().norm().atan2(mean.z) < m.camera.lens.max_angle_rad()) {
+        if synthcam_scene::target_in_reach(&m.camera, &cam_from_target, pts).is_err() {
             return false;
         }
         meeting += usize::from(camera_meets(plan, &m.camera, pts, &cam_from_target));
@@ -202,12 +200,19 @@ pub fn scene_of(plan: &DatasetPlan, view: &SampledView) -> Scene {
 /// draws for every camera) seen through camera `i` (`cam_from_cam0 * cam0_from_target`), with a
 /// noise seed of its own (camera 0 keeps the view's). `None` when `i` is not a rig camera.
 pub fn rig_scene_of(plan: &DatasetPlan, view: &SampledView, i: usize) -> Option<Scene> {
-    let m = plan.rig.get(i)?;
+    let (seed, cam_from_target) = rig_view(plan, view, i)?;
     let mut scene = scene_of(plan, view);
-    scene.camera = m.camera;
-    scene.cam_from_target = m.cam_from_cam0 * view.cam_from_target;
-    scene.render.seed = view.render_seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    scene.camera = plan.rig.get(i)?.camera;
+    scene.cam_from_target = cam_from_target;
+    scene.render.seed = seed;
     Some(scene)
+}
+
+/// Rig camera `i`'s noise seed and `cam_from_target` for a sampled view (what
+/// [`rig_scene_of`] renders and the manifest records); `None` when `i` is not a rig camera.
+pub fn rig_view(plan: &DatasetPlan, view: &SampledView, i: usize) -> Option<(u64, Isometry3<f64>)> {
+    let m = plan.rig.get(i)?;
+    Some((view.render_seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15), m.cam_from_cam0 * view.cam_from_target))
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::super::manifest::{ManifestCamera, ManifestEntry, ManifestPose};
-use super::super::poses::{rig_scene_of, scene_of, SampledView};
+use super::super::poses::{rig_scene_of, rig_view, scene_of, SampledView};
 use super::super::spec::DatasetPlan;
 use super::image_file_as;
 use synthcam_core::math::so3::rvec_from_rotation;
@@ -78,14 +78,14 @@ pub(super) fn entries_of(plan: &DatasetPlan, views: &[SampledView], written: &[W
                 ws.iter()
                     .filter_map(|w| {
                         let i = w.cam?;
-                        let shot = Shot { view: v, cam: Some(i) }.scene(plan);
+                        let (seed, cam_from_target) = rig_view(plan, v, i)?;
                         Some(ManifestCamera {
                             name: plan.rig.get(i)?.name.clone(),
                             file: w.file.clone(),
                             sha256: w.sha256.clone(),
                             truth: truth_file(&w.file),
-                            seed: shot.render.seed,
-                            cam_from_target: pose_of(&shot.cam_from_target),
+                            seed,
+                            cam_from_target: pose_of(&cam_from_target),
                         })
                     })
                     .collect()
