@@ -8,10 +8,9 @@ fn shaded_greys(x: f32, y: f32) -> vec4<f32> {
     if (P.shade.y == 0.0) { return P.grey; }
     let to_l = P.lamp.xyz - vec3<f32>(x, y, 0.0);
     let r2 = dot(to_l, to_l);
-    let nz = P.eye.w;
-    let cos_l = nz * to_l.z / sqrt(r2);
-    let s = P.shade.x + P.lamp.w * max(cos_l, 0.0) / r2;
-    return vec4<f32>(P.grey.xyz * s + vec3<f32>(ggx_grey(to_l / sqrt(r2), x, y) * P.lamp.w / r2), P.grey.w);
+    let l = to_l / sqrt(r2);
+    let s = P.shade.x + P.lamp.w * max(P.eye.w * l.z, 0.0) / r2;
+    return vec4<f32>(P.grey.xyz * s + vec3<f32>(ggx_grey(l, x, y) * P.lamp.w / r2), P.grey.w);
 }
 
 // The coating's specular grey level per unit lamp irradiance (Cook-Torrance with GGX, Smith-

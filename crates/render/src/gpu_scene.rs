@@ -197,7 +197,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
 /// `synthcam_scene::lighting::shade`).
 fn lamp_params(p: &mut Params, scene: &Scene) {
     let lighting = scene.render.lighting;
-    let Some(lamp) = lighting.points.iter().flatten().next().filter(|_| lighting.varies()) else { return };
+    let Some(lamp) = lighting.points.iter().flatten().next() else { return };
     let n_cam = synthcam_scene::lighting::camera_side_normal(scene);
     let target_from_cam = scene.cam_from_target.inverse();
     let l_t = target_from_cam * nalgebra::Point3::from(synthcam_scene::lighting::Lighting::point_in_camera(lamp, &scene.cam_from_target));

@@ -47,7 +47,7 @@ pub const LIGHT_FIELDS: [&str; 8] = [
     "point.N.position_m.2",
 ];
 
-/// The slot of a `light.N.*` field.
+/// The slot of a `light.N.*` or `point.N.*` field.
 fn light_slot<'r>(render: &'r mut RenderSettings, field: &str) -> Result<&'r mut f64, SceneError> {
     let (kind, rest) = field.split_once('.').ok_or_else(|| unknown(field))?;
     let (n, what) = rest.split_once('.').ok_or_else(|| unknown(field))?;
@@ -55,8 +55,8 @@ fn light_slot<'r>(render: &'r mut RenderSettings, field: &str) -> Result<&'r mut
     let absent =
         || SceneError::InvalidField { field: field.into(), reason: format!("a range for it needs {kind} light number {n} (counting from 0) in `[[light]]`") };
     let l = &mut render.lighting;
-    match (kind, what) {
-        ("light", _) => {
+    match kind {
+        "light" => {
             let light = l.lights.get_mut(n).and_then(Option::as_mut).ok_or_else(absent)?;
             match what {
                 "irradiance" => Ok(&mut light.irradiance),
@@ -66,7 +66,7 @@ fn light_slot<'r>(render: &'r mut RenderSettings, field: &str) -> Result<&'r mut
                 _ => Err(unknown(field)),
             }
         }
-        ("point", _) => {
+        "point" => {
             let lamp = l.points.get_mut(n).and_then(Option::as_mut).ok_or_else(absent)?;
             match what {
                 "intensity" => Ok(&mut lamp.intensity),

@@ -133,7 +133,7 @@ impl Scene {
     /// The first invalid field, or [`SceneError::TargetBehindCamera`].
     pub fn validate(&self) -> Result<(), SceneError> {
         self.camera.validate()?;
-        lighting::shade(self)?;
+        lighting::check(self)?;
         let (w, h) = (self.camera.size.width, self.camera.size.height);
         if w > 16384 || h > 16384 {
             return Err(SceneError::InvalidField { field: "camera.width/height".into(), reason: format!("{w}x{h} exceeds 16384") });

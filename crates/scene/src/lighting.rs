@@ -156,12 +156,7 @@ impl Lighting {
     /// [`SceneError::InvalidField`] for a non-finite position, a negative or non-finite
     /// intensity, or one light too many.
     pub fn add_point(&mut self, frame: LightFrame, position_m: [f64; 3], intensity: f64) -> Result<(), SceneError> {
-        if !position_m.iter().all(|v| v.is_finite()) {
-            return Err(invalid("light.position_m", format!("must be finite, got {position_m:?}")));
-        }
-        if !(intensity >= 0.0) || !intensity.is_finite() {
-            return Err(invalid("light.intensity", format!("must be finite and >= 0, got {intensity}")));
-        }
+        check_point(position_m, intensity)?;
         let slot = self.points.iter_mut().find(|l| l.is_none()).ok_or_else(|| invalid("light", format!("at most {MAX_POINT_LIGHTS} point light so far")))?;
         *slot = Some(PointLight { frame, position_m, intensity });
         Ok(())
@@ -201,15 +196,9 @@ impl Lighting {
     /// [`SceneError::InvalidField`] for a zero or non-finite direction, a negative or non-finite
     /// irradiance, or one light too many.
     pub fn add(&mut self, frame: LightFrame, direction: [f64; 3], irradiance: f64) -> Result<(), SceneError> {
-        let d = Vector3::from(direction);
-        if !(d.norm() > 0.0) || !d.iter().all(|v| v.is_finite()) {
-            return Err(invalid("light.direction", format!("must be a finite, non-zero vector, got {direction:?}")));
-        }
-        if !(irradiance >= 0.0) || !irradiance.is_finite() {
-            return Err(invalid("light.irradiance", format!("must be finite and >= 0, got {irradiance}")));
-        }
+        check_directional(direction, irradiance)?;
         let slot = self.lights.iter_mut().find(|l| l.is_none()).ok_or_else(|| invalid("light", format!("at most {MAX_LIGHTS} lights")))?;
-        *slot = Some(DirectionalLight { frame, direction: d.normalize().into(), irradiance });
+        *slot = Some(DirectionalLight { frame, direction: Vector3::from(direction).normalize().into(), irradiance });
         Ok(())
     }
 
@@ -228,15 +217,10 @@ impl Lighting {
             return Err(invalid("render.ambient", format!("must be finite and >= 0, got {a}")));
         }
         for p in self.points.iter().flatten() {
-            if !p.position_m.iter().all(|v| v.is_finite()) || !(p.intensity >= 0.0) || !p.intensity.is_finite() {
-                return Err(invalid("light", format!("position {:?} must be finite, intensity {} finite and >= 0", p.position_m, p.intensity)));
-            }
+            check_point(p.position_m, p.intensity)?;
         }
         for l in self.lights.iter().flatten() {
-            let d = Vector3::from(l.direction);
-            if !(d.norm() > 0.0) || !d.iter().all(|v| v.is_finite()) || !(l.irradiance >= 0.0) || !l.irradiance.is_finite() {
-                return Err(invalid("light", format!("direction {:?} must be finite and non-zero, irradiance {} finite and >= 0", l.direction, l.irradiance)));
-            }
+            check_directional(l.direction, l.irradiance)?;
         }
         Ok(())
     }
@@ -267,6 +251,29 @@ fn ggx_d(nh: f64, a2: f64) -> f64 {
     a2 / (std::f64::consts::PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2))
 }
 
+/// A directional light's values: a finite, non-zero direction and a finite irradiance >= 0.
+fn check_directional(direction: [f64; 3], irradiance: f64) -> Result<(), SceneError> {
+    let d = Vector3::from(direction);
+    if !(d.norm() > 0.0) || !d.iter().all(|v| v.is_finite()) {
+        return Err(invalid("light.direction", format!("must be a finite, non-zero vector, got {direction:?}")));
+    }
+    if !(irradiance >= 0.0) || !irradiance.is_finite() {
+        return Err(invalid("light.irradiance", format!("must be finite and >= 0, got {irradiance}")));
+    }
+    Ok(())
+}
+
+/// A point light's values: a finite position and a finite intensity >= 0.
+fn check_point(position_m: [f64; 3], intensity: f64) -> Result<(), SceneError> {
+    if !position_m.iter().all(|v| v.is_finite()) {
+        return Err(invalid("light.position_m", format!("must be finite, got {position_m:?}")));
+    }
+    if !(intensity >= 0.0) || !intensity.is_finite() {
+        return Err(invalid("light.intensity", format!("must be finite and >= 0, got {intensity}")));
+    }
+    Ok(())
+}
+
 fn invalid(field: &str, reason: String) -> SceneError {
     SceneError::InvalidField { field: field.into(), reason }
 }
@@ -283,17 +290,15 @@ pub fn camera_side_normal(scene: &Scene) -> Vector3<f64> {
     }
 }
 
-/// The scene as the renderer draws it: the target's surface grey levels (not its background)
-/// scaled by the lighting's factor and the lighting made neutral; the scene itself when its
-/// lighting is neutral already, or varies over the board (a point light: the shader shades).
+/// Check a scene's lighting: its values ([`Lighting::validate`]), and lights only on what the
+/// shading covers (module documentation). Part of [`Scene::validate`].
 ///
 /// # Errors
-/// [`SceneError::InvalidField`] for lights on a target or with objects the shading does not
-/// cover yet (module documentation).
-pub fn shade(scene: &Scene) -> Result<std::borrow::Cow<'_, Scene>, SceneError> {
+/// [`SceneError::InvalidField`] naming the light or value.
+pub fn check(scene: &Scene) -> Result<(), SceneError> {
     let lighting = scene.render.lighting;
     if lighting.is_neutral() {
-        return Ok(std::borrow::Cow::Borrowed(scene));
+        return Ok(());
     }
     lighting.validate()?;
     if !scene.target.is_planar() || scene.target.warp().is_some() {
@@ -302,27 +307,27 @@ pub fn shade(scene: &Scene) -> Result<std::borrow::Cow<'_, Scene>, SceneError> {
     if !scene.objects.is_empty() {
         return Err(invalid("light", "objects are not shaded yet: lights take scenes without objects".into()));
     }
-    if lighting.varies() {
+    Ok(())
+}
+
+/// The scene as the renderer draws it: the target's surface grey levels (not its background)
+/// scaled by the lighting's factor and the lighting made neutral; the scene itself when its
+/// lighting is neutral already, or varies over the board (a point light: the shader shades).
+///
+/// # Errors
+/// [`SceneError::InvalidField`] for lights on a target or with objects the shading does not
+/// cover yet (module documentation).
+pub fn shade(scene: &Scene) -> Result<std::borrow::Cow<'_, Scene>, SceneError> {
+    check(scene)?;
+    let lighting = scene.render.lighting;
+    if lighting.is_neutral() || lighting.varies() {
         return Ok(std::borrow::Cow::Borrowed(scene));
     }
     let f = lighting.factor(&camera_side_normal(scene), &scene.cam_from_target);
-    let t = &scene.target;
-    let [dark, light, margin] = surface_greys(t);
-    let target = t.with_greys([dark * f, light * f, margin * f, t.background()]);
+    let [dark, light, margin, background] = scene.target.greys();
+    let target = scene.target.with_greys([dark * f, light * f, margin * f, background]);
     let render = crate::RenderSettings { lighting: Lighting::default(), ..scene.render };
     Ok(std::borrow::Cow::Owned(Scene { target, render, ..scene.clone() }))
-}
-
-/// A target's surface grey levels `[dark, light, margin]` (as [`synthcam_core::target::Target::with_greys`] takes them).
-fn surface_greys(t: &synthcam_core::target::Target) -> [f64; 3] {
-    use synthcam_core::target::Target;
-    match t {
-        Target::Chessboard(b) => [b.dark, b.light, b.margin],
-        Target::DotGrid(g) => [g.dark, g.light, g.light],
-        Target::SPath(s) => [s.dark, s.light, s.light],
-        Target::Charuco(c) => [c.look.dark, c.look.light, c.look.margin],
-        Target::AprilGrid(g) => [g.look.dark, g.look.light, g.look.margin],
-    }
 }
 
 #[cfg(test)]

@@ -116,7 +116,7 @@ pub(super) fn run_rig(args: &CalibrateArgs, params: &CalibParams) -> anyhow::Res
     if let Some(p) = &args.json {
         let out = RigOut {
             rms_px: r.rms_px,
-            cameras: camera_outs(&r, &cams, args),
+            cameras: camera_outs(&r, &cams),
             frames,
             iterations: r.iterations,
             time_ms,
@@ -197,14 +197,13 @@ fn print_rig(r: &RigResult) {
     }
 }
 
-fn camera_outs(r: &RigResult, cams: &[RigCamera], args: &CalibrateArgs) -> Vec<CameraOut> {
+fn camera_outs(r: &RigResult, cams: &[RigCamera]) -> Vec<CameraOut> {
     r.cameras
         .iter()
         .zip(cams)
-        .enumerate()
-        .map(|(i, (c, cam))| {
+        .map(|(c, cam)| {
             let k = c.camera.intrinsics;
-            let n_lens = args.model(i).n_lens_params();
+            let n_lens = cam.params.model.n_lens_params();
             let lens = match c.camera.lens {
                 Lens::DoubleSphere(d) => vec![d.xi, d.alpha],
                 l => l.params()[..n_lens].to_vec(),
@@ -213,7 +212,7 @@ fn camera_outs(r: &RigResult, cams: &[RigCamera], args: &CalibrateArgs) -> Vec<C
             let t = c.cam0_from_cam.translation.vector;
             CameraOut {
                 name: c.name.clone(),
-                model: args.model(i).name(),
+                model: cam.params.model.name(),
                 image_size: [cam.size.width, cam.size.height],
                 k: [[k.fx, k.skew, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]],
                 lens,

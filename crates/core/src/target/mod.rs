@@ -221,6 +221,18 @@ impl Target {
         t
     }
 
+    /// The grey levels `[dark, light, margin, background]`, as [`Target::with_greys`] takes them
+    /// (a dot grid's plate and an S-path's sphere give `light` as the margin).
+    pub fn greys(&self) -> [f64; 4] {
+        match self {
+            Target::Chessboard(b) => [b.dark, b.light, b.margin, b.background],
+            Target::DotGrid(g) => [g.dark, g.light, g.light, g.background],
+            Target::SPath(s) => [s.dark, s.light, s.light, s.background],
+            Target::Charuco(c) => [c.look.dark, c.look.light, c.look.margin, c.look.background],
+            Target::AprilGrid(g) => [g.look.dark, g.look.light, g.look.margin, g.look.background],
+        }
+    }
+
     /// Grey level of the empty background (what rays that miss the target see).
     pub fn background(&self) -> f64 {
         match self {
