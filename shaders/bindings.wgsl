@@ -24,11 +24,12 @@
 //     the sphere and the pixel's dots), adaptive Simpson across the lines (from `samples`).
 // Mirrors: crates/scene/src/trace.rs (CPU, f64). Uniform layout: crates/render/src/uniforms.rs `Params`.
 //
-// One WGSL module in nine files, joined in this order by crates/render/src/shader.rs (`SHADER`):
+// One WGSL module in ten files, joined in this order by crates/render/src/shader.rs (`SHADER`):
 // bindings (this: bindings, the uniform `Params`, the current view), arithmetic (exact-order
 // sums), lens (the per-pixel lens inversion and its Jacobian), planar (plane colours), coded
 // (the cell lattice of ChArUco and AprilGrid boards), coverage (exact pixel coverage), s_path,
-// entries (the compute entry points of the target passes), objects (meshes: BVH, occlusion).
+// entries (the compute entry points of the target passes), objects (meshes: BVH, occlusion),
+// background (a panorama or an image on a plane behind everything).
 
 struct Params {
     size: vec4<u32>,     // width, height, kind (0 chessboard, 1 dot grid, 2 s-path, 4 coded board), samples per axis
@@ -61,6 +62,11 @@ struct Params {
     shade: vec4<f32>,    // planar targets under a point light: constant shading (ambient + directional), 1 when on, gloss F0, roughness (0: none) (planar.wgsl shaded_greys)
     lamp: vec4<f32>,     // the point light in the target frame: x, y, z, intensity
     eye: vec4<f32>,      // the camera centre in the target frame, the camera-side normal's z (+-1)
+    bg: vec4<f32>,       // background: kind (0 none, 1 panorama, 2 plane), image width, height, 0 (background.wgsl)
+    bg0: vec4<f32>,      // rows of the background's frame from the camera's (xyz); a plane: the camera centre in its frame (w)
+    bg1: vec4<f32>,
+    bg2: vec4<f32>,
+    bg_size: vec4<f32>,  // a plane image's width and height, metres, 0, 0
 };
 
 // Pass kinds (crates/render/src/gpu_scene.rs `PassKind`; the test
@@ -75,6 +81,7 @@ const KIND_CHESSBOARD_VIEWS: u32 = 5u;
 const KIND_DOT_GRID_VIEWS: u32 = 6u;
 const KIND_CODED_VIEWS: u32 = 7u;
 const KIND_OBJECTS: u32 = 8u;
+const KIND_BACKGROUND: u32 = 9u;
 
 @group(0) @binding(0) var<uniform> P: Params;
 // Output values, one per work item (coarse: 64 per tile of the work list; fine: one per pixel).

@@ -423,7 +423,8 @@ fn see(q: vec2<f32>, centre: Ray, o: vec2<f32>, gathered: bool) -> Seen1 {
     var h: MeshHit;
     if (gathered) { h = cast_candidates(d, target_t(d)); } else { h = cast_objects(d, target_t(d)); }
     if (h.inst != NO_OBJECT) { return Seen1(hit_point_value(h, d), h.inst + 1u); }
-    return Seen1(select(P.grey.w, plane_value(pp.xy), pp.z > 0.0), 0u);
+    // Beside the sheet: the background (its image where there is one).
+    return Seen1(select(bg_point(d), plane_value(pp.xy), target_t(d) < 3e38), 0u);
 }
 
 fn same_side(a: Seen1, b: Seen1) -> bool { return a.cls == b.cls && abs(a.v - b.v) <= 1.0; }

@@ -30,7 +30,7 @@ pub fn renderer() -> Result<&'static Renderer, String> {
 /// directory).
 fn parse(text: &str, base_dir: Option<PathBuf>) -> Result<Scene, String> {
     let meshes = MeshLibrary::new(&base_dir.unwrap_or_else(|| PathBuf::from(".")));
-    parse_scene_with(text, &|p: &str| meshes.load(p)).map_err(|e| format!("in the scene: {}", chain(&e)))
+    parse_scene_with(text, &meshes).map_err(|e| format!("in the scene: {}", chain(&e)))
 }
 
 /// Render a scene: returns `(image, truth)`. The image is a NumPy array ((H, W) uint8, uint16

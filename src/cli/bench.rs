@@ -81,7 +81,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let mut scenes = Vec::new();
     for (name, text) in &list {
-        scenes.push((name.clone(), parse_scene_with(text, &|p: &str| meshes.load(p)).with_context(|| format!("scene {name}"))?));
+        scenes.push((name.clone(), parse_scene_with(text, &meshes).with_context(|| format!("scene {name}"))?));
     }
     if args.mesh {
         let board = super::DEFAULT_SCENES.iter().find(|(n, _)| *n == "chessboard_k1").map_or("", |(_, t)| *t);

@@ -31,8 +31,9 @@ pub enum Experiment {
         #[arg(long, value_parser = |s: &str| s.parse::<CalibModel>())]
         model: Option<CalibModel>,
     },
-    /// The chessboard detector against blur, defocus, sensor noise, motion blur, JPEG and a
-    /// rolling shutter, one effect at a time at rising strength, errors against the exact truth.
+    /// The chessboard detector against blur, defocus, sensor noise, motion blur, JPEG, a rolling
+    /// shutter, a lamp's gradient, a glossy board's highlight and a cluttered background, one at a
+    /// time at rising strength, errors against the exact truth.
     Robustness {
         /// Output folder (table.md, runs.csv, <effect>.png, report.html, images/).
         #[arg(short, long, default_value = "out/robustness")]
@@ -40,8 +41,8 @@ pub enum Experiment {
         /// Poses per level (view 0: assets/scenes/chessboard_k1.toml; the others perturbed).
         #[arg(long, default_value_t = 6)]
         views: usize,
-        /// Comma-separated effects (blur, defocus, noise, motion-blur, jpeg, rolling-shutter);
-        /// default all.
+        /// Comma-separated effects (blur, defocus, noise, motion-blur, jpeg, rolling-shutter,
+        /// gradient, highlight, clutter); default all.
         #[arg(long)]
         effects: Option<String>,
         /// Write every image with its truth JSON and a `.truth.json` sidecar under

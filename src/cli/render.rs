@@ -36,11 +36,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let meshes = MeshLibrary::beside(&args.scene);
     let spec = parse_spec(&text).with_context(|| format!("in scene {}", args.scene.display()))?;
     if spec.cameras.is_empty() {
-        let scene = spec.to_scene_with(&|p: &str| meshes.load(p)).with_context(|| format!("in scene {}", args.scene.display()))?;
+        let scene = spec.to_scene_with(&meshes).with_context(|| format!("in scene {}", args.scene.display()))?;
         return render_one(args, &super::open_renderer(&args.backend)?, &scene, &args.out);
     }
     anyhow::ensure!(args.depth.is_none() && args.mask.is_none(), "--depth and --mask take a single-camera scene, not a rig");
-    let scenes = spec.to_rig_scenes_with(&|p: &str| meshes.load(p)).with_context(|| format!("in scene {}", args.scene.display()))?;
+    let scenes = spec.to_rig_scenes_with(&meshes).with_context(|| format!("in scene {}", args.scene.display()))?;
     let renderer = super::open_renderer(&args.backend)?;
     let stem = args.out.file_stem().map_or_else(|| "render".to_string(), |s| s.to_string_lossy().into_owned());
     let ext = args.out.extension().map_or_else(|| "png".to_string(), |e| e.to_string_lossy().into_owned());

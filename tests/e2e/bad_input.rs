@@ -37,6 +37,22 @@ fn bad_scenes_fail_cleanly() {
         ("ds-alpha", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "model = \"double-sphere\"\nxi = 0.1\nalpha = 1.5"), "alpha"),
         ("ds-nan-xi", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "model = \"double-sphere\"\nxi = nan\nalpha = 0.5"), "xi"),
         ("unknown-model", GOOD.replace("dist = [-0.25, 0.0, 0.0, 0.0, 0.0]", "model = \"omni\""), "omni"),
+        ("background-missing-image", format!("{GOOD}\n[background]\nkind = \"panorama\"\nimage = \"/nonexistent/hall.png\"\n"), "background.image"),
+        (
+            "background-corrupt-image",
+            format!("{GOOD}\n[background]\nkind = \"panorama\"\nimage = \"{}\"\n", concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")),
+            "background.image",
+        ),
+        ("background-unknown-procedure", format!("{GOOD}\n[background]\nkind = \"panorama\"\nprocedural = \"forest\"\n"), "forest"),
+        ("background-plane-no-size", format!("{GOOD}\n[background]\nkind = \"plane\"\nprocedural = \"clutter\"\nt_m = [0.0, 0.0, 2.0]\n"), "size_m"),
+        (
+            "background-nan-size",
+            format!("{GOOD}\n[background]\nkind = \"plane\"\nprocedural = \"clutter\"\nt_m = [0.0, 0.0, 2.0]\nsize_m = [nan, 1.0]\n"),
+            "size_m",
+        ),
+        ("background-both-sources", format!("{GOOD}\n[background]\nkind = \"panorama\"\nprocedural = \"clutter\"\nimage = \"x.png\"\n"), "background.image"),
+        ("background-huge-texture", format!("{GOOD}\n[background]\nkind = \"panorama\"\nprocedural = \"clutter\"\nsize_px = [100000, 10]\n"), "size_px"),
+        ("background-folder-in-scene", format!("{GOOD}\n[background]\nkind = \"panorama\"\nprocedural = \"clutter\"\nyaw_deg = [0.0, 90.0]\n"), "yaw_deg"),
     ];
     for (name, text, needle) in cases {
         let (ok, stderr, wrote) = run_scene(name, &text);

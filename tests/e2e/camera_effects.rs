@@ -106,6 +106,7 @@ fn fronto_scene() -> Scene {
         cam_from_target: Isometry3::from_parts(Translation3::from(t), UnitQuaternion::identity()),
         render: Default::default(),
         objects: Vec::new(),
+        background: None,
     };
     s.camera.intrinsics.cx = 320.0;
     s.camera.intrinsics.cy = 240.0;
@@ -200,6 +201,7 @@ fn defocused_edges_spread_as_the_thin_lens_circle_of_confusion() {
         cam_from_target: Isometry3::from_parts(Translation3::from(Vector3::new(0.0, 0.0, 0.85) - rot * centre), rot),
         render: Default::default(),
         objects: Vec::new(),
+        background: None,
     };
     scene.render.effects.optics.thin_lens = Some(lens);
     let img = renderer().render_linear(&scene).expect("render");

@@ -36,7 +36,14 @@ fn random_charuco_scene(rng: &mut ChaCha8Rng) -> Scene {
     let cell_m = board.marker_m / (dictionary.marker_bits() as f64 + 2.0);
     let centre = Vector3::new(0.5 * s * f64::from(squares[0]), 0.5 * s * f64::from(squares[1]), 0.0);
     let pose = random_pose(rng, &camera, cell_m, cell_px, centre);
-    Scene { camera, target: Target::Charuco(CharucoTarget { board, look }), cam_from_target: pose, render: RenderSettings::default(), objects: Vec::new() }
+    Scene {
+        camera,
+        target: Target::Charuco(CharucoTarget { board, look }),
+        cam_from_target: pose,
+        render: RenderSettings::default(),
+        objects: Vec::new(),
+        background: None,
+    }
 }
 
 /// The renderer's fine pass is exact up to this many lattice cells per axis in a pixel
@@ -71,7 +78,14 @@ fn random_aprilgrid_scene(rng: &mut ChaCha8Rng) -> Scene {
     let cell_px = (rng.random_range(3f64.ln()..30f64.ln())).exp();
     let [_, _, x1, y1] = grid.extent_m();
     let pose = random_pose(rng, &camera, grid.cell_m(), cell_px, Vector3::new(0.5 * x1, 0.5 * y1, 0.0));
-    Scene { camera, target: Target::AprilGrid(AprilGridTarget { grid, look }), cam_from_target: pose, render: RenderSettings::default(), objects: Vec::new() }
+    Scene {
+        camera,
+        target: Target::AprilGrid(AprilGridTarget { grid, look }),
+        cam_from_target: pose,
+        render: RenderSettings::default(),
+        objects: Vec::new(),
+        background: None,
+    }
 }
 
 #[test]
@@ -154,6 +168,7 @@ fn example_scene() -> Scene {
         cam_from_target: pose,
         render: RenderSettings::default(),
         objects: Vec::new(),
+        background: None,
     }
 }
 

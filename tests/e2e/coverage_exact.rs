@@ -102,7 +102,7 @@ fn random_scene(rng: &mut ChaCha8Rng, chessboard: bool) -> Scene {
     };
     // The target's centre is `distance` in front of the camera, so the scene validates.
     let pose = random_pose(rng, &camera, feature_m, feature_px, centre);
-    Scene { camera, target, cam_from_target: pose, render: RenderSettings::default(), objects: Vec::new() }
+    Scene { camera, target, cam_from_target: pose, render: RenderSettings::default(), objects: Vec::new(), background: None }
 }
 
 /// What crosses pixel (x, y): the coverage path the renderer takes there.

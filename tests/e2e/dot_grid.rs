@@ -30,6 +30,7 @@ fn course_dot_grids_are_found_in_grid_order() {
                 cam_from_target: Isometry3::from_parts(Translation3::from(t), rot),
                 render: RenderSettings { noise_sigma: 1.0, seed: v, ..Default::default() },
                 objects: Vec::new(),
+                background: None,
             };
             let img = renderer().render(&scene).expect("render");
             let img = ImageF32::from_u8(1280, 1024, &img.to_u8()).expect("image");

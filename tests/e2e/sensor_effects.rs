@@ -25,6 +25,7 @@ fn flat_field(level: f64, sensor: SensorModel, seed: u64) -> Scene {
         cam_from_target: Isometry3::from_parts(Translation3::new(50.0, 0.0, 1.0), UnitQuaternion::identity()),
         render: Default::default(),
         objects: Vec::new(),
+        background: None,
     };
     s.render.effects.sensor = Some(sensor);
     s.render.bit_depth = 16;

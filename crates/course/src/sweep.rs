@@ -158,6 +158,7 @@ fn view_pool(cam: &CameraModel, mode: SweepMode, n: usize, seed: u64, m_max: usi
                     cam_from_target: pose * Isometry3::from_parts(Translation3::new(-0.2 - s, -0.2 - s, 0.0), UnitQuaternion::identity()),
                     render: RenderSettings { noise_sigma: 1.0, seed: rng.random(), ..Default::default() },
                     objects: Vec::new(),
+                    background: None,
                 };
                 let Ok(img) = r.render(&scene) else { continue };
                 let Ok(grey) = ImageF32::from_u8(cam.size.width as usize, cam.size.height as usize, &img.to_u8()) else { continue };

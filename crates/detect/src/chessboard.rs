@@ -255,8 +255,15 @@ fn find_direct<'a, I: GreyWindow>(
         log::trace!("partial grid: {}", cells.join(" "));
     }
     let g = complete(img, &full(), &g, (params.cols, params.rows), &params.refine, &params.complete)?;
-    let grid = to_rows(&g, params.cols, params.rows)?;
-    even_steps(refine_all(img, orient(grid, params.cols, params.rows), params, 0, 0))
+    let blind = complete::blind_points(&g);
+    let grid = orient(to_rows(&g, params.cols, params.rows)?, params.cols, params.rows);
+    let placed: Vec<Point2<f64>> = grid.iter().flatten().copied().collect();
+    let mut corners = refine_all(img, grid, params, 0, 0);
+    // Blind corners stay at their predictions, untrusted (complete's module doc).
+    for (k, q) in placed.iter().enumerate().filter(|(_, q)| blind.contains(q)) {
+        (corners.points_px[k], corners.refined[k], corners.position_sigma_px[k]) = (*q, false, f64::INFINITY);
+    }
+    even_steps(corners)
 }
 
 /// A corner found at pyramid `level` carried to full resolution: doubled at each level, snapped

@@ -40,6 +40,12 @@ pub(super) struct Buffers {
     pub(super) objs: Slot,
     /// The meshes whose rows `objs` holds.
     pub(super) objs_meshes: Option<std::sync::Arc<super::objects::MeshRows>>,
+    /// The background's texels and prefix sums (`super::background`).
+    pub(super) bg: Slot,
+    /// The image whose rows `bg` holds.
+    pub(super) bg_texture: Option<std::sync::Arc<synthcam_core::mesh::Texture>>,
+    /// Its min / max pyramid (flat background tiles: `super::bg_tiles`).
+    pub(super) bg_pyramid: Option<std::sync::Arc<super::bg_tiles::MinMaxPyramid>>,
 }
 
 impl Slot {

@@ -218,3 +218,43 @@ impl<'a> FlatTest<'a> {
         }
     }
 }
+
+/// Where a tile lies against the target's printed sheet (a background is mixed in beside it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Cover {
+    /// Beyond the lens's reach: no pixel has a ray.
+    Beyond,
+    /// Every pixel sees past the sheet.
+    Outside,
+    /// The sheet covers every pixel.
+    Inside,
+    /// The sheet's outline may cross the tile.
+    Mixed,
+}
+
+/// Per tile, its [`Cover`]: by the same conservative tests as [`classify_tiles`] (the plane
+/// points seen through the tile's corners, grown by 10 %, against the sheet's rectangle).
+pub(super) fn sheet_cover(scene: &Scene, grid: &TileCornerRays, (tiles_x, tiles_y): (u32, u32), views: &ViewSet) -> Vec<Cover> {
+    let Some([x0, y0, x1, y1]) = scene.target.extent_m() else { return vec![Cover::Mixed; (tiles_x * tiles_y) as usize] };
+    let z_range = scene.target.warp().map_or([0.0; 2], |w| w.z_range([x0, y0, x1, y1]));
+    let frames = tile_row_frames(views, tiles_y, scene.camera.size.height);
+    (0..tiles_x * tiles_y)
+        .into_par_iter()
+        .map(|t| {
+            let (tx, ty) = (t % tiles_x, t / tiles_x);
+            if grid.beyond_lens(tx, ty) {
+                return Cover::Beyond;
+            }
+            let f = frames.get(ty as usize).or(frames.first()).map_or(&[][..], Vec::as_slice);
+            let Some(rays) = grid.tile(tx, ty) else { return Cover::Mixed };
+            if plane_missed(f, &rays) {
+                return Cover::Outside;
+            }
+            match plane_bbox(f, &rays, z_range) {
+                Some(bb) if bb[0] > x0 && bb[2] < x1 && bb[1] > y0 && bb[3] < y1 => Cover::Inside,
+                Some(bb) if bb[2] < x0 || bb[0] > x1 || bb[3] < y0 || bb[1] > y1 => Cover::Outside,
+                _ => Cover::Mixed,
+            }
+        })
+        .collect()
+}

@@ -80,11 +80,14 @@ pub enum PassKind {
     CodedViews = 7,
     /// The objects (meshes), run after the target's (`shaders/objects.wgsl`).
     Objects = 8,
+    /// The background behind the target (`shaders/background.wgsl`; one entry point, run as a
+    /// fine pass over a pixel list).
+    Background = 9,
 }
 
 impl PassKind {
     /// Number of pass kinds.
-    pub const COUNT: usize = 9;
+    pub const COUNT: usize = 10;
     /// Every pass kind, in discriminant order.
     pub const ALL: [PassKind; Self::COUNT] = [
         PassKind::Chessboard,
@@ -96,6 +99,7 @@ impl PassKind {
         PassKind::DotGridViews,
         PassKind::CodedViews,
         PassKind::Objects,
+        PassKind::Background,
     ];
 
     /// The shader's entry points of this pass, coarse then fine.
@@ -104,6 +108,7 @@ impl PassKind {
             PassKind::SPath => ["cs_coarse_spath", "cs_fine_spath"],
             PassKind::SPathLimb => ["cs_coarse_spath_limb", "cs_fine_spath"],
             PassKind::Objects => ["cs_coarse_objects", "cs_fine_objects"],
+            PassKind::Background => ["cs_background", "cs_background"],
             PassKind::ChessboardViews | PassKind::DotGridViews | PassKind::CodedViews => ["cs_coarse_planar_views", "cs_fine_planar_views"],
             PassKind::Chessboard | PassKind::DotGrid | PassKind::Coded => ["cs_coarse_planar", "cs_fine_planar"],
         }
@@ -178,6 +183,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
         }
         Target::SPath(s) => s_path_params(&mut p, scene, s, (tiles_x, tiles_y)),
     };
+    super::background::background_params(&mut p, scene);
     let tile_flat = super::flat::classify_tiles(scene, grid, (tiles_x, tiles_y), &tile_start, lattice.as_ref(), &view_set);
     // Storage buffers may not be empty.
     if dots.is_empty() {

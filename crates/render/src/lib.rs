@@ -8,7 +8,9 @@
 
 #![deny(missing_docs)]
 
+mod background;
 pub mod bend;
+mod bg_tiles;
 mod buffers;
 pub mod context;
 mod flat;

@@ -112,6 +112,7 @@ impl Renderer {
                 storage_entry(6, false),
                 storage_entry(7, true),
                 storage_entry(8, true),
+                storage_entry(9, true),
             ],
         });
         let pipeline_layout =
@@ -207,6 +208,7 @@ impl Renderer {
         let views = bufs.views.get(device, "views", (gs.views.len() * 16) as u64, STORAGE_DST);
         queue.write_buffer(views, 0, bytemuck::cast_slice(&gs.views));
         let objs = bufs.objs.get(device, "objs", 16, STORAGE_DST);
+        let bg = bufs.bg.get(device, "background", 16, STORAGE_DST);
         let vals = bufs.vals.get(device, "vals", out_bytes, STORAGE_SRC);
         let hard = bufs.hard.get(device, "hard", out_bytes, STORAGE_SRC);
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -222,6 +224,7 @@ impl Renderer {
                 wgpu::BindGroupEntry { binding: 6, resource: hard.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 7, resource: views.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 8, resource: objs.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 9, resource: bg.as_entire_binding() },
             ],
         });
         let staging_vals = bufs.staging_vals.get(device, "staging_vals", out_bytes, READBACK);
@@ -269,7 +272,8 @@ impl Renderer {
         let kind = scene_pass_kind(scene);
         let limb = (kind == PassKind::SPath).then_some((PassKind::SPathLimb, false));
         let objects = if scene.objects.is_empty() { Vec::new() } else { vec![(PassKind::Objects, false), (PassKind::Objects, true)] };
-        for (kind, fine) in [(kind, false), (kind, true)].into_iter().chain(limb).chain(objects) {
+        let background = scene.background.is_some().then_some((PassKind::Background, true));
+        for (kind, fine) in [(kind, false), (kind, true)].into_iter().chain(limb).chain(objects).chain(background) {
             if self.pipelines[kind as usize][usize::from(fine)][variant].get().is_none() {
                 scope.spawn(move || {
                     self.pipeline(kind, fine, variant);
@@ -286,6 +290,17 @@ impl Renderer {
         if !scene.objects.is_empty() {
             self.upload_objects(&mut bufs, &mut gs, scene)?;
         }
+        self.upload_background(&mut bufs, scene)?;
+        let mut img = self.target_image(&mut bufs, &gs, scene)?;
+        self.compose_background(&mut bufs, &gs, scene, &grid_rays, &mut img)?;
+        if !scene.objects.is_empty() {
+            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays), &mut img)?;
+        }
+        Ok(img)
+    }
+
+    /// The target's passes of `gs`: its flat tiles filled, the others' coarse and fine passes.
+    pub(super) fn target_image(&self, bufs: &mut Buffers, gs: &GpuScene, scene: &Scene) -> Result<Vec<f32>, RenderError> {
         let (w, h) = (scene.camera.size.width, scene.camera.size.height);
         let (tiles_x, _) = (gs.params.tiles[0], gs.params.tiles[1]);
         let mut img = vec![0.0f32; w as usize * h as usize];
@@ -307,7 +322,7 @@ impl Renderer {
         }
         let mut fine_work = Vec::new();
         for (k, list) in work.iter().enumerate().filter(|(_, l)| !l.is_empty()) {
-            let (vals, hard) = self.run_pass(&mut bufs, &gs, PassKind::ALL[k], false, list)?;
+            let (vals, hard) = self.run_pass(bufs, gs, PassKind::ALL[k], false, list)?;
             for (j, packed) in list.iter().enumerate() {
                 let (tx, ty) = (packed & 0xffff, packed >> 16);
                 for ly in 0..TILE_PX {
@@ -327,13 +342,10 @@ impl Renderer {
         }
         log::debug!("{:?} coarse tiles per pass kind, {} fine pixels", work.each_ref().map(Vec::len), fine_work.len());
         if !fine_work.is_empty() {
-            let (vals, _) = self.run_pass(&mut bufs, &gs, kind, true, &fine_work)?;
+            let (vals, _) = self.run_pass(bufs, gs, kind, true, &fine_work)?;
             for (packed, v) in fine_work.iter().zip(vals) {
                 img[(packed >> 16) as usize * w as usize + (packed & 0xffff) as usize] = v;
             }
-        }
-        if !scene.objects.is_empty() {
-            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays), &mut img)?;
         }
         Ok(img)
     }

@@ -1,4 +1,4 @@
-//! The WGSL source of every pass: one module in nine files under `shaders/`, split by concept
+//! The WGSL source of every pass: one module in ten files under `shaders/`, split by concept
 //! (see `shaders/bindings.wgsl` for what each holds), joined here at compile time.
 
 /// The shader, assembled from its files in this order (one WGSL module; `shaders/bindings.wgsl`
@@ -13,4 +13,5 @@ pub(crate) const SHADER: &str = concat!(
     include_str!("../../../shaders/s_path.wgsl"),
     include_str!("../../../shaders/entries.wgsl"),
     include_str!("../../../shaders/objects.wgsl"),
+    include_str!("../../../shaders/background.wgsl"),
 );

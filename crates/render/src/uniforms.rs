@@ -75,6 +75,18 @@ pub struct Params {
     pub lamp: [f32; 4],
     /// The camera centre in the target frame `x, y, z`, and the camera-side normal's z (+-1).
     pub eye: [f32; 4],
+    /// Background (`shaders/background.wgsl`): kind (0 none, 1 panorama, 2 plane), the image's
+    /// width and height (texels), 0.
+    pub bg: [f32; 4],
+    /// Row 0 of the background's frame from the camera's (xyz) and, for a plane, the camera
+    /// centre's x in the plane's frame (w).
+    pub bg0: [f32; 4],
+    /// Row 1 (w: the camera centre's y).
+    pub bg1: [f32; 4],
+    /// Row 2 (w: the camera centre's z).
+    pub bg2: [f32; 4],
+    /// A plane image's width and height, metres, 0, 0.
+    pub bg_size: [f32; 4],
 }
 
 #[cfg(test)]
@@ -91,7 +103,7 @@ mod tests {
         }
         fields!(
             size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet, warp,
-            warp_c, tfc0, tfc1, tfc2, shade, lamp, eye
+            warp_c, tfc0, tfc1, tfc2, shade, lamp, eye, bg, bg0, bg1, bg2, bg_size
         )
     }
 
@@ -127,6 +139,7 @@ mod tests {
             "KIND_DOT_GRID_VIEWS",
             "KIND_CODED_VIEWS",
             "KIND_OBJECTS",
+            "KIND_BACKGROUND",
         ];
         for (kind, name) in PassKind::ALL.into_iter().zip(names) {
             assert_eq!(wgsl_u32_const(SHADER, name), Some(kind as u32), "{name} vs PassKind::{kind:?}");
@@ -147,8 +160,8 @@ mod tests {
         }
         assert_eq!(
             names.len(),
-            9,
-            "a coarse / fine pair per pass (planar, planar with views, S-path, objects) and the S-path's dotless tiles' coarse entry: {names:?}"
+            10,
+            "a coarse / fine pair per pass (planar, planar with views, S-path, objects), the S-path's dotless tiles' coarse entry and the background's: {names:?}"
         );
     }
 

@@ -100,7 +100,7 @@ impl SceneBuilder {
         if !cam_from_target.to_homogeneous().iter().all(|v| v.is_finite()) {
             return Err(SceneError::InvalidField { field: "pose".into(), reason: "must be finite".into() });
         }
-        let scene = Scene { camera: self.camera, target: self.target, cam_from_target, render: self.render, objects: Vec::new() };
+        let scene = Scene { camera: self.camera, target: self.target, cam_from_target, render: self.render, objects: Vec::new(), background: None };
         scene.validate()?;
         Ok(scene)
     }

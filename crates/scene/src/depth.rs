@@ -4,7 +4,9 @@
 //! Depth is the camera-frame z of the first surface the centre ray meets (the target's sheet or
 //! an object), metres, as OpenCV, ROS and BlenderProc write depth images; `NaN` where the ray
 //! meets nothing (or cannot be unprojected). The instance id is 0 for nothing, 1 for the target
-//! and `2 + i` for object `i` of [`super::Scene::objects`].
+//! and `2 + i` for object `i` of [`super::Scene::objects`]; a background ([`crate::background`])
+//! is [`BACKGROUND_ID`] where its image is seen, at the plane's depth or, for a panorama, at
+//! infinity.
 
 use nalgebra::{Point2, Vector3};
 use rayon::prelude::*;
@@ -17,6 +19,8 @@ use synthcam_core::target::Target;
 pub const TARGET_ID: u16 = 1;
 /// Instance id of object 0 (object `i` is `FIRST_OBJECT_ID + i`).
 pub const FIRST_OBJECT_ID: u16 = 2;
+/// Instance id of the background's image (the last id, so objects keep theirs).
+pub const BACKGROUND_ID: u16 = u16::MAX;
 
 /// Depth and instance id of every pixel, row-major.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,7 +58,10 @@ pub fn depth_along(scene: &Scene, d_cam: &Vector3<f64>) -> (f64, u16) {
     let t_target = target_t(scene, d_cam);
     match cast_objects(&scene.objects, d_cam, t_target.unwrap_or(f64::INFINITY)) {
         Some(h) => (h.hit.t * d_cam.z, FIRST_OBJECT_ID + h.object as u16),
-        None => t_target.map_or((f64::NAN, 0), |t| (t * d_cam.z, TARGET_ID)),
+        None => match t_target {
+            Some(t) => (t * d_cam.z, TARGET_ID),
+            None => scene.background.as_ref().and_then(|b| b.depth_along(d_cam)).map_or((f64::NAN, 0), |z| (z, BACKGROUND_ID)),
+        },
     }
 }
 

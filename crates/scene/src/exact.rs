@@ -257,7 +257,14 @@ mod tests {
             lens: Lens::default(),
         };
         let t = Translation3::new(-centre_m[0], -centre_m[1], 1.0);
-        Scene { camera, target, cam_from_target: Isometry3::from_parts(t, UnitQuaternion::identity()), render: RenderSettings::default(), objects: Vec::new() }
+        Scene {
+            camera,
+            target,
+            cam_from_target: Isometry3::from_parts(t, UnitQuaternion::identity()),
+            render: RenderSettings::default(),
+            objects: Vec::new(),
+            background: None,
+        }
     }
 
     #[test]

@@ -38,6 +38,7 @@
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
+pub mod background;
 mod camera;
 pub mod effects;
 mod light;
@@ -48,7 +49,7 @@ mod target;
 pub use camera::{CameraSpec, ModelName};
 pub use effects::RenderSpec;
 pub use light::{with_lights, LightSpec};
-pub use object::{MeshLoader, ObjectFrame, ObjectSpec};
+pub use object::{AssetLoader, MeshLoader, ObjectFrame, ObjectSpec};
 pub use target::TargetTable;
 
 use super::{Scene, SceneError};
@@ -141,6 +142,9 @@ pub struct SceneSpec {
     /// `[[light]]` tables (optional; [`crate::lighting`]).
     #[serde(default, rename = "light")]
     pub lights: Vec<LightSpec>,
+    /// `[background]` (optional; [`crate::background`]).
+    #[serde(default)]
+    pub background: Option<background::BackgroundSpec>,
 }
 
 impl SceneSpec {
@@ -212,7 +216,8 @@ impl SceneSpec {
         }
         let cam_from_target = cam_from_rig * self.cam_from_target()?;
         let objects = object::scene_objects(&self.objects, &cam_from_target, load)?;
-        let scene = Scene { camera: camera.to_model()?, target: self.target.to_target(), cam_from_target, render, objects };
+        let background = self.background.as_ref().map(|b| b.to_background(cam_from_rig, &cam_from_target, load)).transpose()?;
+        let scene = Scene { camera: camera.to_model()?, target: self.target.to_target(), cam_from_target, render, objects, background };
         scene.validate()?;
         Ok(scene)
     }

@@ -8,6 +8,7 @@
 
 #![deny(missing_docs)]
 
+pub mod background;
 pub mod builder;
 pub mod depth;
 pub mod effect_fields;
@@ -124,6 +125,9 @@ pub struct Scene {
     pub render: RenderSettings,
     /// The user's objects (meshes) in front of, around or behind the target ([`objects`]).
     pub objects: Vec<objects::SceneObject>,
+    /// What rays that miss the target and the objects see ([`background`]); `None`: the
+    /// target's uniform background grey.
+    pub background: Option<background::Background>,
 }
 
 impl Scene {
@@ -172,6 +176,7 @@ impl Scene {
             });
         }
         self.validate_objects()?;
+        self.validate_background()?;
         target_in_reach(&self.camera, &self.cam_from_target, &self.target.feature_points_m())
     }
 }
@@ -194,6 +199,19 @@ pub fn target_in_reach(camera: &synthcam_core::camera::CameraModel, cam_from_tar
 }
 
 impl Scene {
+    /// A background is drawn behind planar targets (the S-path's sphere is not mixed with one yet).
+    fn validate_background(&self) -> Result<(), SceneError> {
+        let Some(bg) = &self.background else { return Ok(()) };
+        bg.validate()?;
+        if !self.target.is_planar() {
+            return Err(SceneError::InvalidField {
+                field: "background".into(),
+                reason: "backgrounds are drawn behind planar targets (chessboard, dot grid, ChArUco, AprilGrid); the S-path is not supported yet".into(),
+            });
+        }
+        Ok(())
+    }
+
     /// Objects are rendered with planar targets and sharp views (the renderer's object pass).
     fn validate_objects(&self) -> Result<(), SceneError> {
         if self.objects.is_empty() {

@@ -110,6 +110,7 @@ impl EyeInHand {
                 cam_from_target: Isometry3::identity(),
                 render: RenderSettings::default(),
                 objects: Vec::new(),
+                background: None,
             },
         )
     }

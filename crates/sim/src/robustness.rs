@@ -14,7 +14,7 @@
 //! - [`Effect::Defocus`]: thin lens f = 16 mm focused at 0.4 m, f-number levels, aperture samples
 //!   about a pixel apart ([`defocus_lens`]); strength = the circle of confusion's radius at the
 //!   board centre's depth, px.
-//! - [`Effect::Noise`]: the EMVA 1288 sensor ([`SensorModel`] defaults: 1e6 photons/s at grey 255,
+//! - [`Effect::Noise`]: the EMVA 1288 sensor ([`synthcam_core::camera::sensor::SensorModel`] defaults: 1e6 photons/s at grey 255,
 //!   QE 0.6, read noise 3 e, dark current 5 e/s, PRNU 1 %, DSNU 1 e, 8 bits) at exposure levels
 //!   that give 9000 (near full well) down to 48 electrons at grey 255. The gain follows the
 //!   exposure (an auto-gain camera: grey 255 is always 250 DN), so the image keeps its brightness
@@ -26,6 +26,12 @@
 //! - [`Effect::RollingShutter`]: camera twist 0.5 rad/s about y plus 0.2 m/s along x, no
 //!   exposure blur, line delay levels; strength = the mean image displacement of the corners
 //!   between the global-shutter and the rolling-shutter image, px.
+//!
+//! - [`Effect::Gradient`], [`Effect::Highlight`], [`Effect::Clutter`]: the scene conditions of
+//!   issue 41 ([`conditions`]): a lamp beside the board (levels: its intensity; strength: the
+//!   brightest over the dimmest corner's irradiance), a laminated board with the lamp at the
+//!   camera's mirror point over the board centre (intensity; the largest specular grey level at a
+//!   corner), a clutter panorama behind the board (its contrast, the strength).
 //!
 //! **Truth**: `effects.rolling_shutter_px` under a rolling shutter, the mid-exposure projection
 //! `effects.trajectory_px[2]` under motion blur, `pixel_px` otherwise ([`truth_points`]).
@@ -39,14 +45,15 @@ use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use synthcam_core::camera::optics::ThinLens;
-use synthcam_core::camera::sensor::SensorModel;
 use synthcam_core::target::Target;
 use synthcam_render::{finish, GreyImage, Renderer};
 use synthcam_scene::effects::Encoding;
 use synthcam_scene::{truth_labels, Scene, TruthLabels};
 
+pub mod conditions;
+mod levels;
 pub mod score;
+pub use levels::{defocus_lens, sensor_at, snr_at, MOTION_EXPOSURE_S};
 use score::{detect_and_score, strength};
 pub use score::{jpeg_round_trip, match_errors, rms, truth_points};
 
@@ -68,11 +75,27 @@ pub enum Effect {
     Jpeg,
     /// Rolling shutter.
     RollingShutter,
+    /// A lamp's gradient across the board ([`conditions::gradient`]).
+    Gradient,
+    /// A glossy board's highlight over its centre ([`conditions::highlight`]).
+    Highlight,
+    /// A cluttered room behind the board ([`conditions::cluttered`]).
+    Clutter,
 }
 
 impl Effect {
     /// Every effect, in report order.
-    pub const ALL: [Effect; 6] = [Effect::Blur, Effect::Defocus, Effect::Noise, Effect::MotionBlur, Effect::Jpeg, Effect::RollingShutter];
+    pub const ALL: [Effect; 9] = [
+        Effect::Blur,
+        Effect::Defocus,
+        Effect::Noise,
+        Effect::MotionBlur,
+        Effect::Jpeg,
+        Effect::RollingShutter,
+        Effect::Gradient,
+        Effect::Highlight,
+        Effect::Clutter,
+    ];
 
     /// The effect's name (CLI, file names, tables).
     pub fn name(&self) -> &'static str {
@@ -83,6 +106,9 @@ impl Effect {
             Effect::MotionBlur => "motion-blur",
             Effect::Jpeg => "jpeg",
             Effect::RollingShutter => "rolling-shutter",
+            Effect::Gradient => "gradient",
+            Effect::Highlight => "highlight",
+            Effect::Clutter => "clutter",
         }
     }
 
@@ -101,6 +127,9 @@ impl Effect {
             Effect::MotionBlur => &[0.0, 1.0, 2.0, 4.0, 8.0, 16.0],
             Effect::Jpeg => &[100.0, 90.0, 75.0, 50.0, 30.0, 10.0],
             Effect::RollingShutter => &[0.0, 10e-6, 20e-6, 40e-6, 80e-6],
+            Effect::Gradient => &[0.0, 0.01, 0.02, 0.05, 0.1, 0.2],
+            Effect::Highlight => &[0.0, 0.5, 1.0, 2.0, 4.0, 8.0],
+            Effect::Clutter => &[0.0, 0.25, 0.5, 0.75, 1.0],
         }
     }
 
@@ -113,6 +142,8 @@ impl Effect {
             Effect::MotionBlur => "motion px",
             Effect::Jpeg => "quality",
             Effect::RollingShutter => "line delay s",
+            Effect::Gradient | Effect::Highlight => "lamp intensity",
+            Effect::Clutter => "contrast",
         }
     }
 
@@ -125,6 +156,9 @@ impl Effect {
             Effect::MotionBlur => "image motion at the board centre, px",
             Effect::Jpeg => "JPEG quality",
             Effect::RollingShutter => "mean rolling-shutter displacement, px",
+            Effect::Gradient => "brightest / dimmest corner irradiance",
+            Effect::Highlight => "largest specular grey level at a corner",
+            Effect::Clutter => "background contrast",
         }
     }
 
@@ -149,6 +183,9 @@ impl Effect {
                 fx.motion.twist = [0.0, 0.5, 0.0, 0.2, 0.0, 0.0];
                 fx.motion.line_delay_s = level;
             }
+            Effect::Gradient => return conditions::gradient(base, level),
+            Effect::Highlight => return conditions::highlight(base, level),
+            Effect::Clutter => return conditions::cluttered(base, level, base.cam_from_target.translation.x.to_bits(), 0.0),
         }
         s
     }
@@ -158,38 +195,6 @@ impl Effect {
     fn post_only(&self) -> bool {
         matches!(self, Effect::Blur | Effect::Noise | Effect::Jpeg)
     }
-}
-
-/// Exposure of [`Effect::MotionBlur`], seconds.
-pub const MOTION_EXPOSURE_S: f64 = 0.01;
-
-/// The thin lens of [`Effect::Defocus`] at f-number `n` for `scene`: f = 16 mm focused at 0.4 m,
-/// with enough aperture samples that they lie about a pixel apart on the largest circle of
-/// confusion over the board (`pi r^2`, even, in 16..=256). With a fixed 16 samples the image of a
-/// CoC of 7.5 px is 16 visibly separate copies, and the corner error measured is the sampling's
-/// (2.6 px RMS at f/2, 0.04 px with 256 samples), not the detector's.
-pub fn defocus_lens(n: f64, scene: &Scene) -> ThinLens {
-    let lens = ThinLens { f_number: n, focal_length_m: 0.016, focus_distance_m: 0.4, aperture_samples: 0 };
-    let mut s = scene.clone();
-    s.render.effects.optics.thin_lens = Some(lens);
-    synthcam_scene::views::resolved_lens(&s).unwrap_or(lens)
-}
-
-/// The sensor of [`Effect::Noise`] at exposure `exposure_s`: defaults, gain so that grey 255 is
-/// 250 DN on average.
-pub fn sensor_at(exposure_s: f64) -> SensorModel {
-    let mut m = SensorModel { exposure_s, ..Default::default() };
-    let electrons = m.mean_electrons(255.0) + m.dark_current_e_per_s * exposure_s;
-    m.gain_dn_per_e = if electrons > 0.0 { 250.0 / electrons } else { 1.0 };
-    m
-}
-
-/// The temporal SNR of `model` at `grey` (EMVA 1288: `mu_e / sqrt(mu_e + mu_d + sigma_d^2 +
-/// sigma_q^2 / K^2)`, `sigma_q^2 = 1/12 DN^2`).
-pub fn snr_at(model: &SensorModel, grey: f64) -> f64 {
-    let mu_e = model.mean_electrons(grey);
-    let var = mu_e + model.dark_current_e_per_s * model.exposure_s + model.read_noise_e.powi(2) + 1.0 / (12.0 * model.gain_dn_per_e.powi(2));
-    mu_e / var.sqrt()
 }
 
 /// Mean camera-frame point of the target's features.
@@ -258,12 +263,15 @@ pub struct RobustnessRun {
     pub view: usize,
     /// Whether the whole board was found.
     pub detected: bool,
-    /// RMS corner error against the truth, px (NaN when not detected).
+    /// RMS error against the truth of the corners the detector trusts (the ones a calibration
+    /// keeps), px (NaN when not detected).
     pub rms_px: f64,
-    /// Largest corner error, px (NaN when not detected).
+    /// Largest error of a trusted corner, px (NaN when not detected).
     pub max_px: f64,
     /// Corners detected.
     pub n_corners: usize,
+    /// Corners the detector flags as untrusted (left out of the errors).
+    pub untrusted: usize,
 }
 
 /// One rendered and detected image, as [`run_robustness`] hands it to its callback.
@@ -367,8 +375,10 @@ pub fn run_levels(
                 let image = render_image(renderer, effect, &scene, cached)?;
                 let truth = truth_labels(&scene);
                 let truth_px = truth_points(effect, &scene, &truth);
-                let (detected, rms_px, max_px, n_corners) = detect_and_score(&image, &truth_px, grid)?;
-                let run = RobustnessRun { effect, level, strength: strength(effect, &scene, level, &truth), view, detected, rms_px, max_px, n_corners };
+                let s = detect_and_score(&image, &truth_px, grid)?;
+                let (detected, rms_px, max_px, n_corners, untrusted) = (s.detected, s.rms_px, s.max_px, s.n_corners, s.untrusted);
+                let run =
+                    RobustnessRun { effect, level, strength: strength(effect, &scene, level, &truth), view, detected, rms_px, max_px, n_corners, untrusted };
                 on_view(&ViewImage { level_index, run: &run, image: &image, truth: &truth, truth_px: &truth_px, grid }).map_err(RobustnessError::Stopped)?;
                 runs.push(run);
             }

@@ -208,7 +208,7 @@ impl<'s> Sim<'s> {
                 SceneObject { cam_from_object: cam_from_frame * o.cam_from_object, ..o.clone() }
             })
             .collect();
-        Scene { camera: sc.camera, target: sc.target.clone(), cam_from_target, render, objects }
+        Scene { camera: sc.camera, target: sc.target.clone(), cam_from_target, render, objects, background: None }
     }
 
     /// Every feature's exact pixel with the camera at `cam_from_target` (`None` where it is not

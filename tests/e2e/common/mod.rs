@@ -31,6 +31,7 @@ pub fn chessboard_scene(camera: CameraModel, squares: [u32; 2], square_m: f64, t
         cam_from_target: Isometry3::from_parts(Translation3::from(t), rot),
         render: RenderSettings::default(),
         objects: Vec::new(),
+        background: None,
     }
 }
 

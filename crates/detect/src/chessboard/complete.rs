@@ -16,6 +16,13 @@
 //! valid line on any side is part of a larger pattern and is rejected, as is any grid that
 //! cannot be completed: a board is reported whole or not at all.
 //!
+//! One exception for holes: a saturated highlight (a glossy board under a lamp) can clip every
+//! pixel around a corner, and then no image shows it. A hole inside the grid that nothing
+//! validates and whose fit window is at least a quarter clipped (at the image's maximum) is
+//! *blind*: it is placed at the grid's prediction (holes next to each other one after another)
+//! and reported untrusted (infinite sigma: calibrations leave it out), so the rest of the board
+//! is not lost. At most [`MAX_BLIND_FRACTION`] of the board's corners may be blind.
+//!
 //! Reference: A. Geiger, F. Moosmann, O. Car, B. Schuster, "Automatic camera and range sensor
 //! calibration using a single shot", ICRA 2012 (structure recovery by growing a chessboard from
 //! validated corners, neighbour predictions following curved rows); the prediction is the
@@ -69,7 +76,7 @@ pub(super) fn complete<I: GreyWindow>(
     refine: &SaddleFitParams,
     p: &CompleteParams,
 ) -> Option<Grid> {
-    let cx = Ctx { img, full, refine, p, steps: steps(g), quads: OnceLock::new() };
+    let cx = Ctx { img, full, refine, p, steps: steps(g), quads: OnceLock::new(), max: OnceLock::new() };
     let (i0, i1, j0, j1) = g.bounds()?;
     let (ni, nj) = (i1 - i0 + 1, j1 - j0 + 1);
     if ni < 3 || nj < 3 {
@@ -93,7 +100,7 @@ pub(super) fn complete<I: GreyWindow>(
 
 /// Complete to `ti` x `tj` (along i, j).
 fn complete_to<I: GreyWindow>(cx: &Ctx<'_, I>, mut g: Grid, (ti, tj): (i32, i32)) -> Option<Grid> {
-    fill_holes(cx, &mut g)?;
+    fill_holes(cx, &mut g, (ti * tj) as usize)?;
     loop {
         let (i0, i1, j0, j1) = g.bounds()?;
         let (ni, nj) = (i1 - i0 + 1, j1 - j0 + 1);
@@ -126,8 +133,23 @@ enum Side {
 /// A corner placed at a grid cell.
 type Placed = ((i32, i32), Point2<f64>);
 
-/// Fill every hole inside the grid's bounding box; `None` when one cannot be validated.
-fn fill_holes<I: GreyWindow>(cx: &Ctx<'_, I>, g: &mut Grid) -> Option<()> {
+/// The strength a blind corner is marked with in its grid (module doc).
+pub(super) const BLIND: f32 = f32::NEG_INFINITY;
+
+/// At most this fraction of a board's corners may be blind.
+pub const MAX_BLIND_FRACTION: f64 = 1.0 / 8.0;
+
+/// At least this fraction of a blind corner's fit window is clipped.
+const MIN_CLIPPED_FRACTION: f64 = 0.25;
+
+/// The positions of `g`'s blind corners.
+pub(super) fn blind_points(g: &Grid) -> Vec<Point2<f64>> {
+    g.cells.iter().filter(|(k, _)| g.strength.get(k) == Some(&BLIND)).map(|(_, q)| *q).collect()
+}
+
+/// Fill every hole inside the grid's bounding box, validated, or blind (module doc); `None`
+/// when one is neither.
+fn fill_holes<I: GreyWindow>(cx: &Ctx<'_, I>, g: &mut Grid, board_corners: usize) -> Option<()> {
     let (i0, i1, j0, j1) = g.bounds()?;
     loop {
         let holes: Vec<(i32, i32)> = (i0..=i1).flat_map(|i| (j0..=j1).map(move |j| (i, j))).filter(|k| !g.cells.contains_key(k)).collect();
@@ -143,9 +165,53 @@ fn fill_holes<I: GreyWindow>(cx: &Ctx<'_, I>, g: &mut Grid) -> Option<()> {
             }
         }
         if !added {
+            return fill_blind(cx, g, board_corners);
+        }
+    }
+}
+
+/// Place the remaining holes of `g` at their predictions when every one is blind (module doc)
+/// and they are few enough; `None` otherwise.
+fn fill_blind<I: GreyWindow>(cx: &Ctx<'_, I>, g: &mut Grid, board_corners: usize) -> Option<()> {
+    let (i0, i1, j0, j1) = g.bounds()?;
+    let mut holes: Vec<(i32, i32)> = (i0..=i1).flat_map(|i| (j0..=j1).map(move |j| (i, j))).filter(|k| !g.cells.contains_key(k)).collect();
+    if holes.len() as f64 > MAX_BLIND_FRACTION * board_corners as f64 {
+        return None;
+    }
+    let mut work = g.clone();
+    while !holes.is_empty() {
+        let before = holes.len();
+        holes.retain(|&(i, j)| match work.predict(i, j) {
+            Some((pred, step, ..)) if clipped_around(cx, pred, step) => {
+                work.cells.insert((i, j), pred);
+                work.strength.insert((i, j), BLIND);
+                false
+            }
+            _ => true,
+        });
+        if holes.len() == before {
             return None;
         }
     }
+    log::debug!("completion: {} blind (clipped) corners placed at their predictions, untrusted", blind_points(&work).len());
+    *g = work;
+    Some(())
+}
+
+/// Whether at least [`MIN_CLIPPED_FRACTION`] of the fit window at `p` is at the image's maximum.
+fn clipped_around<I: GreyWindow>(cx: &Ctx<'_, I>, p: Point2<f64>, step: f64) -> bool {
+    let full = cx.full;
+    let max = *cx.max.get_or_init(|| full.data.iter().copied().fold(f32::NEG_INFINITY, f32::max));
+    let hw = super::fit_half_window(cx.img, p, step, WINDOW_FRAC, cx.refine.half_window) as i64;
+    let (cx0, cy0) = (p.x.round() as i64, p.y.round() as i64);
+    let (mut clipped, mut n) = (0usize, 0usize);
+    for y in (cy0 - hw).max(0)..=(cy0 + hw).min(full.height as i64 - 1) {
+        for x in (cx0 - hw).max(0)..=(cx0 + hw).min(full.width as i64 - 1) {
+            n += 1;
+            clipped += usize::from(full.data[y as usize * full.width + x as usize] >= max);
+        }
+    }
+    n > 0 && clipped as f64 >= MIN_CLIPPED_FRACTION * n as f64
 }
 
 /// Every cell of the line beside the grid, each validated (predictions use the cells of the line
@@ -176,6 +242,8 @@ struct Ctx<'a, I> {
     /// Shortest and longest step between 4-neighbours of the partial grid, pixels.
     steps: (f64, f64),
     quads: OnceLock<Vec<Quad>>,
+    /// The image's largest value (clipped pixels reach it), found when first needed.
+    max: OnceLock<f32>,
 }
 
 /// Shortest and longest distance between 4-neighbours of `g`.

@@ -1,5 +1,6 @@
-//! Extra per-image outputs: depth (`.depth.npy`, float32 metres, NaN where nothing is seen) and
-//! instance masks (`.mask.png`, 16-bit: 0 nothing, 1 the target, 2 + i object i), both from
+//! Extra per-image outputs: depth (`.depth.npy`, float32 metres, NaN where nothing is seen, +inf
+//! on a panorama) and instance masks (`.mask.png`, 16-bit: 0 nothing, 1 the target, 2 + i object
+//! i, 65535 a background image), both from
 //! [`synthcam_scene::depth::depth_mask`].
 
 use std::path::Path;

@@ -10,7 +10,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use synthcam_core::mesh::obj::load_obj;
-use synthcam_core::mesh::MeshError;
+use synthcam_core::mesh::{MeshError, Texture};
+use synthcam_scene::file::AssetLoader;
 use synthcam_scene::objects::MeshAsset;
 
 /// A cache of loaded meshes.
@@ -18,12 +19,13 @@ use synthcam_scene::objects::MeshAsset;
 pub struct MeshLibrary {
     base_dir: PathBuf,
     cache: Mutex<HashMap<PathBuf, Arc<MeshAsset>>>,
+    images: Mutex<HashMap<PathBuf, Arc<Texture>>>,
 }
 
 impl MeshLibrary {
     /// A library resolving relative paths against `base_dir` when they do not exist as written.
     pub fn new(base_dir: &Path) -> Self {
-        Self { base_dir: base_dir.to_path_buf(), cache: Mutex::new(HashMap::new()) }
+        Self { base_dir: base_dir.to_path_buf(), cache: Mutex::new(HashMap::new()), images: Mutex::new(HashMap::new()) }
     }
 
     /// A library for the meshes named in the file `file` (its folder is the base).
@@ -59,5 +61,34 @@ impl MeshLibrary {
             c.insert(file, asset.clone());
         }
         Ok(asset)
+    }
+
+    /// The image at `path` as a grey texture (its luma; read on first use): a background.
+    ///
+    /// # Errors
+    /// [`MeshError::Read`] or [`MeshError::Texture`], naming the file.
+    pub fn image(&self, path: &str) -> Result<Arc<Texture>, MeshError> {
+        let file = self.resolve(path);
+        if let Some(t) = self.images.lock().ok().and_then(|c| c.get(&file).cloned()) {
+            return Ok(t);
+        }
+        let name = file.display().to_string();
+        let bytes = std::fs::read(&file).map_err(|source| MeshError::Read { path: name.clone(), source })?;
+        let img = image::load_from_memory(&bytes).map_err(|source| MeshError::Texture { path: name, source })?;
+        let texture = Arc::new(Texture::from_image(&img));
+        if let Ok(mut c) = self.images.lock() {
+            c.insert(file, texture.clone());
+        }
+        Ok(texture)
+    }
+}
+
+impl AssetLoader for MeshLibrary {
+    fn mesh(&self, path: &str) -> Result<Arc<MeshAsset>, MeshError> {
+        self.load(path)
+    }
+
+    fn texture(&self, path: &str) -> Result<Arc<Texture>, MeshError> {
+        self.image(path)
     }
 }

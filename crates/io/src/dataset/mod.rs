@@ -1,6 +1,7 @@
 //! Everything that touches files: PNG and JSON output written atomically (temporary name, then
 //! rename), so a failed run never leaves a truncated image behind.
 
+pub mod background;
 pub mod error;
 pub mod extras;
 pub mod formats;

@@ -191,8 +191,11 @@ pub fn scene_of(plan: &DatasetPlan, view: &SampledView) -> Scene {
         // Fields and both ends were checked when the plan was built.
         let _ = synthcam_scene::effect_fields::set_field(&mut render, field, v);
     }
-    let mut scene = Scene { camera: plan.camera, target: plan.target.clone(), cam_from_target: view.cam_from_target, render, objects: Vec::new() };
+    let mut scene =
+        Scene { camera: plan.camera, target: plan.target.clone(), cam_from_target: view.cam_from_target, render, objects: Vec::new(), background: None };
     plan.objects.place(&mut scene, plan.seed, view.k);
+    // The placement was checked when the plan was built.
+    scene.background = plan.background.as_ref().and_then(|b| b.for_image(plan.seed, view.k, &view.cam_from_target).ok());
     scene
 }
 
@@ -204,6 +207,7 @@ pub fn rig_scene_of(plan: &DatasetPlan, view: &SampledView, i: usize) -> Option<
     let mut scene = scene_of(plan, view);
     scene.camera = plan.rig.get(i)?.camera;
     scene.cam_from_target = cam_from_target;
+    scene.background = scene.background.map(|b| b.seen_from(&plan.rig[i].cam_from_cam0));
     scene.render.seed = seed;
     Some(scene)
 }

@@ -80,6 +80,10 @@ pub struct DatasetSpec {
     /// `[[light]]` tables (as in scene files; `[render] ambient` the ambient term).
     #[serde(default, rename = "light")]
     pub lights: Vec<synthcam_scene::file::LightSpec>,
+    /// `[background]` (as in scene files, plus `folder` and `yaw_deg` drawn per image:
+    /// [`super::background`]).
+    #[serde(default)]
+    pub background: Option<synthcam_scene::file::background::BackgroundSpec>,
     /// Also write each image's depth (`.depth.npy`, [`super::extras`]).
     #[serde(default)]
     pub depth: bool,
@@ -228,6 +232,8 @@ pub struct DatasetPlan {
     pub objects: super::objects::DatasetObjects,
     /// Write depth and instance masks beside each image.
     pub extras: [bool; 2],
+    /// The background, drawn per image.
+    pub background: Option<super::background::DatasetBackground>,
 }
 
 fn invalid(field: &str, reason: impl Into<String>) -> SpecError {
@@ -308,6 +314,7 @@ impl DatasetSpec {
             cam_from_target: nalgebra::Isometry3::translation(0.0, 0.0, 1e3),
             render,
             objects: Vec::new(),
+            background: None,
         };
         probe.validate()?;
         let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target, &camera)?;
@@ -324,6 +331,10 @@ impl DatasetSpec {
             return Err(invalid("object", "objects are rendered with planar targets and without defocus, motion or a rolling shutter"));
         }
         let extras = [self.depth, self.masks];
+        let background = self.background.as_ref().map(|b| super::background::DatasetBackground::load(b, meshes)).transpose()?;
+        if background.is_some() && matches!(target, Target::SPath(_)) {
+            return Err(invalid("background", "backgrounds are drawn behind planar targets; the S-path is not supported yet"));
+        }
         Ok(DatasetPlan {
             count: self.count,
             seed: self.seed,
@@ -339,6 +350,7 @@ impl DatasetSpec {
             ranges,
             objects,
             extras,
+            background,
         })
     }
 

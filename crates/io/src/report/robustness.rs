@@ -21,6 +21,8 @@ pub struct LevelSummary {
     pub mean_rms_px: f64,
     /// Largest corner error over the detections, px (NaN without one).
     pub max_px: f64,
+    /// Untrusted corners over the detections (left out of the errors).
+    pub untrusted: usize,
 }
 
 impl LevelSummary {
@@ -59,6 +61,7 @@ pub fn summarise(runs: &[RobustnessRun]) -> Vec<LevelSummary> {
                 detected: found.len(),
                 mean_rms_px: mean(found.iter().map(|r| r.rms_px)),
                 max_px: found.iter().map(|r| r.max_px).fold(f64::NAN, f64::max),
+                untrusted: found.iter().map(|r| r.untrusted).sum(),
             }
         })
         .collect()
@@ -81,7 +84,7 @@ pub fn level_label(level: f64) -> String {
 
 /// The table: per effect and level, the strength, detection rate, mean RMS and max error.
 pub fn table(runs: &[RobustnessRun]) -> Table {
-    let mut t = Table::new(["effect", "level", "strength", "detected %", "mean RMS px", "max px", "views"]);
+    let mut t = Table::new(["effect", "level", "strength", "detected %", "mean RMS px", "max px", "untrusted corners", "views"]);
     for l in summarise(runs) {
         t.push([
             l.effect.name().to_string(),
@@ -90,6 +93,7 @@ pub fn table(runs: &[RobustnessRun]) -> Table {
             format!("{:.0}", l.detection_pct()),
             cell(l.mean_rms_px, 4),
             cell(l.max_px, 4),
+            l.untrusted.to_string(),
             l.views.to_string(),
         ]);
     }
@@ -97,7 +101,7 @@ pub fn table(runs: &[RobustnessRun]) -> Table {
 }
 
 /// The header of [`csv`].
-pub const CSV_HEADER: &str = "effect,level,strength,view,detected,rms_px,max_px,n_corners";
+pub const CSV_HEADER: &str = "effect,level,strength,view,detected,rms_px,max_px,n_corners,untrusted";
 
 /// CSV: one line per run (empty error fields when not detected).
 pub fn csv(runs: &[RobustnessRun]) -> String {
@@ -105,7 +109,7 @@ pub fn csv(runs: &[RobustnessRun]) -> String {
     let mut s = format!("{CSV_HEADER}\n");
     for r in runs {
         s += &format!(
-            "{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{}\n",
             r.effect.name(),
             level_label(r.level),
             num(r.strength),
@@ -113,7 +117,8 @@ pub fn csv(runs: &[RobustnessRun]) -> String {
             u8::from(r.detected),
             num(r.rms_px),
             num(r.max_px),
-            r.n_corners
+            r.n_corners,
+            r.untrusted
         );
     }
     s
@@ -164,7 +169,7 @@ mod tests {
     fn run(effect: Effect, level: f64, view: usize, detected: bool, rms_px: f64) -> RobustnessRun {
         let nan = f64::NAN;
         let (rms_px, max_px) = if detected { (rms_px, 2.0 * rms_px) } else { (nan, nan) };
-        RobustnessRun { effect, level, strength: level, view, detected, rms_px, max_px, n_corners: if detected { 88 } else { 0 } }
+        RobustnessRun { effect, level, strength: level, view, detected, rms_px, max_px, n_corners: if detected { 88 } else { 0 }, untrusted: 0 }
     }
 
     #[test]
@@ -182,7 +187,7 @@ mod tests {
         let md = table(&runs).markdown();
         assert!(md.contains("| blur | 3 sigma px | 3.000 | 50 | 0.1000 | 0.2000 | 2 |"), "{md}");
         let c = csv(&runs);
-        assert!(c.starts_with(CSV_HEADER) && c.contains("\nblur,3,3.000000,0,0,,,0\n"), "{c}");
+        assert!(c.starts_with(CSV_HEADER) && c.contains("\nblur,3,3.000000,0,0,,,0,0\n"), "{c}");
         assert_eq!(level_label(4e-5), "0.00004");
         let png = plot_png(&runs, Effect::Blur).expect("plot");
         assert!(image::load_from_memory(&png).is_ok());

@@ -19,7 +19,7 @@ use serde::Deserialize;
 use super::PoseSpec;
 use crate::objects::{MeshAsset, SceneObject, Shading};
 use crate::SceneError;
-use synthcam_core::mesh::MeshError;
+use synthcam_core::mesh::{MeshError, Texture};
 
 /// What an object's pose is relative to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
@@ -61,8 +61,36 @@ pub struct ObjectSpec {
     pub shading: Shading,
 }
 
-/// Loads a mesh by the path written in a scene file (the CLI's reads files and caches them).
-pub type MeshLoader<'a> = &'a dyn Fn(&str) -> Result<Arc<MeshAsset>, MeshError>;
+/// Loads the files a scene file names (meshes, background images) by the path written there: the
+/// CLI's and Python's read files and cache them (`synthcam_io::dataset::meshes::MeshLibrary`). A
+/// closure over paths is a loader of meshes alone.
+pub trait AssetLoader {
+    /// The mesh at `path`.
+    ///
+    /// # Errors
+    /// The file does not load.
+    fn mesh(&self, path: &str) -> Result<Arc<MeshAsset>, MeshError>;
+
+    /// The image at `path` as a grey texture.
+    ///
+    /// # Errors
+    /// The file does not load; this default reads no images.
+    fn texture(&self, path: &str) -> Result<Arc<Texture>, MeshError> {
+        Err(MeshError::Invalid {
+            path: path.into(),
+            reason: "this loader reads meshes only: load the scene with one that reads images (synthcam's CLI and Python do)".into(),
+        })
+    }
+}
+
+impl<F: Fn(&str) -> Result<Arc<MeshAsset>, MeshError>> AssetLoader for F {
+    fn mesh(&self, path: &str) -> Result<Arc<MeshAsset>, MeshError> {
+        self(path)
+    }
+}
+
+/// The loader a scene's parsing takes ([`AssetLoader`]).
+pub type MeshLoader<'a> = &'a dyn AssetLoader;
 
 impl ObjectSpec {
     /// The pose as written (in [`ObjectSpec::frame`]); `i` names the table in errors.
@@ -84,7 +112,7 @@ impl ObjectSpec {
     /// # Errors
     /// [`SceneError::Object`] when the mesh does not load; invalid pose fields.
     pub fn to_object(&self, i: usize, frame_pose: &Isometry3<f64>, load: MeshLoader<'_>) -> Result<SceneObject, SceneError> {
-        let asset = load(&self.mesh).map_err(|source| SceneError::Object { index: i, source })?;
+        let asset = load.mesh(&self.mesh).map_err(|source| SceneError::Object { index: i, source })?;
         Ok(self.place(asset, frame_pose * self.pose(i)?))
     }
 

@@ -1,7 +1,9 @@
 //! Truth per effect, the detection and the ordered comparison of the detected corners with the
 //! truth ([`super`]'s module docs), and the in-memory JPEG round trip.
 
+use super::conditions::{condition_strength, Condition};
 use super::{centre_depth_m, snr_at, Effect, RobustnessError};
+use synthcam_detect::chessboard::TRUSTED_CORNER_PX;
 use synthcam_detect::{find_chessboard, ChessboardParams};
 use synthcam_render::GreyImage;
 use synthcam_scene::{Scene, TruthLabels};
@@ -25,16 +27,26 @@ pub fn truth_points(effect: Effect, scene: &Scene, truth: &TruthLabels) -> Vec<[
 /// transposed: `found_cols`) against `truth` (target order): the grid symmetry with the smallest
 /// RMS over the finite truth points. Empty when the counts differ.
 pub fn match_errors(found: &[[f64; 2]], found_cols: usize, truth: &[[f64; 2]], grid: [u32; 2]) -> Vec<f64> {
+    matched_errors(found, found_cols, truth, grid).into_iter().map(|(_, e)| e).collect()
+}
+
+/// [`match_errors`] with the index in `found` of each error's corner.
+pub fn matched_errors(found: &[[f64; 2]], found_cols: usize, truth: &[[f64; 2]], grid: [u32; 2]) -> Vec<(usize, f64)> {
     let (cols, rows) = (grid[0] as usize, grid[1] as usize);
     if found.len() != truth.len() || found.len() != cols * rows || cols == 0 || rows == 0 {
         return Vec::new();
     }
     // A transposed result (rows per row) is brought to `cols` per row first.
-    let found: Vec<[f64; 2]> = if found_cols == cols { found.to_vec() } else { (0..found.len()).map(|k| found[(k % cols) * rows + k / cols]).collect() };
-    let errors = |perm: &Vec<usize>| -> Vec<f64> {
-        perm.iter().zip(truth).filter(|(_, t)| t[0].is_finite() && t[1].is_finite()).map(|(&i, t)| (found[i][0] - t[0]).hypot(found[i][1] - t[1])).collect()
+    let index = |k: usize| if found_cols == cols { k } else { (k % cols) * rows + k / cols };
+    let errors = |perm: &Vec<usize>| -> Vec<(usize, f64)> {
+        perm.iter()
+            .zip(truth)
+            .filter(|(_, t)| t[0].is_finite() && t[1].is_finite())
+            .map(|(&i, t)| (index(i), (found[index(i)][0] - t[0]).hypot(found[index(i)][1] - t[1])))
+            .collect()
     };
-    crate::world::grid_orderings(cols, rows).iter().map(errors).min_by(|a, b| rms(a).total_cmp(&rms(b))).unwrap_or_default()
+    let rms_of = |v: &Vec<(usize, f64)>| rms(&v.iter().map(|(_, e)| *e).collect::<Vec<_>>());
+    crate::world::grid_orderings(cols, rows).iter().map(errors).min_by(|a, b| rms_of(a).total_cmp(&rms_of(b))).unwrap_or_default()
 }
 
 /// Root mean square (NaN for none).
@@ -55,16 +67,29 @@ pub fn jpeg_round_trip(img: &GreyImage, quality: u8) -> Result<GreyImage, Robust
     Ok(GreyImage::U8(back.to_luma8()))
 }
 
-/// Detect the board in `image` and compare it with `truth_px`.
-pub(super) fn detect_and_score(image: &GreyImage, truth_px: &[[f64; 2]], grid: [u32; 2]) -> Result<(bool, f64, f64, usize), RobustnessError> {
+/// A detection scored against the truth.
+pub(super) struct Score {
+    pub detected: bool,
+    /// RMS and largest error over the corners the detector trusts (those a calibration keeps).
+    pub rms_px: f64,
+    pub max_px: f64,
+    pub n_corners: usize,
+    /// Corners the detector flags as untrusted (`ChessboardCorners::untrusted`).
+    pub untrusted: usize,
+}
+
+/// Detect the board in `image` and compare its trusted corners with `truth_px`.
+pub(super) fn detect_and_score(image: &GreyImage, truth_px: &[[f64; 2]], grid: [u32; 2]) -> Result<Score, RobustnessError> {
     let params = ChessboardParams::new(grid[0] as usize, grid[1] as usize);
     let Some(board) = find_chessboard(&image.to_detector_image()?, &params)? else {
-        return Ok((false, f64::NAN, f64::NAN, 0));
+        return Ok(Score { detected: false, rms_px: f64::NAN, max_px: f64::NAN, n_corners: 0, untrusted: 0 });
     };
     let found: Vec<[f64; 2]> = board.points_px.iter().map(|p| [p.x, p.y]).collect();
-    let e = match_errors(&found, board.cols, truth_px, grid);
+    let untrusted = board.untrusted(TRUSTED_CORNER_PX);
+    let matched = matched_errors(&found, board.cols, truth_px, grid);
+    let e: Vec<f64> = matched.iter().filter(|(i, _)| !untrusted.contains(i)).map(|(_, e)| *e).collect();
     let max = e.iter().copied().fold(f64::NAN, f64::max);
-    Ok((!e.is_empty(), rms(&e), max, found.len()))
+    Ok(Score { detected: !matched.is_empty(), rms_px: rms(&e), max_px: max, n_corners: found.len(), untrusted: untrusted.len() })
 }
 
 /// The strength of `effect` at `level` in `scene` (module docs).
@@ -72,6 +97,9 @@ pub(super) fn strength(effect: Effect, scene: &Scene, level: f64, truth: &TruthL
     let fx = &scene.render.effects;
     match effect {
         Effect::Blur | Effect::MotionBlur | Effect::Jpeg => level,
+        Effect::Gradient => condition_strength(truth, Condition::Gradient, level),
+        Effect::Highlight => condition_strength(truth, Condition::Highlight, level),
+        Effect::Clutter => condition_strength(truth, Condition::Clutter, level),
         Effect::Defocus => fx.optics.thin_lens.map_or(0.0, |l| l.coc_radius_px(scene.camera.intrinsics.fx, centre_depth_m(scene))),
         Effect::Noise => fx.sensor.map_or(f64::INFINITY, |m| snr_at(&m, 128.0)),
         Effect::RollingShutter => {

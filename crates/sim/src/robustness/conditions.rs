@@ -1,0 +1,108 @@
+//! The scene conditions of the robustness experiment (issue 41's realistic scenes): a lamp's
+//! gradient across the board, a glossy board's highlight over its corners, and a cluttered room
+//! behind it. Each level sets one parameter; the strength reported is measured on the scene's
+//! truth (module docs of [`super`]).
+
+use std::sync::Arc;
+
+use nalgebra::{UnitQuaternion, Vector3};
+use synthcam_scene::background::{clutter, Background};
+use synthcam_scene::lighting::{camera_side_normal, Gloss, LightFrame, Lighting};
+use synthcam_scene::{Scene, TruthLabels};
+
+use super::centre_cam;
+
+/// [`super::Effect::Gradient`]'s ambient term: the lamp's light is added to it.
+pub const GRADIENT_AMBIENT: f64 = 0.25;
+
+/// A desk lamp 0.15 m beside the board's left edge and 0.2 m in front of it (target frame, at
+/// the middle of its height), of intensity `level` (irradiance at 1 m), over an ambient of
+/// [`GRADIENT_AMBIENT`]: bright near the lamp, dim across the board.
+pub fn gradient(base: &Scene, level: f64) -> Scene {
+    let mut s = base.clone();
+    let mut lighting = Lighting { ambient: Some(GRADIENT_AMBIENT), ..Default::default() };
+    let [_, y0, _, y1] = base.target.extent_m().unwrap_or([0.0; 4]);
+    let front = -camera_side_in_target(base);
+    let x0 = base.target.extent_m().map_or(0.0, |e| e[0]);
+    if level > 0.0 {
+        // Positions and intensities here are finite and the intensity positive: `add_point` accepts them.
+        let _ = lighting.add_point(LightFrame::Target, [x0 - 0.15, 0.5 * (y0 + y1), -0.2 * front], level);
+    }
+    s.render.lighting = lighting;
+    s
+}
+
+/// The side of the target's plane the camera is on, as the sign of target z (+1 or -1).
+fn camera_side_in_target(scene: &Scene) -> f64 {
+    let n_t = scene.cam_from_target.rotation.inverse() * camera_side_normal(scene);
+    n_t.z.signum()
+}
+
+/// [`super::Effect::Highlight`]'s lamp distance from the board centre, metres: far enough that its
+/// diffuse light is small beside its highlight.
+pub const HIGHLIGHT_LAMP_M: f64 = 3.0;
+
+/// A laminated board (GGX, `F0` 0.05, roughness 0.25) under a lamp of intensity `level` placed
+/// where the camera's view of the board centre reflects ([`HIGHLIGHT_LAMP_M`] away): the
+/// highlight lies on the board's centre; ambient 1 (the board as given plus the lamp).
+pub fn highlight(base: &Scene, level: f64) -> Scene {
+    let mut s = base.clone();
+    let c = centre_cam(base).coords;
+    let n = camera_side_normal(base);
+    let v = -c.normalize();
+    let r = 2.0 * n.dot(&v) * n - v;
+    let lamp = c + HIGHLIGHT_LAMP_M * r;
+    let mut lighting = Lighting { ambient: Some(1.0), gloss: Some(Gloss { specular: 0.05, roughness: 0.25 }), ..Default::default() };
+    if level > 0.0 {
+        // A finite position and a positive intensity: `add_point` accepts them.
+        let _ = lighting.add_point(LightFrame::Camera, [lamp.x, lamp.y, lamp.z], level);
+    }
+    s.render.lighting = lighting;
+    s
+}
+
+/// Texels of [`super::Effect::Clutter`]'s panorama (per axis).
+pub const CLUTTER_TEXELS: [u32; 2] = [4096, 2048];
+
+/// A cluttered room behind the board: a procedural clutter panorama (seed `seed`, turned by
+/// `yaw_rad` about the camera's y axis) whose contrast about the target's background grey is
+/// `level` (0: a uniform grey, 1: the clutter as drawn).
+pub fn cluttered(base: &Scene, level: f64, seed: u64, yaw_rad: f64) -> Scene {
+    let mut s = base.clone();
+    let g = base.target.background() as f32;
+    let mut t = clutter(seed, CLUTTER_TEXELS[0], CLUTTER_TEXELS[1]);
+    t.texels.iter_mut().for_each(|v| *v = (g + level as f32 * (*v - g)).clamp(0.0, 255.0));
+    s.background = Some(Background::panorama(Arc::new(t), UnitQuaternion::from_axis_angle(&Vector3::y_axis(), yaw_rad)));
+    s
+}
+
+/// The strength of a condition in `scene`: the gradient's ratio of the brightest to the dimmest
+/// corner's irradiance, the highlight's largest specular grey level at a corner, or the clutter's
+/// contrast (`level`).
+pub fn condition_strength(truth: &TruthLabels, kind: Condition, level: f64) -> f64 {
+    let values = |f: fn(&synthcam_scene::truth::FeatureLabel) -> Option<f64>| truth.features.iter().filter_map(f).collect::<Vec<f64>>();
+    match kind {
+        Condition::Gradient => {
+            let e = values(|f| f.irradiance);
+            let (lo, hi) = e.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+            if lo > 0.0 && lo.is_finite() {
+                hi / lo
+            } else {
+                1.0
+            }
+        }
+        Condition::Highlight => values(|f| f.specular).into_iter().fold(0.0, f64::max),
+        Condition::Clutter => level,
+    }
+}
+
+/// The three scene conditions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Condition {
+    /// [`gradient`].
+    Gradient,
+    /// [`highlight`].
+    Highlight,
+    /// [`cluttered`].
+    Clutter,
+}
