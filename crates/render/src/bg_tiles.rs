@@ -141,7 +141,9 @@ mod tests {
         let mut texels: Vec<f32> = (0..32).map(|i| if i % 8 < 4 { 10.0 } else { 20.0 }).collect();
         texels[3 * 8 + 1] = 30.0;
         let p = MinMaxPyramid::new(&Texture { width: 8, height: 4, texels });
-        assert_eq!(p.flat_over([0.0, 0.0], [3.5, 2.5], false), Some(10.0));
+        assert_eq!(p.flat_over([0.0, 0.0], [3.5, 1.5], false), Some(10.0));
+        // Conservative: rows 0..=2 are read as the 2 x 2 blocks holding them, row 3's 30 included.
+        assert_eq!(p.flat_over([0.0, 0.0], [3.5, 2.5], false), None);
         assert_eq!(p.flat_over([4.2, 0.0], [7.5, 3.5], false), Some(20.0));
         assert_eq!(p.flat_over([0.0, 2.0], [2.0, 3.5], false), None, "the 30 texel");
         assert_eq!(p.flat_over([3.0, 0.0], [4.5, 1.0], false), None, "the split");

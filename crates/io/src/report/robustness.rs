@@ -185,7 +185,7 @@ mod tests {
         assert!((s[0].mean_rms_px - 0.02).abs() < 1e-12 && s[0].detection_pct() == 100.0 && (s[0].max_px - 0.06).abs() < 1e-12);
         assert_eq!((s[1].detected, s[1].views, s[1].detection_pct()), (1, 2, 50.0));
         let md = table(&runs).markdown();
-        assert!(md.contains("| blur | 3 sigma px | 3.000 | 50 | 0.1000 | 0.2000 | 2 |"), "{md}");
+        assert!(md.contains("| blur | 3 sigma px | 3.000 | 50 | 0.1000 | 0.2000 | 0 | 2 |"), "{md}");
         let c = csv(&runs);
         assert!(c.starts_with(CSV_HEADER) && c.contains("\nblur,3,3.000000,0,0,,,0,0\n"), "{c}");
         assert_eq!(level_label(4e-5), "0.00004");
