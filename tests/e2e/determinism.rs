@@ -39,7 +39,13 @@ fn scenes() -> Vec<(&'static str, synthcam::scene::Scene)> {
     let load = |text: &str| synthcam::scene::file::parse_scene_with(text, &|p: &str| meshes.load(p)).expect("scene");
     let gripper = load(include_str!("../../assets/scenes/objects/gripper_charuco.toml"));
     let cube = load(include_str!("../../assets/scenes/objects/calibration_cube.toml"));
+    // Backgrounds: a clutter panorama through the fisheye, a plane image behind the gripper.
+    let panorama = parse_scene(include_str!("../../assets/scenes/background/fisheye_panorama.toml")).expect("scene");
+    let mut gripper_plane = gripper.clone();
+    gripper_plane.background = parse_scene(include_str!("../../assets/scenes/background/plane_chessboard.toml")).expect("scene").background;
     vec![
+        ("fisheye-panorama", panorama),
+        ("gripper-plane", gripper_plane),
         ("gripper", gripper),
         ("cube-fisheye", cube),
         ("real-camera", real),

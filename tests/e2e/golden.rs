@@ -58,7 +58,9 @@ fn cases() -> Vec<Case> {
     let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("assets/scenes/objects"));
     let gripper_text = include_str!("../../assets/scenes/objects/gripper_charuco.toml");
     let gripper = small(synthcam::scene::file::parse_scene_with(gripper_text, &|p: &str| meshes.load(p)).expect("scene"), 320, 256);
+    let panorama = small(parse_scene(include_str!("../../assets/scenes/background/fisheye_panorama.toml")).expect("scene"), 320, 256);
     vec![
+        Case { name: "fisheye_panorama_320", scene: panorama, max_abs: 1, max_mean: 0.01 },
         Case { name: "real_camera_320", scene: real, max_abs: 1, max_mean: 0.01 },
         Case { name: "gripper_charuco_320", scene: gripper, max_abs: 1, max_mean: 0.01 },
         Case { name: "charuco_k1_320", scene: charuco, max_abs: 1, max_mean: 0.01 },
