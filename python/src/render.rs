@@ -26,8 +26,8 @@ pub fn renderer() -> Result<&'static Renderer, String> {
     Ok(RENDERER.get_or_init(|| opened))
 }
 
-/// Parse scene text, loading `[[object]]` meshes relative to `base_dir` (default: the working
-/// directory).
+/// Parse scene text, loading `[[object]]` meshes and `[background]` images relative to
+/// `base_dir` (default: the working directory).
 fn parse(text: &str, base_dir: Option<PathBuf>) -> Result<Scene, String> {
     let meshes = MeshLibrary::new(&base_dir.unwrap_or_else(|| PathBuf::from(".")));
     parse_scene_with(text, &meshes).map_err(|e| format!("in the scene: {}", chain(&e)))
@@ -38,7 +38,8 @@ fn parse(text: &str, base_dir: Option<PathBuf>) -> Result<Scene, String> {
 /// writes beside an image: camera, `cam_from_target`, every feature's exact pixel).
 ///
 /// `scene` is a scene file's text (TOML, or JSON) or the same as a dict. Meshes named by
-/// `[[object]]` are read relative to `base_dir` (default: the working directory). The GIL is
+/// `[[object]]` and images named by `[background]` are read relative to `base_dir` (default:
+/// the working directory). The GIL is
 /// released while the scene is parsed, rendered and labelled.
 #[pyfunction]
 #[pyo3(signature = (scene, base_dir=None))]

@@ -43,7 +43,7 @@ def render(scene: _Text, base_dir: Optional[Union[str, PathLike[str]]] = None) -
     """Render a scene: ((H, W) uint8/uint16 or (H, W, 3) image, truth dict). GIL released."""
 
 def render_depth_mask(scene: _Text, base_dir: Optional[Union[str, PathLike[str]]] = None) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.uint16]]:
-    """(depth in metres along the camera's z, NaN where nothing; instance ids: 0 none, 1 target, 2+i object i)."""
+    """(depth in metres along the camera's z, NaN where nothing, +inf on a panorama; instance ids: 0 none, 1 target, 2+i object i, 65535 a background image)."""
 
 def adapter() -> str:
     """The GPU adapter the renderer runs on, opening it if needed."""

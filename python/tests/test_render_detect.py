@@ -1,8 +1,10 @@
 """render + detect from Python against the truth labels (independent: the truth is the exact
 f64 projection of each corner, the detector sees only the pixels)."""
 
+import struct
 import threading
 import time
+import zlib
 
 import numpy as np
 import pytest
@@ -86,3 +88,26 @@ def test_bad_input_is_a_clear_error(board_scene_text):
         synthcam.detect(np.zeros((8, 8), np.uint8), "hexboard:3")
     blank = synthcam.detect(np.full((64, 64), 128, np.uint8), "chessboard:9x6")
     assert not blank["found"] and blank["points_px"].shape == (0, 2) and blank["note"]
+
+
+def test_a_background_image_behind_the_board(board_scene_text, tmp_path):
+    """A plane image (a file, read beside the scene's base folder) behind the board: pixels beside
+    the board take the image's levels, the board's corners stay where the truth says, and the
+    mask marks the background (65535) at its plane's depth."""
+    wall = np.zeros((64, 128), np.uint8)
+    wall[:, 64:] = 200
+    def png(a):
+        raw = b"".join(b"\x00" + row.tobytes() for row in a)
+        chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+        ihdr = struct.pack(">IIBBBBB", a.shape[1], a.shape[0], 8, 0, 0, 0, 0)
+        return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+
+    (tmp_path / "wall.png").write_bytes(png(wall))
+    text = board_scene_text + '\n[background]\nkind = "plane"\nimage = "wall.png"\nt_m = [0.0, 0.0, 3.0]\nsize_m = [8.0, 4.0]\n'
+    image, truth = synthcam.render(text, base_dir=str(tmp_path))
+    levels = set(np.unique(image[0, :]).tolist())
+    assert {0, 200} <= levels, levels
+    found = synthcam.detect(image, "chessboard:11x8")
+    assert found["found"] and float(corner_errors(found, truth).max()) <= 0.05
+    depth, mask = synthcam.render_depth_mask(text, base_dir=str(tmp_path))
+    assert mask[0, 0] == 65535 and abs(float(depth[0, 0]) - 3.0) < 1e-4
