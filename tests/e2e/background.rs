@@ -186,3 +186,17 @@ fn a_background_behind_the_s_path_is_refused_by_name() {
     let err = renderer().render_linear(&scene).expect_err("refused");
     assert!(err.to_string().contains("background"), "{err}");
 }
+
+#[test]
+fn a_background_image_with_a_nan_texel_is_a_named_error() {
+    let mut scene = chessboard_scene(camera(320, 240, 300.0, [0.0; 5]), [4, 3], 0.02, 0.0, 0.5, [0.0, 0.0]);
+    let mut texels = vec![100.0f32; 32];
+    texels[5] = f32::NAN;
+    scene.background = Some(Background::panorama(Arc::new(Texture { width: 8, height: 4, texels }), UnitQuaternion::identity()));
+    assert!(scene.validate().is_ok(), "a frame's validation does not read the texels");
+    let err = renderer().render_linear(&scene).expect_err("refused at upload");
+    assert!(err.to_string().contains("background.image"), "{err}");
+    // An empty image is refused by the frame's validation already.
+    scene.background = Some(Background::panorama(Arc::new(Texture { width: 0, height: 4, texels: Vec::new() }), UnitQuaternion::identity()));
+    assert!(scene.validate().is_err());
+}

@@ -62,6 +62,7 @@ impl Renderer {
         if bufs.bg_texture.as_ref().is_some_and(|t| Arc::ptr_eq(t, &bg.texture)) && bufs.bg.size() >= bytes {
             return Ok(());
         }
+        bg.validate_texels()?;
         let buffer = bufs.bg.get(device, "background", bytes, STORAGE_DST);
         self.context().queue.write_buffer(buffer, 0, bytemuck::cast_slice(&background_rows(&bg.texture)));
         bufs.bg_texture = Some(bg.texture.clone());

@@ -77,12 +77,40 @@ impl Background {
         Self { texture: self.texture.clone(), placement }
     }
 
-    /// Check the image and the placement.
+    /// Check the image and the placement: [`Background::validate_placement`] and
+    /// [`Background::validate_texels`].
     ///
     /// # Errors
-    /// [`SceneError::InvalidField`] (`background.*`) for an empty image, a texel that is not a
-    /// finite level in 0..=65535, or a non-finite or non-positive size or pose.
+    /// As those two.
     pub fn validate(&self) -> Result<(), SceneError> {
+        self.validate_placement()?;
+        self.validate_texels()
+    }
+
+    /// Every texel a grey level: one pass over the image (scene files and datasets run it when
+    /// they load an image, the renderer when it uploads one; [`crate::Scene::validate`], run on
+    /// every frame, does not).
+    ///
+    /// # Errors
+    /// [`SceneError::InvalidField`] (`background.image`) for a texel that is not a finite level in
+    /// 0..=65535.
+    pub fn validate_texels(&self) -> Result<(), SceneError> {
+        // A branch-free pass first (NaN fails both tests).
+        let level = |v: &f32| *v >= 0.0 && *v <= 65535.0;
+        let t = &self.texture;
+        if !t.texels.iter().fold(true, |ok, v| ok & level(v)) {
+            let v = t.texels.iter().find(|v| !level(v)).copied().unwrap_or(f32::NAN);
+            return Err(SceneError::InvalidField { field: "background.image".into(), reason: format!("texel {v} is not a grey level in 0..=65535") });
+        }
+        Ok(())
+    }
+
+    /// The image's size and the placement (no pass over the texels).
+    ///
+    /// # Errors
+    /// [`SceneError::InvalidField`] (`background.*`) for an empty or oversized image, or a
+    /// non-finite or non-positive size or pose.
+    pub fn validate_placement(&self) -> Result<(), SceneError> {
         let bad = |field: &str, reason: String| Err(SceneError::InvalidField { field: format!("background.{field}"), reason });
         let t = &self.texture;
         if t.width == 0 || t.height == 0 || t.texels.len() != t.width as usize * t.height as usize {
@@ -90,12 +118,6 @@ impl Background {
         }
         if t.width > 16384 || t.height > 16384 {
             return bad("image", format!("{} x {} texels exceeds 16384", t.width, t.height));
-        }
-        // A branch-free pass first (a renderer validates every frame; NaN fails both tests).
-        let level = |v: &f32| *v >= 0.0 && *v <= 65535.0;
-        if !t.texels.iter().fold(true, |ok, v| ok & level(v)) {
-            let v = t.texels.iter().find(|v| !level(v)).copied().unwrap_or(f32::NAN);
-            return bad("image", format!("texel {v} is not a grey level in 0..=65535"));
         }
         match self.placement {
             Placement::Panorama { cam_from_pano } if !cam_from_pano.coords.iter().all(|v| v.is_finite()) => bad("rvec", "is not finite".into()),

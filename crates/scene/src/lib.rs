@@ -202,7 +202,8 @@ impl Scene {
     /// A background is drawn behind planar targets (the S-path's sphere is not mixed with one yet).
     fn validate_background(&self) -> Result<(), SceneError> {
         let Some(bg) = &self.background else { return Ok(()) };
-        bg.validate()?;
+        // The texels are checked where images are loaded and uploaded (Background::validate_texels).
+        bg.validate_placement()?;
         if !self.target.is_planar() {
             return Err(SceneError::InvalidField {
                 field: "background".into(),
