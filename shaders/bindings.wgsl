@@ -67,6 +67,7 @@ struct Params {
     bg1: vec4<f32>,
     bg2: vec4<f32>,
     bg_size: vec4<f32>,  // a plane image's width and height, metres, 0, 0
+    sun: vec4<f32>,      // objects' shadows: the direction towards the light (camera frame; 0: none), shadowed / lit shading (objects.wgsl)
 };
 
 // Pass kinds (crates/render/src/gpu_scene.rs `PassKind`; the test

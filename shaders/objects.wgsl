@@ -101,10 +101,13 @@ fn next_node(stack: ptr<function, array<u32, MESH_STACK>>, sp: ptr<function, u32
 // The closest hit of instance `inst` nearer than best.t: nearer child first, the other pushed
 // (Aila and Laine 2009), leaves tested as they are met.
 fn cast_instance(inst: u32, d_cam: vec3<f32>, best_in: MeshHit) -> MeshHit {
-    let info = bitcast<vec4<u32>>(objs[P.obj.y + 5u * inst + 3u]);
     let od = instance_ray(inst, d_cam);
-    let o = od[0];
-    let d = od[1];
+    return cast_instance_ray(inst, od[0], od[1], best_in);
+}
+
+// cast_instance for the ray o + t d of the instance's mesh frame.
+fn cast_instance_ray(inst: u32, o: vec3<f32>, d: vec3<f32>, best_in: MeshHit) -> MeshHit {
+    let info = bitcast<vec4<u32>>(objs[P.obj.y + 5u * inst + 3u]);
     let inv = 1.0 / select(d, vec3<f32>(1e-30, 1e-30, 1e-30), abs(d) < vec3<f32>(1e-30, 1e-30, 1e-30));
     var best = best_in;
     var stack: array<u32, MESH_STACK>;
@@ -150,6 +153,25 @@ fn cast_objects(d_cam: vec3<f32>, t_max: f32) -> MeshHit {
     }
     return best;
 }
+
+// Whether the target point t d_cam lies in an object's shadow: its ray towards the light (P.sun)
+// meets an instance (crates/scene/src/shadow.rs).
+fn shadowed(d_cam: vec3<f32>, t: f32) -> bool {
+    if (P.sun.x == 0.0 && P.sun.y == 0.0 && P.sun.z == 0.0) { return false; }
+    for (var i = 0u; i < P.obj.x; i = i + 1u) {
+        // The camera ray in the mesh frame (as the camera's own casts take it: no arithmetic on
+        // the ray's literal z, which Mesa's SPIR-V and GLSL paths fold differently), to t.
+        let od = instance_ray(i, d_cam);
+        let o = od[0] + t * od[1];
+        let base = P.obj.y + 5u * i;
+        let d = vec3<f32>(dot3(objs[base].xyz, P.sun.xyz), dot3(objs[base + 1u].xyz, P.sun.xyz), dot3(objs[base + 2u].xyz, P.sun.xyz));
+        if (cast_instance_ray(i, o, d, no_hit(3e38)).inst != NO_OBJECT) { return true; }
+    }
+    return false;
+}
+
+// The class of target pixels in an object's shadow (crates/render/src/object_pass.rs).
+const SHADOW_CLASS: u32 = 0x80000000u;
 
 // The target sheet's ray parameter along d (the shader's ray d: (xu, yu, 1) or a unit vector),
 // or 3e38 where the ray misses the sheet (its margin included) or meets its plane behind.
@@ -302,9 +324,10 @@ fn cs_coarse_objects(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoca
     let ray = pixel_ray(vec2<f32>(f32(px.x), f32(px.y)));
     let d = ray_d(ray);
     var h = no_hit(0.0);
-    if (ray.ok) { h = cast_objects(d, target_t(d)); }
+    let tt = target_t(d);
+    if (ray.ok) { h = cast_objects(d, tt); }
     var val = 0.0;
-    var cls = 0u;
+    var cls = select(0u, SHADOW_CLASS, ray.ok && h.inst == NO_OBJECT && tt < 3e38 && shadowed(d, tt));
     if (h.inst != NO_OBJECT) {
         let a = hit_albedo(h);
         let light = hit_light(h, d);
@@ -420,11 +443,14 @@ fn see(q: vec2<f32>, centre: Ray, o: vec2<f32>, gathered: bool) -> Seen1 {
     }
     if (!ray.ok) { return Seen1(P.grey.w, 0u); }
     let pp = plane_point(d);
+    let tt = target_t(d);
     var h: MeshHit;
-    if (gathered) { h = cast_candidates(d, target_t(d)); } else { h = cast_objects(d, target_t(d)); }
+    if (gathered) { h = cast_candidates(d, tt); } else { h = cast_objects(d, tt); }
     if (h.inst != NO_OBJECT) { return Seen1(hit_point_value(h, d), h.inst + 1u); }
-    // Beside the sheet: the background (its image where there is one).
-    return Seen1(select(bg_point(d), plane_value(pp.xy), target_t(d) < 3e38), 0u);
+    // Beside the sheet: the background (its image where there is one); on it, the board, darker
+    // in an object's shadow.
+    if (tt < 3e38 && shadowed(d, tt)) { return Seen1(plane_value(pp.xy) * P.sun.w, SHADOW_CLASS); }
+    return Seen1(select(bg_point(d), plane_value(pp.xy), tt < 3e38), 0u);
 }
 
 fn same_side(a: Seen1, b: Seen1) -> bool { return a.cls == b.cls && abs(a.v - b.v) <= 1.0; }

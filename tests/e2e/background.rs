@@ -7,13 +7,14 @@
 
 use std::sync::Arc;
 
-use nalgebra::{Isometry3, Point2, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use synthcam::camera::{CameraModel, Fisheye, ImageSize, Intrinsics, Lens};
 use synthcam::mesh::Texture;
 use synthcam::scene::background::Background;
 use synthcam::scene::Scene;
 use synthcam::target::Target;
 
+use crate::common::lines::{line_errors, rms};
 use crate::common::{camera, chessboard_scene, renderer};
 
 const DARK: f32 = 40.0;
@@ -32,67 +33,6 @@ fn fisheye_camera() -> CameraModel {
     }
 }
 
-/// Per row, where the rendered step crosses the middle grey: the least-squares line through the
-/// row's pixels strictly inside the ramp (a box filter of a straight step over a footprint is
-/// linear in x there), rows with at least two such pixels; one crossing per row, within
-/// `[x_lo, x_hi)`.
-fn crossings(img: &[f32], width: usize, x_lo: usize, x_hi: usize) -> Vec<(usize, f64)> {
-    let mid = 0.5 * f64::from(DARK + LIGHT);
-    let mut out = Vec::new();
-    for (y, row) in img.chunks(width).enumerate() {
-        let ramp: Vec<(f64, f64)> = (x_lo..x_hi).filter(|x| row[*x] > DARK + 0.5 && row[*x] < LIGHT - 0.5).map(|x| (x as f64, f64::from(row[x]))).collect();
-        let contiguous = ramp.windows(2).all(|p| p[1].0 - p[0].0 == 1.0);
-        if ramp.len() < 2 || ramp.len() > 12 || !contiguous {
-            continue;
-        }
-        let n = ramp.len() as f64;
-        let (mx, mv) = (ramp.iter().map(|p| p.0).sum::<f64>() / n, ramp.iter().map(|p| p.1).sum::<f64>() / n);
-        let sxv: f64 = ramp.iter().map(|p| (p.0 - mx) * (p.1 - mv)).sum();
-        let sxx: f64 = ramp.iter().map(|p| (p.0 - mx).powi(2)).sum();
-        out.push((y, mx + (mid - mv) * sxx / sxv));
-    }
-    out
-}
-
-/// The root in `[a, b]` of `f` (a sign change), by bisection to 1e-9 px.
-fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> Option<f64> {
-    let fa = f(a);
-    if fa * f(b) > 0.0 {
-        return None;
-    }
-    for _ in 0..60 {
-        let m = 0.5 * (a + b);
-        if (f(m) > 0.0) == (fa > 0.0) {
-            a = m;
-        } else {
-            b = m;
-        }
-    }
-    Some(0.5 * (a + b))
-}
-
-/// Distances (px, across the line) between the rendered crossings and the line `side(d) = 0` of
-/// camera rays, found per row by bisection on the exact inverse of the lens.
-fn line_errors(cam: &CameraModel, img: &[f32], side: impl Fn(&Vector3<f64>) -> f64) -> Vec<f64> {
-    let f = |x: f64, y: f64| cam.unproject_ray(&Point2::new(x, y)).map_or(f64::NAN, |d| side(&d.normalize()));
-    let w = cam.size.width as usize;
-    let mut errs = Vec::new();
-    for (y, x_seen) in crossings(img, w, 2, w - 2) {
-        let y = y as f64;
-        let at = |y: f64| bisect(|x| f(x, y), x_seen - 4.0, x_seen + 4.0);
-        let (Some(x), Some(x_up), Some(x_down)) = (at(y), at(y - 1.0), at(y + 1.0)) else { continue };
-        let slope = 0.5 * (x_down - x_up);
-        if slope.abs() < 1.0 {
-            errs.push((x_seen - x).abs() / slope.hypot(1.0));
-        }
-    }
-    errs
-}
-
-fn rms(v: &[f64]) -> f64 {
-    (v.iter().map(|e| e * e).sum::<f64>() / v.len() as f64).sqrt()
-}
-
 #[test]
 fn a_panorama_meridian_seen_through_a_fisheye_lands_on_its_projection() {
     // The panorama's meridian (its x = 0 plane: the dark / light split at the image's middle
@@ -103,7 +43,7 @@ fn a_panorama_meridian_seen_through_a_fisheye_lands_on_its_projection() {
     let mut scene = chessboard_scene(cam, [3, 3], 0.02, 0.0, 1.0, [0.6, -0.5]);
     scene.background = Some(Background::panorama(step_texture(4096, 2048, 2048), cam_from_pano));
     let img = renderer().render_linear(&scene).expect("render");
-    let errs = line_errors(&cam, &img, |d| n.dot(d));
+    let errs = line_errors(&cam, &img, [DARK, LIGHT], |d| n.dot(d));
     let worst = errs.iter().copied().fold(0.0, f64::max);
     eprintln!("panorama line through a fisheye: {} rows, RMS {:.4} px, max {:.4} px", errs.len(), rms(&errs), worst);
     assert!(errs.len() > 400, "the line crosses most rows: {}", errs.len());
@@ -129,7 +69,7 @@ fn a_step_on_an_image_plane_lands_on_its_projection_through_a_distorted_pinhole(
     let x_line = 3.0 * (819.0 / 2048.0 - 0.5);
     let (p0, p1) = (cam_from_plane * nalgebra::Point3::new(x_line, -1.0, 0.0), cam_from_plane * nalgebra::Point3::new(x_line, 1.0, 0.0));
     let normal = p0.coords.cross(&p1.coords).normalize();
-    let errs = line_errors(&cam, &img, |d| normal.dot(d));
+    let errs = line_errors(&cam, &img, [DARK, LIGHT], |d| normal.dot(d));
     let worst = errs.iter().copied().fold(0.0, f64::max);
     eprintln!("image plane through a distorted pinhole: {} rows, RMS {:.4} px, max {:.4} px", errs.len(), rms(&errs), worst);
     assert!(errs.len() > 150, "the line crosses many rows: {}", errs.len());

@@ -38,6 +38,7 @@ mod robustness;
 mod robustness_experiment;
 mod sensor_effects;
 mod servo;
+mod shadow;
 mod sim_bag;
 mod truth;
 mod warped_board;

@@ -45,7 +45,8 @@ impl Renderer {
         Ok(())
     }
 
-    /// Run the objects' passes over `tiles` and write their pixels into `img`.
+    /// Run the objects' passes over `tiles` and write their pixels into `img` (a target pixel in
+    /// an object's shadow: the target passes' value times `Params::sun`'s ratio).
     pub(super) fn render_objects(&self, bufs: &mut Buffers, gs: &GpuScene, tiles: &[u32], img: &mut [f32]) -> Result<(), RenderError> {
         if tiles.is_empty() {
             return Ok(());
@@ -61,7 +62,11 @@ impl Renderer {
                 let i = y * w + x;
                 class[i] = classes[j * 64 + k];
                 // Where no object is in front, the target's value (from its own passes).
-                value[i] = if class[i] == 0 { img[i] } else { vals[j * 64 + k] };
+                value[i] = match class[i] {
+                    0 => img[i],
+                    SHADOW_CLASS => img[i] * gs.params.sun[3],
+                    _ => vals[j * 64 + k],
+                };
             }
         }
         let mut fine = Vec::new();
@@ -95,6 +100,9 @@ impl Renderer {
 /// Textured classes (`TEXTURED_CLASS` in `shaders/objects.wgsl`): their values are box-filtered
 /// over the pixel already, so only a change of class marks an edge.
 const TEXTURED_CLASS: u32 = 0x4000_0000;
+/// The class of target pixels in an object's shadow (`SHADOW_CLASS` in `shaders/objects.wgsl`):
+/// like class 0 they hold the target passes' (box-filtered) values, scaled.
+const SHADOW_CLASS: u32 = 0x8000_0000;
 /// An untextured pixel whose value departs from the mean of its two neighbours (along x or y, same
 /// object) by more than this (grey levels) holds an edge between materials or facets: a smooth
 /// shade (a lit sphere) has small second differences, a step has them as large as half the step.
@@ -142,7 +150,7 @@ fn edge(class: &[u32], value: &[f32], w: usize, h: usize, x: usize, y: usize) ->
         let flat = mine[1] - mine[0] <= 1.0 && theirs[1] - theirs[0] <= 1.0;
         return Some(if textured || third || !flat { Fine::Grid } else { Fine::Lines });
     }
-    if c == 0 || textured {
+    if c == 0 || c == SHADOW_CLASS || textured {
         return None;
     }
     let bends = |a: Option<usize>, b: Option<usize>| match (a, b) {

@@ -16,6 +16,7 @@ use super::uniforms::Params;
 use super::RenderError;
 use synthcam_core::mesh::bvh::LEAF;
 use synthcam_scene::objects::{MeshAsset, Shading};
+use synthcam_scene::shadow::ShadowLight;
 use synthcam_scene::Scene;
 
 /// The shader's traversal stack (`MESH_STACK` in `shaders/objects.wgsl`).
@@ -191,12 +192,34 @@ pub(crate) fn object_params(p: &mut Params, scene: &Scene, instance_row: usize) 
     p.sheet = s.map(|v| v as f32);
 }
 
-/// The tiles (packed `tx | ty << 16`) an object may cover: the cone around each tile's corner
-/// rays, widened by a pixel, meets the object's bounding sphere.
-pub(crate) fn object_tiles(scene: &Scene, grid: &TileCornerRays) -> Vec<u32> {
+/// The objects' shadow uniform (`Params::sun`; zero without a shadow light).
+pub(crate) fn shadow_params(p: &mut Params, sun: Option<&ShadowLight>) {
+    p.sun = sun.map_or([0.0; 4], |s| [s.toward_light_cam.x as f32, s.toward_light_cam.y as f32, s.toward_light_cam.z as f32, s.ratio as f32]);
+}
+
+/// A ball's shadow on the target plane `n . x = c` along `toward` (towards the light): a ball
+/// around the shadow's ellipse (semi-axes `r` and `r / |cos|`), or `None` when the plane is not
+/// beyond the ball seen from the light.
+fn shadow_ball((centre, r): (Vector3<f64>, f64), (n, c): (Vector3<f64>, f64), toward: &Vector3<f64>) -> Option<(Vector3<f64>, f64)> {
+    let cos = n.dot(toward).abs();
+    let s = (n.dot(&centre) - c) / n.dot(toward);
+    (cos > 1e-9 && s > -r / cos).then(|| (centre - s * toward, r / cos))
+}
+
+/// The tiles (packed `tx | ty << 16`) an object or its shadow on the target may cover: the cone
+/// around each tile's corner rays, widened by a pixel, meets the object's bounding sphere or the
+/// ball around that sphere's shadow.
+pub(crate) fn object_tiles(scene: &Scene, grid: &TileCornerRays, sun: Option<&ShadowLight>) -> Vec<u32> {
     // Per object its balls in the camera frame: the whole mesh's, then its parts'.
-    let balls: Vec<Vec<(Vector3<f64>, f64)>> =
+    let mut balls: Vec<Vec<(Vector3<f64>, f64)>> =
         scene.objects.iter().map(|o| o.asset.bounds.iter().map(|(c, r)| ((o.cam_from_object * (c * o.scale)).coords, r * o.scale)).collect()).collect();
+    if let Some(s) = sun {
+        let n = scene.cam_from_target.rotation * Vector3::z();
+        let plane = (n, n.dot(&scene.cam_from_target.translation.vector));
+        let shadows: Vec<Vec<(Vector3<f64>, f64)>> =
+            balls.iter().filter_map(|b| b.iter().map(|ball| shadow_ball(*ball, plane, &s.toward_light_cam)).collect::<Option<Vec<_>>>()).collect();
+        balls.extend(shadows);
+    }
     let meets = |rays: &[Vector3<f64>; 4], b: &[(Vector3<f64>, f64)]| cone_meets(rays, &b[0].0, b[0].1) && b[1..].iter().any(|(c, r)| cone_meets(rays, c, *r));
     let (w, h) = (scene.camera.size.width, scene.camera.size.height);
     let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));

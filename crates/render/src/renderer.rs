@@ -255,11 +255,12 @@ impl Renderer {
     pub fn render_linear(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
         scene.validate()?;
         // Lights on a flat board are one factor on its grey levels (synthcam_scene::lighting).
+        let sun = synthcam_scene::shadow::shadow_light(scene);
         let shaded = synthcam_scene::lighting::shade(scene)?;
         let scene: &Scene = &shaded;
         std::thread::scope(|scope| {
             self.compile_ahead(scope, scene);
-            self.render_valid(scene)
+            self.render_valid(scene, sun.as_ref())
         })
     }
 
@@ -282,19 +283,21 @@ impl Renderer {
         }
     }
 
-    /// [`Renderer::render_linear`] of a validated scene.
-    fn render_valid(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
+    /// [`Renderer::render_linear`] of a validated scene (its lighting folded into its greys; `sun`
+    /// casts the objects' shadows: `synthcam_scene::shadow`).
+    fn render_valid(&self, scene: &Scene, sun: Option<&synthcam_scene::shadow::ShadowLight>) -> Result<Vec<f32>, RenderError> {
         let grid_rays = self.corner_rays(scene)?;
         let mut gs: GpuScene = gpu_scene(scene, &grid_rays)?;
         let mut bufs = self.buffers.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
         if !scene.objects.is_empty() {
             self.upload_objects(&mut bufs, &mut gs, scene)?;
+            super::objects::shadow_params(&mut gs.params, sun);
         }
         self.upload_background(&mut bufs, scene)?;
         let mut img = self.target_image(&mut bufs, &gs, scene)?;
         self.compose_background(&mut bufs, &gs, scene, &grid_rays, &mut img)?;
         if !scene.objects.is_empty() {
-            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays), &mut img)?;
+            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays, sun), &mut img)?;
         }
         Ok(img)
     }

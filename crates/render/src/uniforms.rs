@@ -87,6 +87,9 @@ pub struct Params {
     pub bg2: [f32; 4],
     /// A plane image's width and height, metres, 0, 0.
     pub bg_size: [f32; 4],
+    /// The objects' shadows (`shaders/objects.wgsl` `shadowed`): the direction towards the light
+    /// in the camera frame (0: no shadows), the shadowed over the lit shading of the target.
+    pub sun: [f32; 4],
 }
 
 #[cfg(test)]
@@ -103,7 +106,7 @@ mod tests {
         }
         fields!(
             size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet, warp,
-            warp_c, tfc0, tfc1, tfc2, shade, lamp, eye, bg, bg0, bg1, bg2, bg_size
+            warp_c, tfc0, tfc1, tfc2, shade, lamp, eye, bg, bg0, bg1, bg2, bg_size, sun
         )
     }
 

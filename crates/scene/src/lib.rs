@@ -22,6 +22,7 @@ pub mod motion;
 pub mod objects;
 pub mod reference;
 pub mod scanline;
+pub mod shadow;
 pub mod trace;
 pub mod truth;
 pub mod views;

@@ -19,8 +19,8 @@
 //! pixel centre's ray for closed-form edge coverage, at every sample where it supersamples), so
 //! a pixel's value is exact to the factor's variation across one pixel (second order: below
 //! 1e-3 grey levels for a lamp 0.1 m or more from the board). Targets whose normal varies (a
-//! warped board, the S-path's beads) and objects are refused with lights until the shader
-//! shades them.
+//! warped board, the S-path's beads) are refused with lights until the shader shades them; with
+//! objects, one directional light, whose shadows they cast on the board ([`crate::shadow`]).
 //!
 //! Reference: J. Lambert, *Photometria* (1760); any graphics text (e.g. Pharr, Jakob, Humphreys,
 //! *Physically Based Rendering*, 4th ed., section 4.3 on irradiance and the cosine law).
@@ -234,12 +234,7 @@ impl Lighting {
         ambient
             + lit
                 .map(|l| {
-                    // Directions are unit when added; a `[ranges]` draw may change one component.
-                    let d = Vector3::from(l.direction).try_normalize(0.0).unwrap_or_default();
-                    let d = match l.frame {
-                        LightFrame::Camera => d,
-                        LightFrame::Target => cam_from_target.rotation * d,
-                    };
+                    let d = direction_in_camera(l, cam_from_target);
                     l.irradiance * (-normal_cam.dot(&d)).max(0.0)
                 })
                 .sum::<f64>()
@@ -304,10 +299,36 @@ pub fn check(scene: &Scene) -> Result<(), SceneError> {
     if !scene.target.is_planar() || scene.target.warp().is_some() {
         return Err(invalid("light", "lights shade flat boards only so far (not the S-path or a warped board)".into()));
     }
-    if !scene.objects.is_empty() {
-        return Err(invalid("light", "objects are not shaded yet: lights take scenes without objects".into()));
+    if scene.objects.is_empty() {
+        Ok(())
+    } else {
+        check_with_objects(&lighting)
+    }
+}
+
+/// The lighting a scene with objects takes so far: one directional light (whose shadows the
+/// objects cast: [`crate::shadow`]) and the ambient term.
+///
+/// # Errors
+/// [`SceneError::InvalidField`] (`light`) for a point light, gloss or more directional lights.
+pub fn check_with_objects(lighting: &Lighting) -> Result<(), SceneError> {
+    if lighting.varies() || lighting.gloss.is_some() || lighting.lights.iter().flatten().count() > 1 {
+        return Err(invalid(
+            "light",
+            "with objects, one directional light (its shadows: scene::shadow) and the ambient term so far; point lights, gloss and more lights take scenes without objects".into(),
+        ));
     }
     Ok(())
+}
+
+/// The direction light `l` travels, unit, in the camera frame.
+pub fn direction_in_camera(l: &DirectionalLight, cam_from_target: &nalgebra::Isometry3<f64>) -> Vector3<f64> {
+    // Directions are unit when added; a `[ranges]` draw may change one component.
+    let d = Vector3::from(l.direction).try_normalize(0.0).unwrap_or_default();
+    match l.frame {
+        LightFrame::Camera => d,
+        LightFrame::Target => cam_from_target.rotation * d,
+    }
 }
 
 /// The scene as the renderer draws it: the target's surface grey levels (not its background)

@@ -96,16 +96,25 @@ pub struct FeatureLabel {
     /// highlight's share there); absent without gloss.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub specular: Option<f64>,
+    /// With objects under a directional light ([`super::shadow`]): whether the feature lies in an
+    /// object's shadow (its `irradiance` then the ambient term alone); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub in_shadow: Option<bool>,
 }
 
-/// Under lights, the irradiance factor at a feature (camera frame) and, on a glossy target, the
-/// specular grey level there; `None` without lights (or gloss). One normal for a flat board; a
-/// point light's terms depend on the feature's point.
-fn feature_light(scene: &Scene, p_cam: &nalgebra::Point3<f64>) -> (Option<f64>, Option<f64>) {
+/// Under lights, the irradiance factor at a feature (camera frame), on a glossy target the
+/// specular grey level there, and with objects whether it lies in their shadow; `None` without
+/// lights (gloss, objects). One normal for a flat board; a point light's terms depend on the
+/// feature's point.
+fn feature_light(scene: &Scene, p_cam: &nalgebra::Point3<f64>) -> (Option<f64>, Option<f64>, Option<bool>) {
     let lighting = scene.render.lighting;
     let n = super::lighting::camera_side_normal(scene);
-    let irradiance = (!lighting.is_neutral()).then(|| lighting.irradiance_at(&p_cam.coords, &n, &scene.cam_from_target));
-    (irradiance, lighting.gloss.map(|_| lighting.specular_at(&p_cam.coords, &n, &scene.cam_from_target)))
+    let mut irradiance = (!lighting.is_neutral()).then(|| lighting.irradiance_at(&p_cam.coords, &n, &scene.cam_from_target));
+    let shadow = super::shadow::shadow_light(scene).map(|l| (l, super::shadow::in_shadow(scene, &l, p_cam)));
+    if let (Some(e), Some((l, true))) = (irradiance.as_mut(), shadow) {
+        *e *= l.ratio;
+    }
+    (irradiance, lighting.gloss.map(|_| lighting.specular_at(&p_cam.coords, &n, &scene.cam_from_target)), shadow.map(|s| s.1))
 }
 
 /// Truth file contents.
@@ -292,7 +301,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
             let p_cam = scene.cam_from_target * p;
             let proj = scene.camera.project(&p_cam);
             let occluded = super::objects::occluded(&scene.objects, &p_cam);
-            let (irradiance, specular) = feature_light(scene, &p_cam);
+            let (irradiance, specular, in_shadow) = feature_light(scene, &p_cam);
             let mut label = FeatureLabel {
                 id,
                 point_target_m: [p.x, p.y, p.z],
@@ -308,6 +317,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 effects: super::effect_truth::effect_label(scene, p),
                 irradiance,
                 specular,
+                in_shadow,
             };
             if kind == FeatureKind::Dot {
                 let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));

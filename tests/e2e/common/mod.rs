@@ -1,5 +1,7 @@
 //! Shared helpers: one renderer per test binary, scene builders, image statistics.
 
+pub mod lines;
+
 use std::sync::OnceLock;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};

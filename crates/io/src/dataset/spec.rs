@@ -320,8 +320,8 @@ impl DatasetSpec {
         let (mode, full_target_visible, margin_px) = self.poses.to_mode(&target, &camera)?;
         let inside_fraction = self.poses.inside_fraction()?;
         let objects = super::objects::DatasetObjects::load(&self.objects, &self.occluders, meshes)?;
-        if !render.lighting.is_neutral() && !objects.is_empty() {
-            return Err(invalid("light", "objects are not shaded yet: lights take datasets without objects or occluders"));
+        if !objects.is_empty() {
+            synthcam_scene::lighting::check_with_objects(&render.lighting)?;
         }
         if !rig.is_empty() && !objects.is_empty() {
             return Err(invalid("cameras", "objects and occluders are not placed for rigs yet: use one [camera]"));
