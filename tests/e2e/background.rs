@@ -79,7 +79,11 @@ fn a_step_on_an_image_plane_lands_on_its_projection_through_a_distorted_pinhole(
         let (ot, et) = (target_from_cam.translation.vector, target_from_cam.rotation * d);
         let t = -ot.z / et.z;
         let on_board = t > 0.0 && scene.target.on_sheet(ot.x + t * et.x, ot.y + t * et.y);
-        if y.abs() < 0.9 && !on_board { normal.dot(d) } else { f64::NAN }
+        if y.abs() < 0.9 && !on_board {
+            normal.dot(d)
+        } else {
+            f64::NAN
+        }
     };
     let errs = line_errors(&cam, &img, [DARK, LIGHT], side);
     let worst = errs.iter().copied().fold(0.0, f64::max);
