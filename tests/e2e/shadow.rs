@@ -117,6 +117,17 @@ fn a_plates_shadow_edges_land_on_their_ray_cast_reference() {
     for f in &truth.features {
         assert_eq!(f.in_shadow, Some(expected(&f.point_target_m)), "feature {}", f.id);
     }
+    // The same test over a 40 x 40 grid of board points (the board's one inner corner alone would
+    // say little): `scene::shadow::in_shadow` agrees everywhere, some points shadowed.
+    let sun = synthcam::scene::shadow::shadow_light(&s).expect("a shadow light");
+    let mut shadowed = 0;
+    for k in 0..1600 {
+        let p = [-0.04 + 0.68 * f64::from(k % 40) / 39.0, -0.04 + 0.68 * f64::from(k / 40) / 39.0, 0.0];
+        let got = synthcam::scene::shadow::in_shadow(&s, &sun, &(s.cam_from_target * Point3::from(p)));
+        assert_eq!(got, expected(&p), "board point {p:?}");
+        shadowed += usize::from(got);
+    }
+    assert!(shadowed > 10, "{shadowed} grid points in the plate's shadow");
 }
 
 #[test]
