@@ -51,7 +51,7 @@ except ImportError as exc:  # pragma: no cover - environment problem
 
 DETECTORS = ("classic", "sb")
 SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
-EFFECT_ORDER = ("blur", "defocus", "noise", "motion-blur", "jpeg", "rolling-shutter", "gradient", "highlight", "clutter")
+EFFECT_ORDER = ("blur", "defocus", "noise", "motion-blur", "jpeg", "rolling-shutter", "gradient", "highlight", "clutter", "shadow")
 
 
 def grid_symmetries(cols: int, rows: int) -> list[np.ndarray]:

@@ -42,7 +42,7 @@ pub enum Experiment {
         #[arg(long, default_value_t = 6)]
         views: usize,
         /// Comma-separated effects (blur, defocus, noise, motion-blur, jpeg, rolling-shutter,
-        /// gradient, highlight, clutter); default all.
+        /// gradient, highlight, clutter, shadow); default all.
         #[arg(long)]
         effects: Option<String>,
         /// Write every image with its truth JSON and a `.truth.json` sidecar under

@@ -53,7 +53,8 @@ fn effect_names_round_trip() {
 
 /// Issue 41's scene conditions at a quarter of the experiment's size: each strength rises with
 /// its level (the gradient's corner irradiance ratio, the highlight's specular grey at a corner,
-/// the clutter's contrast), the weakest level of each is the plain board (found, exact), and the
+/// the clutter's and the shadow's contrast), the weakest level of each is the plain board (found,
+/// exact), a column of corners lies in the bar's shadow (truth `in_shadow`), and the
 /// highlight's brightest corner is the one nearest the board centre (the lamp sits at the
 /// camera's mirror point over it).
 #[test]
@@ -63,9 +64,14 @@ fn scene_conditions_rise_with_their_levels() {
     (cam.size.width, cam.size.height) = (320, 256);
     let k = &mut cam.intrinsics;
     (k.fx, k.fy, k.cx, k.cy) = (0.25 * k.fx, 0.25 * k.fy, 0.25 * (k.cx + 0.5) - 0.5, 0.25 * (k.cy + 0.5) - 0.5);
-    let plan: [(Effect, &[f64]); 3] = [(Effect::Gradient, &[0.0, 0.05, 0.2]), (Effect::Highlight, &[0.0, 0.5, 1.0]), (Effect::Clutter, &[0.0, 1.0])];
+    let plan: [(Effect, &[f64]); 4] =
+        [(Effect::Gradient, &[0.0, 0.05, 0.2]), (Effect::Highlight, &[0.0, 0.5, 1.0]), (Effect::Clutter, &[0.0, 1.0]), (Effect::Shadow, &[1.0, 2.0])];
+    let mut shadowed = 0;
     let mut brightest_near_centre = true;
     let runs = run_levels(renderer(), &setup, &plan, &mut |v| {
+        if v.run.effect == Effect::Shadow && v.run.level > 1.0 {
+            shadowed = v.truth.features.iter().filter(|f| f.in_shadow == Some(true)).count();
+        }
         if v.run.effect == Effect::Highlight && v.run.level > 0.0 {
             let spec: Vec<f64> = v.truth.features.iter().map(|f| f.specular.unwrap_or(0.0)).collect();
             let brightest = (0..spec.len()).max_by(|a, b| spec[*a].total_cmp(&spec[*b])).unwrap_or(0);
@@ -83,7 +89,9 @@ fn scene_conditions_rise_with_their_levels() {
     for w in runs.windows(2).filter(|w| w[0].effect == w[1].effect) {
         assert!(w[1].strength > w[0].strength, "{:?} then {:?}", w[0], w[1]);
     }
-    for weakest in runs.iter().filter(|r| r.level == 0.0) {
+    // The bar's shadow covers a column of the 8 rows of corners.
+    assert!((4..=16).contains(&shadowed), "{shadowed} corners in the bar's shadow");
+    for weakest in runs.iter().filter(|r| r.level == 0.0 || (r.effect == Effect::Shadow && r.level == 1.0)) {
         assert!(weakest.detected && weakest.rms_px < 0.05, "{weakest:?}");
     }
     assert!(runs.iter().filter(|r| r.effect == Effect::Gradient).all(|r| r.level > 0.0 || r.strength == 1.0));

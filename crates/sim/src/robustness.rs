@@ -81,11 +81,13 @@ pub enum Effect {
     Highlight,
     /// A cluttered room behind the board ([`conditions::cluttered`]).
     Clutter,
+    /// An object's shadow edge across corners ([`conditions::shadowed`]).
+    Shadow,
 }
 
 impl Effect {
     /// Every effect, in report order.
-    pub const ALL: [Effect; 9] = [
+    pub const ALL: [Effect; 10] = [
         Effect::Blur,
         Effect::Defocus,
         Effect::Noise,
@@ -95,6 +97,7 @@ impl Effect {
         Effect::Gradient,
         Effect::Highlight,
         Effect::Clutter,
+        Effect::Shadow,
     ];
 
     /// The effect's name (CLI, file names, tables).
@@ -109,6 +112,7 @@ impl Effect {
             Effect::Gradient => "gradient",
             Effect::Highlight => "highlight",
             Effect::Clutter => "clutter",
+            Effect::Shadow => "shadow",
         }
     }
 
@@ -130,6 +134,7 @@ impl Effect {
             Effect::Gradient => &[0.0, 0.01, 0.02, 0.05, 0.1, 0.2],
             Effect::Highlight => &[0.0, 0.5, 1.0, 2.0, 4.0, 8.0],
             Effect::Clutter => &[0.0, 0.25, 0.5, 0.75, 1.0],
+            Effect::Shadow => &[1.0, 1.5, 2.0, 4.0, 8.0, 16.0],
         }
     }
 
@@ -143,7 +148,7 @@ impl Effect {
             Effect::Jpeg => "quality",
             Effect::RollingShutter => "line delay s",
             Effect::Gradient | Effect::Highlight => "lamp intensity",
-            Effect::Clutter => "contrast",
+            Effect::Clutter | Effect::Shadow => "contrast",
         }
     }
 
@@ -159,6 +164,7 @@ impl Effect {
             Effect::Gradient => "brightest / dimmest corner irradiance",
             Effect::Highlight => "largest specular grey level at a corner",
             Effect::Clutter => "background contrast",
+            Effect::Shadow => "lit / shadowed shading",
         }
     }
 
@@ -186,6 +192,7 @@ impl Effect {
             Effect::Gradient => return conditions::gradient(base, level),
             Effect::Highlight => return conditions::highlight(base, level),
             Effect::Clutter => return conditions::cluttered(base, level, base.cam_from_target.translation.x.to_bits(), 0.0),
+            Effect::Shadow => return conditions::shadowed(base, level),
         }
         s
     }

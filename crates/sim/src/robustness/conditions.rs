@@ -76,9 +76,35 @@ pub fn cluttered(base: &Scene, level: f64, seed: u64, yaw_rad: f64) -> Scene {
     s
 }
 
+/// A bar (2 x 60 x 2 cm, grey 80) 0.2 m left of the board's sheet and 0.15 m in front of it,
+/// along the board's y axis, under a light from the left grazing the board at 20 degrees: its
+/// shadow is a band about a square wide across the board's columns 4 and 5, over their corners.
+/// `level` is the shadow's contrast, lit over shadowed shading (1: no shadow), the lit shading
+/// kept at 1: ambient `1 / level`, the light the rest.
+pub fn shadowed(base: &Scene, level: f64) -> Scene {
+    let mut s = base.clone();
+    let [x0, y0, _, y1] = base.target.extent_m().unwrap_or([0.0; 4]);
+    // The camera looks at the board from target z of this sign's opposite.
+    let front = -camera_side_in_target(base);
+    let bar =
+        synthcam_core::mesh::primitives::textured_box([0.02, 0.6, 0.02], Arc::new(synthcam_core::mesh::Texture { width: 1, height: 1, texels: vec![80.0] }));
+    // The bar's mesh is valid by construction (a closed box): `MeshAsset::new` accepts it.
+    if let Ok(asset) = synthcam_scene::objects::MeshAsset::new(bar) {
+        let target_from_bar = nalgebra::Isometry3::translation(x0 - 0.2, 0.5 * (y0 + y1), -0.15 * front);
+        s.objects = vec![synthcam_scene::objects::SceneObject::new(asset, base.cam_from_target * target_from_bar)];
+    }
+    let contrast = level.max(1.0);
+    let travel = Vector3::new(20f64.to_radians().cos(), 0.0, front * 20f64.to_radians().sin());
+    let mut lighting = Lighting { ambient: Some(1.0 / contrast), ..Default::default() };
+    // A unit direction and a finite irradiance >= 0: `add` accepts them.
+    let _ = lighting.add(LightFrame::Target, travel.into(), (1.0 - 1.0 / contrast) / 20f64.to_radians().sin());
+    s.render.lighting = lighting;
+    s
+}
+
 /// The strength of a condition in `scene`: the gradient's ratio of the brightest to the dimmest
 /// corner's irradiance, the highlight's largest specular grey level at a corner, or the clutter's
-/// contrast (`level`).
+/// or the shadow's contrast (`level`).
 pub fn condition_strength(truth: &TruthLabels, kind: Condition, level: f64) -> f64 {
     let values = |f: fn(&synthcam_scene::truth::FeatureLabel) -> Option<f64>| truth.features.iter().filter_map(f).collect::<Vec<f64>>();
     match kind {
@@ -92,7 +118,7 @@ pub fn condition_strength(truth: &TruthLabels, kind: Condition, level: f64) -> f
             }
         }
         Condition::Highlight => values(|f| f.specular).into_iter().fold(0.0, f64::max),
-        Condition::Clutter => level,
+        Condition::Clutter | Condition::Shadow => level,
     }
 }
 
@@ -105,4 +131,6 @@ pub enum Condition {
     Highlight,
     /// [`cluttered`].
     Clutter,
+    /// [`shadowed`].
+    Shadow,
 }

@@ -100,6 +100,7 @@ pub(super) fn strength(effect: Effect, scene: &Scene, level: f64, truth: &TruthL
         Effect::Gradient => condition_strength(truth, Condition::Gradient, level),
         Effect::Highlight => condition_strength(truth, Condition::Highlight, level),
         Effect::Clutter => condition_strength(truth, Condition::Clutter, level),
+        Effect::Shadow => condition_strength(truth, Condition::Shadow, level),
         Effect::Defocus => fx.optics.thin_lens.map_or(0.0, |l| l.coc_radius_px(scene.camera.intrinsics.fx, centre_depth_m(scene))),
         Effect::Noise => fx.sensor.map_or(f64::INFINITY, |m| snr_at(&m, 128.0)),
         Effect::RollingShutter => {
