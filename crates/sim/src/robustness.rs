@@ -31,7 +31,8 @@
 //!   issue 41 ([`conditions`]): a lamp beside the board (levels: its intensity; strength: the
 //!   brightest over the dimmest corner's irradiance), a laminated board with the lamp at the
 //!   camera's mirror point over the board centre (intensity; the largest specular grey level at a
-//!   corner), a clutter panorama behind the board (its contrast, the strength).
+//!   corner), a clutter panorama behind the board (its contrast, the strength); [`Effect::Shadow`]:
+//!   a bar's shadow band over a column of corners (lit over shadowed shading, the strength).
 //!
 //! **Truth**: `effects.rolling_shutter_px` under a rolling shutter, the mid-exposure projection
 //! `effects.trajectory_px[2]` under motion blur, `pixel_px` otherwise ([`truth_points`]).
