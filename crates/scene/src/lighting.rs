@@ -141,6 +141,11 @@ impl Lighting {
             .sum()
     }
 
+    /// The ambient term `A` in effect: as given, else 1 without lights and 0 with.
+    pub fn ambient_term(&self) -> f64 {
+        self.ambient.unwrap_or(if self.any_light() { 0.0 } else { 1.0 })
+    }
+
     fn any_light(&self) -> bool {
         self.lights.iter().any(Option::is_some) || self.points.iter().any(Option::is_some)
     }
@@ -230,8 +235,7 @@ impl Lighting {
     /// is `normal_cam` (camera frame), `cam_from_target` turning target-frame directions.
     pub fn factor(&self, normal_cam: &Vector3<f64>, cam_from_target: &nalgebra::Isometry3<f64>) -> f64 {
         let lit = self.lights.iter().flatten();
-        let ambient = self.ambient.unwrap_or(if self.any_light() { 0.0 } else { 1.0 });
-        ambient
+        self.ambient_term()
             + lit
                 .map(|l| {
                     let d = direction_in_camera(l, cam_from_target);

@@ -103,8 +103,14 @@ impl SceneObject {
     /// The ray `t d_cam` from the camera centre in the object's (unscaled mesh) frame: origin and
     /// direction, with the same parameter `t`.
     pub fn ray_in_object(&self, d_cam: &Vector3<f64>) -> (Point3<f64>, Vector3<f64>) {
+        self.ray_in_object_from(&Point3::origin(), d_cam)
+    }
+
+    /// The ray `origin_cam + t d_cam` (camera frame) in the object's (unscaled mesh) frame, with
+    /// the same parameter `t`.
+    pub fn ray_in_object_from(&self, origin_cam: &Point3<f64>, d_cam: &Vector3<f64>) -> (Point3<f64>, Vector3<f64>) {
         let inv = self.cam_from_object.inverse();
-        ((inv * Point3::origin()) / self.scale, (inv.rotation * d_cam) / self.scale)
+        ((inv * origin_cam) / self.scale, (inv.rotation * d_cam) / self.scale)
     }
 
     /// The grey level seen where ray `d_cam` hits this object at `hit`: the texture (nearest

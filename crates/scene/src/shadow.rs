@@ -37,15 +37,13 @@ pub fn shadow_light(scene: &Scene) -> Option<ShadowLight> {
     let n = camera_side_normal(scene);
     let d = direction_in_camera(light, &scene.cam_from_target);
     let lit = lighting.factor(&n, &scene.cam_from_target);
-    let ambient = lit - light.irradiance * (-n.dot(&d)).max(0.0);
-    (lit > 0.0 && -n.dot(&d) > 0.0).then(|| ShadowLight { toward_light_cam: -d, ratio: ambient / lit })
+    (lit > 0.0 && -n.dot(&d) > 0.0).then(|| ShadowLight { toward_light_cam: -d, ratio: lighting.ambient_term() / lit })
 }
 
 /// Whether the point `p_cam` (camera frame) lies in an object's shadow of `light`.
 pub fn in_shadow(scene: &Scene, light: &ShadowLight, p_cam: &Point3<f64>) -> bool {
     scene.objects.iter().any(|o| {
-        let inv = o.cam_from_object.inverse();
-        let (origin, dir) = ((inv * p_cam) / o.scale, (inv.rotation * light.toward_light_cam) / o.scale);
+        let (origin, dir) = o.ray_in_object_from(p_cam, &light.toward_light_cam);
         o.asset.bvh.cast(&o.asset.mesh, &origin, &dir, 1e-9, f64::INFINITY).is_some()
     })
 }
