@@ -150,9 +150,9 @@ pub(super) fn blind_points(g: &Grid) -> Vec<Point2<f64>> {
 /// Fill every hole inside the grid's bounding box, validated, or blind (module doc); `None`
 /// when one is neither.
 fn fill_holes<I: GreyWindow>(cx: &Ctx<'_, I>, g: &mut Grid, board_corners: usize) -> Option<()> {
-    let (i0, i1, j0, j1) = g.bounds()?;
+    let bounds = g.bounds()?;
     loop {
-        let holes: Vec<(i32, i32)> = (i0..=i1).flat_map(|i| (j0..=j1).map(move |j| (i, j))).filter(|k| !g.cells.contains_key(k)).collect();
+        let holes = empty_cells(g, bounds);
         if holes.is_empty() {
             return Some(());
         }
@@ -170,11 +170,15 @@ fn fill_holes<I: GreyWindow>(cx: &Ctx<'_, I>, g: &mut Grid, board_corners: usize
     }
 }
 
+/// The cells of `g`'s bounding box `(i0, i1, j0, j1)` that hold no corner.
+fn empty_cells(g: &Grid, (i0, i1, j0, j1): (i32, i32, i32, i32)) -> Vec<(i32, i32)> {
+    (i0..=i1).flat_map(|i| (j0..=j1).map(move |j| (i, j))).filter(|k| !g.cells.contains_key(k)).collect()
+}
+
 /// Place the remaining holes of `g` at their predictions when every one is blind (module doc)
 /// and they are few enough; `None` otherwise.
 fn fill_blind<I: GreyWindow>(cx: &Ctx<'_, I>, g: &mut Grid, board_corners: usize) -> Option<()> {
-    let (i0, i1, j0, j1) = g.bounds()?;
-    let mut holes: Vec<(i32, i32)> = (i0..=i1).flat_map(|i| (j0..=j1).map(move |j| (i, j))).filter(|k| !g.cells.contains_key(k)).collect();
+    let mut holes = empty_cells(g, g.bounds()?);
     if holes.len() as f64 > MAX_BLIND_FRACTION * board_corners as f64 {
         return None;
     }
