@@ -142,6 +142,7 @@ fn bad_specs_fail_cleanly() {
         ("range-without-sensor", format!("{TINY}\n[ranges]\n\"sensor.exposure_s\" = [0.001, 0.002]\n"), "[sensor]"),
         ("range-out-of-bounds", format!("{TINY}\n[sensor]\n[ranges]\n\"sensor.prnu\" = [0.0, 2.0]\n"), "sensor.prnu"),
         ("inverted-range", format!("{TINY}\n[sensor]\n[ranges]\n\"sensor.exposure_s\" = [0.01, 0.001]\n"), "ranges.sensor.exposure_s"),
+        ("huge-clutter", format!("{TINY}\n[background]\nkind = \"panorama\"\nprocedural = \"clutter\"\nsize_px = [100000, 100000]\n"), "size_px"),
     ];
     for (name, text, needle) in cases {
         let root = tmp(&format!("bad-{name}"));

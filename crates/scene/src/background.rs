@@ -87,9 +87,9 @@ impl Background {
         self.validate_texels()
     }
 
-    /// Every texel a grey level: one pass over the image (scene files and datasets run it when
-    /// they load an image, the renderer when it uploads one; [`crate::Scene::validate`], run on
-    /// every frame, does not).
+    /// Every texel a grey level: one pass over the image, which the renderer runs once per image
+    /// it uploads ([`crate::Scene::validate`], run on every frame, does not; images decoded from
+    /// files and the procedural clutter are grey levels by construction).
     ///
     /// # Errors
     /// [`SceneError::InvalidField`] (`background.image`) for a texel that is not a finite level in
@@ -170,6 +170,20 @@ impl Background {
             }
         }
     }
+}
+
+/// Backgrounds are drawn behind planar targets (the S-path's sphere is not mixed with one yet).
+///
+/// # Errors
+/// [`SceneError::InvalidField`] (`background`) for the S-path.
+pub fn check_target(target: &synthcam_core::target::Target) -> Result<(), SceneError> {
+    if target.is_planar() {
+        return Ok(());
+    }
+    Err(SceneError::InvalidField {
+        field: "background".into(),
+        reason: "backgrounds are drawn behind planar targets (chessboard, dot grid, ChArUco, AprilGrid); the S-path is not supported yet".into(),
+    })
 }
 
 /// Texel coordinates of direction `e` (panorama frame) in a `w x h` equirectangular image.

@@ -200,18 +200,12 @@ pub fn target_in_reach(camera: &synthcam_core::camera::CameraModel, cam_from_tar
 }
 
 impl Scene {
-    /// A background is drawn behind planar targets (the S-path's sphere is not mixed with one yet).
+    /// A background's placement, behind a planar target (its texels are checked when the renderer
+    /// uploads them: [`background::Background::validate_texels`]).
     fn validate_background(&self) -> Result<(), SceneError> {
         let Some(bg) = &self.background else { return Ok(()) };
-        // The texels are checked where images are loaded and uploaded (Background::validate_texels).
         bg.validate_placement()?;
-        if !self.target.is_planar() {
-            return Err(SceneError::InvalidField {
-                field: "background".into(),
-                reason: "backgrounds are drawn behind planar targets (chessboard, dot grid, ChArUco, AprilGrid); the S-path is not supported yet".into(),
-            });
-        }
-        Ok(())
+        background::check_target(&self.target)
     }
 
     /// Objects are rendered with planar targets and sharp views (the renderer's object pass).

@@ -70,7 +70,7 @@ impl DatasetBackground {
                 Source::Images(images)
             }
             (Some(_), ..) => return Err(invalid("folder", "give one of `folder`, `image` and `procedural`")),
-            (None, _, Some(p)) if p == "clutter" && spec.image.is_none() => Source::Clutter(spec.size_px.unwrap_or([2048, 1024])),
+            (None, None, Some(p)) if p == "clutter" => Source::Clutter(spec.clutter_size()?),
             _ => Source::Images(vec![spec.texture(files)?]),
         };
         if let Some([lo, hi]) = spec.yaw_deg {
@@ -78,10 +78,11 @@ impl DatasetBackground {
                 return Err(invalid("yaw_deg", format!("must be a finite range [lo, hi], got [{lo}, {hi}]")));
             }
         }
-        let out = Self { spec: BackgroundSpec { folder: None, yaw_deg: None, ..spec.clone() }, source, yaw_deg: spec.yaw_deg };
-        // The placement's checks, on the first frame's draw.
-        out.for_image(0, 0, &Isometry3::identity()).map_err(|e| invalid("", e.to_string()))?;
-        Ok(out)
+        let placement = BackgroundSpec { folder: None, yaw_deg: None, ..spec.clone() };
+        // The placement's checks, on a one-texel image (a procedural one is drawn per frame).
+        let probe = Arc::new(Texture { width: 1, height: 1, texels: vec![0.0] });
+        placement.placed(probe, &Isometry3::identity(), &Isometry3::identity()).map_err(|e| invalid("", e.to_string()))?;
+        Ok(Self { spec: placement, source, yaw_deg: spec.yaw_deg })
     }
 
     /// Frame k's background (the target at `cam_from_target`, for `frame = "target"`).

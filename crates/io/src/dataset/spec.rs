@@ -332,8 +332,8 @@ impl DatasetSpec {
         }
         let extras = [self.depth, self.masks];
         let background = self.background.as_ref().map(|b| super::background::DatasetBackground::load(b, meshes)).transpose()?;
-        if background.is_some() && matches!(target, Target::SPath(_)) {
-            return Err(invalid("background", "backgrounds are drawn behind planar targets; the S-path is not supported yet"));
+        if background.is_some() {
+            synthcam_scene::background::check_target(&target)?;
         }
         Ok(DatasetPlan {
             count: self.count,

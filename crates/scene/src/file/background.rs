@@ -83,15 +83,24 @@ impl BackgroundSpec {
         match (&self.image, self.procedural.as_deref()) {
             (Some(path), None) => load.texture(path).map_err(|e| invalid("image", &e.to_string())),
             (None, Some("clutter")) => {
-                let [w, h] = self.size_px.unwrap_or([2048, 1024]);
-                if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
-                    return Err(invalid("size_px", &format!("must be in 1..=16384 each, got [{w}, {h}]")));
-                }
+                let [w, h] = self.clutter_size()?;
                 Ok(Arc::new(clutter(self.seed.unwrap_or(0), w, h)))
             }
             (None, Some(p)) => Err(invalid("procedural", &format!("unknown procedure {p:?} (known: \"clutter\")"))),
             _ => Err(invalid("image", "give `image` (a file) or `procedural`, one of them")),
         }
+    }
+
+    /// The procedural image's size, texels (`size_px`, default 2048 x 1024).
+    ///
+    /// # Errors
+    /// [`SceneError::InvalidField`] (`background.size_px`) outside 1..=16384 per axis.
+    pub fn clutter_size(&self) -> Result<[u32; 2], SceneError> {
+        let [w, h] = self.size_px.unwrap_or([2048, 1024]);
+        if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+            return Err(invalid("size_px", &format!("must be in 1..=16384 each, got [{w}, {h}]")));
+        }
+        Ok([w, h])
     }
 
     /// The background, its pose in `frame`: the camera's (a rig's frame for a rig camera at
@@ -133,7 +142,7 @@ impl BackgroundSpec {
             (BackgroundKind::Plane, Some(t), Some(size)) => Background::plane(texture, frame * pose(t)?, size),
             (BackgroundKind::Plane, t, _) => return Err(invalid(if t.is_none() { "t_m" } else { "size_m" }, "is required for a plane")),
         };
-        bg.validate()?;
+        bg.validate_placement()?;
         Ok(bg)
     }
 }
