@@ -48,19 +48,13 @@ impl MeshLibrary {
     /// # Errors
     /// As [`load_obj`] and [`MeshAsset::new`], naming the file.
     pub fn load(&self, path: &str) -> Result<Arc<MeshAsset>, MeshError> {
-        let file = self.resolve(path);
-        if let Some(a) = self.cache.lock().ok().and_then(|c| c.get(&file).cloned()) {
-            return Ok(a);
-        }
-        let (mesh, report) = load_obj(&file, &|p: &Path| std::fs::read(p))?;
-        if report.degenerate_skipped > 0 {
-            log::warn!("{}: skipped {} degenerate triangles", file.display(), report.degenerate_skipped);
-        }
-        let asset = MeshAsset::new(mesh)?;
-        if let Ok(mut c) = self.cache.lock() {
-            c.insert(file, asset.clone());
-        }
-        Ok(asset)
+        cached(&self.cache, self.resolve(path), |file| {
+            let (mesh, report) = load_obj(file, &|p: &Path| std::fs::read(p))?;
+            if report.degenerate_skipped > 0 {
+                log::warn!("{}: skipped {} degenerate triangles", file.display(), report.degenerate_skipped);
+            }
+            MeshAsset::new(mesh)
+        })
     }
 
     /// The image at `path` as a grey texture (its luma; read on first use): a background.
@@ -68,19 +62,25 @@ impl MeshLibrary {
     /// # Errors
     /// [`MeshError::Read`] or [`MeshError::Texture`], naming the file.
     pub fn image(&self, path: &str) -> Result<Arc<Texture>, MeshError> {
-        let file = self.resolve(path);
-        if let Some(t) = self.images.lock().ok().and_then(|c| c.get(&file).cloned()) {
-            return Ok(t);
-        }
-        let name = file.display().to_string();
-        let bytes = std::fs::read(&file).map_err(|source| MeshError::Read { path: name.clone(), source })?;
-        let img = image::load_from_memory(&bytes).map_err(|source| MeshError::Texture { path: name, source })?;
-        let texture = Arc::new(Texture::from_image(&img));
-        if let Ok(mut c) = self.images.lock() {
-            c.insert(file, texture.clone());
-        }
-        Ok(texture)
+        cached(&self.images, self.resolve(path), |file| {
+            let name = file.display().to_string();
+            let bytes = std::fs::read(file).map_err(|source| MeshError::Read { path: name.clone(), source })?;
+            let img = image::load_from_memory(&bytes).map_err(|source| MeshError::Texture { path: name, source })?;
+            Ok(Arc::new(Texture::from_image(&img)))
+        })
     }
+}
+
+/// The value `cache` holds for `file`, or `make(file)` stored under it.
+fn cached<T>(cache: &Mutex<HashMap<PathBuf, Arc<T>>>, file: PathBuf, make: impl FnOnce(&Path) -> Result<Arc<T>, MeshError>) -> Result<Arc<T>, MeshError> {
+    if let Some(v) = cache.lock().ok().and_then(|c| c.get(&file).cloned()) {
+        return Ok(v);
+    }
+    let v = make(&file)?;
+    if let Ok(mut c) = cache.lock() {
+        c.insert(file, v.clone());
+    }
+    Ok(v)
 }
 
 impl AssetLoader for MeshLibrary {
