@@ -100,7 +100,7 @@ pub(super) fn classify_tiles(
             if grid.beyond_lens(tx, ty) {
                 return scene.target.background() as f32;
             }
-            let f = frames.get(ty as usize).or(frames.first()).map_or(&[][..], Vec::as_slice);
+            let f = row_frames(&frames, ty);
             grid.tile(tx, ty).and_then(|rays| flat.value(scene, f, &rays, has_dots)).map_or(-1.0, |v| v as f32)
         })
         .collect()
@@ -219,6 +219,11 @@ impl<'a> FlatTest<'a> {
     }
 }
 
+/// The frames tile row `ty` is seen in ([`tile_row_frames`]: one entry when rows share theirs).
+fn row_frames(frames: &[Vec<RayFrame>], ty: u32) -> &[RayFrame] {
+    frames.get(ty as usize).or(frames.first()).map_or(&[][..], Vec::as_slice)
+}
+
 /// Where a tile lies against the target's printed sheet (a background is mixed in beside it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Cover {
@@ -245,7 +250,7 @@ pub(super) fn sheet_cover(scene: &Scene, grid: &TileCornerRays, (tiles_x, tiles_
             if grid.beyond_lens(tx, ty) {
                 return Cover::Beyond;
             }
-            let f = frames.get(ty as usize).or(frames.first()).map_or(&[][..], Vec::as_slice);
+            let f = row_frames(&frames, ty);
             let Some(rays) = grid.tile(tx, ty) else { return Cover::Mixed };
             if plane_missed(f, &rays) {
                 return Cover::Outside;

@@ -184,12 +184,17 @@ pub(crate) fn object_params(p: &mut Params, scene: &Scene, instance_row: usize) 
     // Edge pixels: scan lines, an eighth of `samples` (2 to 8; crossings are bisected, and the
     // lines' mean is exact for a straight edge), or a grid of half `samples` (2 to 16) squared.
     p.obj = [scene.objects.len() as u32, instance_row as u32, (scene.render.samples / 8).clamp(2, 8), (scene.render.samples / 2).clamp(2, 16)];
-    let n = scene.cam_from_target.rotation * Vector3::z();
-    let c = n.dot(&scene.cam_from_target.translation.vector);
+    let (n, c) = target_plane(scene);
     p.plane = [n.x as f32, n.y as f32, n.z as f32, c as f32];
     // No sheet (the S-path): an empty one, so objects are always in front.
     let s = scene.target.extent_m().unwrap_or([0.0, 0.0, -1.0, -1.0]);
     p.sheet = s.map(|v| v as f32);
+}
+
+/// The target's plane `n . x = c` in the camera frame: `(n, c)`.
+fn target_plane(scene: &Scene) -> (Vector3<f64>, f64) {
+    let n = scene.cam_from_target.rotation * Vector3::z();
+    (n, n.dot(&scene.cam_from_target.translation.vector))
 }
 
 /// The objects' shadow uniform (`Params::sun`; zero without a shadow light).
@@ -214,8 +219,7 @@ pub(crate) fn object_tiles(scene: &Scene, grid: &TileCornerRays, sun: Option<&Sh
     let mut balls: Vec<Vec<(Vector3<f64>, f64)>> =
         scene.objects.iter().map(|o| o.asset.bounds.iter().map(|(c, r)| ((o.cam_from_object * (c * o.scale)).coords, r * o.scale)).collect()).collect();
     if let Some(s) = sun {
-        let n = scene.cam_from_target.rotation * Vector3::z();
-        let plane = (n, n.dot(&scene.cam_from_target.translation.vector));
+        let plane = target_plane(scene);
         let shadows: Vec<Vec<(Vector3<f64>, f64)>> =
             balls.iter().filter_map(|b| b.iter().map(|ball| shadow_ball(*ball, plane, &s.toward_light_cam)).collect::<Option<Vec<_>>>()).collect();
         balls.extend(shadows);
