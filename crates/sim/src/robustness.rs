@@ -192,7 +192,7 @@ impl Effect {
             }
             Effect::Gradient => return conditions::gradient(base, level),
             Effect::Highlight => return conditions::highlight(base, level),
-            Effect::Clutter => return conditions::cluttered(base, level, base.cam_from_target.translation.x.to_bits(), 0.0),
+            Effect::Clutter => return conditions::cluttered(base, level, base.cam_from_target.translation.x.to_bits()),
             Effect::Shadow => return conditions::shadowed(base, level),
         }
         s
@@ -383,10 +383,7 @@ pub fn run_levels(
                 let image = render_image(renderer, effect, &scene, cached)?;
                 let truth = truth_labels(&scene);
                 let truth_px = truth_points(effect, &scene, &truth);
-                let s = detect_and_score(&image, &truth_px, grid)?;
-                let (detected, rms_px, max_px, n_corners, untrusted) = (s.detected, s.rms_px, s.max_px, s.n_corners, s.untrusted);
-                let run =
-                    RobustnessRun { effect, level, strength: strength(effect, &scene, level, &truth), view, detected, rms_px, max_px, n_corners, untrusted };
+                let run = detect_and_score(&image, &truth_px, grid)?.run(effect, level, strength(effect, &scene, level, &truth), view);
                 on_view(&ViewImage { level_index, run: &run, image: &image, truth: &truth, truth_px: &truth_px, grid }).map_err(RobustnessError::Stopped)?;
                 runs.push(run);
             }

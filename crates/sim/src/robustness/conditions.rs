@@ -21,12 +21,10 @@ pub const GRADIENT_AMBIENT: f64 = 0.25;
 pub fn gradient(base: &Scene, level: f64) -> Scene {
     let mut s = base.clone();
     let mut lighting = Lighting { ambient: Some(GRADIENT_AMBIENT), ..Default::default() };
-    let [_, y0, _, y1] = base.target.extent_m().unwrap_or([0.0; 4]);
-    let front = -camera_side_in_target(base);
-    let x0 = base.target.extent_m().map_or(0.0, |e| e[0]);
+    let [x0, y0, _, y1] = base.target.extent_m().unwrap_or([0.0; 4]);
     if level > 0.0 {
         // Positions and intensities here are finite and the intensity positive: `add_point` accepts them.
-        let _ = lighting.add_point(LightFrame::Target, [x0 - 0.15, 0.5 * (y0 + y1), -0.2 * front], level);
+        let _ = lighting.add_point(LightFrame::Target, [x0 - 0.15, 0.5 * (y0 + y1), 0.2 * camera_side_in_target(base)], level);
     }
     s.render.lighting = lighting;
     s
@@ -64,40 +62,45 @@ pub fn highlight(base: &Scene, level: f64) -> Scene {
 /// Texels of [`super::Effect::Clutter`]'s panorama (per axis).
 pub const CLUTTER_TEXELS: [u32; 2] = [4096, 2048];
 
-/// A cluttered room behind the board: a procedural clutter panorama (seed `seed`, turned by
-/// `yaw_rad` about the camera's y axis) whose contrast about the target's background grey is
-/// `level` (0: a uniform grey, 1: the clutter as drawn).
-pub fn cluttered(base: &Scene, level: f64, seed: u64, yaw_rad: f64) -> Scene {
+/// A cluttered room behind the board: a procedural clutter panorama (seed `seed`, centred ahead)
+/// whose contrast about the target's background grey is `level` (0: a uniform grey, 1: the
+/// clutter as drawn).
+pub fn cluttered(base: &Scene, level: f64, seed: u64) -> Scene {
     let mut s = base.clone();
     let g = base.target.background() as f32;
     let mut t = clutter(seed, CLUTTER_TEXELS[0], CLUTTER_TEXELS[1]);
     t.texels.iter_mut().for_each(|v| *v = (g + level as f32 * (*v - g)).clamp(0.0, 255.0));
-    s.background = Some(Background::panorama(Arc::new(t), UnitQuaternion::from_axis_angle(&Vector3::y_axis(), yaw_rad)));
+    s.background = Some(Background::panorama(Arc::new(t), UnitQuaternion::identity()));
     s
 }
 
+/// [`super::Effect::Shadow`]'s light: the angle at which it grazes the board, degrees.
+pub const SHADOW_GRAZING_DEG: f64 = 20.0;
+
 /// A bar (2 x 60 x 2 cm, grey 80) 0.2 m left of the board's sheet and 0.15 m in front of it,
-/// along the board's y axis, under a light from the left grazing the board at 20 degrees: its
+/// along the board's y axis, under a light from the left grazing the board at
+/// [`SHADOW_GRAZING_DEG`]: its
 /// shadow is a band about a square wide across the board's columns 4 and 5, over their corners.
 /// `level` is the shadow's contrast, lit over shadowed shading (1: no shadow), the lit shading
 /// kept at 1: ambient `1 / level`, the light the rest.
 pub fn shadowed(base: &Scene, level: f64) -> Scene {
     let mut s = base.clone();
     let [x0, y0, _, y1] = base.target.extent_m().unwrap_or([0.0; 4]);
-    // The camera looks at the board from target z of this sign's opposite.
-    let front = -camera_side_in_target(base);
+    let camera_side = camera_side_in_target(base);
     let bar =
         synthcam_core::mesh::primitives::textured_box([0.02, 0.6, 0.02], Arc::new(synthcam_core::mesh::Texture { width: 1, height: 1, texels: vec![80.0] }));
     // The bar's mesh is valid by construction (a closed box): `MeshAsset::new` accepts it.
     if let Ok(asset) = synthcam_scene::objects::MeshAsset::new(bar) {
-        let target_from_bar = nalgebra::Isometry3::translation(x0 - 0.2, 0.5 * (y0 + y1), -0.15 * front);
+        let target_from_bar = nalgebra::Isometry3::translation(x0 - 0.2, 0.5 * (y0 + y1), 0.15 * camera_side);
         s.objects = vec![synthcam_scene::objects::SceneObject::new(asset, base.cam_from_target * target_from_bar)];
     }
     let contrast = level.max(1.0);
-    let travel = Vector3::new(20f64.to_radians().cos(), 0.0, front * 20f64.to_radians().sin());
+    let (sin, cos) = SHADOW_GRAZING_DEG.to_radians().sin_cos();
+    // Along the board's x, into it (away from the camera's side).
+    let travel = Vector3::new(cos, 0.0, -camera_side * sin);
     let mut lighting = Lighting { ambient: Some(1.0 / contrast), ..Default::default() };
     // A unit direction and a finite irradiance >= 0: `add` accepts them.
-    let _ = lighting.add(LightFrame::Target, travel.into(), (1.0 - 1.0 / contrast) / 20f64.to_radians().sin());
+    let _ = lighting.add(LightFrame::Target, travel.into(), (1.0 - 1.0 / contrast) / sin);
     s.render.lighting = lighting;
     s
 }

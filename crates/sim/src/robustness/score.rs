@@ -78,6 +78,14 @@ pub(super) struct Score {
     pub untrusted: usize,
 }
 
+impl Score {
+    /// The experiment's record of this score for `effect` at `level` (of `strength`), view `view`.
+    pub(super) fn run(self, effect: Effect, level: f64, strength: f64, view: usize) -> super::RobustnessRun {
+        let Score { detected, rms_px, max_px, n_corners, untrusted } = self;
+        super::RobustnessRun { effect, level, strength, view, detected, rms_px, max_px, n_corners, untrusted }
+    }
+}
+
 /// Detect the board in `image` and compare its trusted corners with `truth_px`.
 pub(super) fn detect_and_score(image: &GreyImage, truth_px: &[[f64; 2]], grid: [u32; 2]) -> Result<Score, RobustnessError> {
     let params = ChessboardParams::new(grid[0] as usize, grid[1] as usize);
