@@ -59,8 +59,10 @@ struct Params {
     tfc0: vec4<f32>,     // warped boards: rows of target_from_cam's rotation (xyz) and the camera centre in the target frame (w)
     tfc1: vec4<f32>,
     tfc2: vec4<f32>,
-    shade: vec4<f32>,    // planar targets under a point light: constant shading (ambient + directional), 1 when on, gloss F0, roughness (0: none) (planar.wgsl shaded_greys)
-    lamp: vec4<f32>,     // the point light in the target frame: x, y, z, intensity
+    shade: vec4<f32>,    // planar targets under a point or area light: constant shading (ambient + directional), 1 point / 2 area light, gloss F0, roughness (0: none) (planar.wgsl shaded_greys)
+    lamp: vec4<f32>,     // the point light in the target frame: x, y, z, intensity; an area light: a corner, radiance
+    area_u: vec4<f32>,   // an area light's edges from that corner, target frame (xyz)
+    area_v: vec4<f32>,
     eye: vec4<f32>,      // the camera centre in the target frame, the camera-side normal's z (+-1)
     bg: vec4<f32>,       // background: kind (0 none, 1 panorama, 2 plane), image width, height, 0 (background.wgsl)
     bg0: vec4<f32>,      // rows of the background's frame from the camera's (xyz); a plane: the camera centre in its frame (w)
@@ -68,6 +70,9 @@ struct Params {
     bg2: vec4<f32>,
     bg_size: vec4<f32>,  // a plane image's width and height, metres, 0, 0
     sun: vec4<f32>,      // objects' shadows: the direction towards the light (camera frame; 0: none), shadowed / lit shading (objects.wgsl)
+    soft_c: vec4<f32>,   // objects' soft shadows (area light): a corner in the camera frame, the ambient term
+    soft_u: vec4<f32>,   // its edges, camera frame; w: 1 when on (soft_u), 0
+    soft_v: vec4<f32>,
 };
 
 // Pass kinds (crates/render/src/gpu_scene.rs `PassKind`; the test

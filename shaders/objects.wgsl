@@ -163,11 +163,149 @@ fn shadowed(d_cam: vec3<f32>, t: f32) -> bool {
         // the ray's literal z, which Mesa's SPIR-V and GLSL paths fold differently), to t.
         let od = instance_ray(i, d_cam);
         let o = od[0] + t * od[1];
-        let base = P.obj.y + 5u * i;
-        let d = vec3<f32>(dot3(objs[base].xyz, P.sun.xyz), dot3(objs[base + 1u].xyz, P.sun.xyz), dot3(objs[base + 2u].xyz, P.sun.xyz));
-        if (cast_instance_ray(i, o, d, no_hit(3e38)).inst != NO_OBJECT) { return true; }
+        if (cast_instance_ray(i, o, mesh_dir(i, P.sun.xyz), no_hit(3e38)).inst != NO_OBJECT) { return true; }
     }
     return false;
+}
+
+// Direction d (camera frame) in instance inst's mesh frame.
+fn mesh_dir(inst: u32, d: vec3<f32>) -> vec3<f32> {
+    let base = P.obj.y + 5u * inst;
+    return vec3<f32>(dot3(objs[base].xyz, d), dot3(objs[base + 1u].xyz, d), dot3(objs[base + 2u].xyz, d));
+}
+
+// The target point t d_cam's shading in an object's shadow over its lit shading, and whether it
+// is shadowed (x: 1) at all: the directional light's constant ratio (P.sun.w); under the area
+// light the pixel's (soft_pixel, computed once per pixel: soft shadows vary smoothly).
+fn shadow_ratio(d_cam: vec3<f32>, t: f32) -> vec2<f32> {
+    if (P.soft_u.w == 1.0) { return soft; }
+    return vec2<f32>(select(0.0, 1.0, shadowed(d_cam, t)), P.sun.w);
+}
+
+// The pixel's soft-shadow ratio (soft_pixel) where an area light casts the objects' shadows.
+var<private> soft: vec2<f32>;
+
+// Under the area light, the mean over the pixel of the target's shading in the objects' shadow
+// over its mean lit shading, (A + E V) / (A + E) with the light's closed-form term E
+// (planar.wgsl area_irradiance) and its visible share V (light_share, each point its own rows),
+// at 2 x 2 sub-pixel points; x: 1 when some of the light is hidden from one of them. (1, 1) without area light.
+fn soft_pixel(centre: Ray) -> vec2<f32> {
+    if (P.soft_u.w != 1.0 || !centre.ok) { return vec2<f32>(0.0, 1.0); }
+    var shaded = 0.0;
+    var lit = 0.0;
+    var hidden = 0.0;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let d = ray_at(centre, vec2<f32>(f32(k % 2u), f32(k / 2u)) * 0.5 - 0.25);
+        let t = target_t(d);
+        if (t < 3e38) {
+            var v = 1.0;
+            if (light_may_be_hidden(d, t)) { v = light_share(d, t, (f32(k) + 0.5) * 0.25); }
+            let e = area_irradiance(plane_point(d).xy);
+            shaded = shaded + P.soft_c.w + e * v;
+            lit = lit + P.soft_c.w + e;
+            hidden = select(hidden, 1.0, v < 1.0);
+        }
+    }
+    return vec2<f32>(hidden, select(1.0, shaded / lit, lit > 0.0));
+}
+
+// Whether an instance may hide the light points at `to` (four, relative to the target point
+// t d_cam) from that point: the bounding box of the point and them (mesh frame) meets one of the
+// boxes of the instance's hierarchy's root's two children. Pixels far from every shadow
+// (light_may_be_hidden) cast no shadow ray.
+fn hull_meets_objects(d_cam: vec3<f32>, t: f32, to: array<vec3<f32>, 4>) -> bool {
+    for (var i = 0u; i < P.obj.x; i = i + 1u) {
+        let od = instance_ray(i, d_cam);
+        let o = od[0] + t * od[1];
+        var lo = o;
+        var hi = o;
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            let c = o + mesh_dir(i, to[k]);
+            lo = min(lo, c);
+            hi = max(hi, c);
+        }
+        let nb = bitcast<vec4<u32>>(objs[P.obj.y + 5u * i + 3u]).x;
+        let meets0 = all(lo <= objs[nb + 1u].xyz) && all(objs[nb].xyz <= hi);
+        let meets1 = all(lo <= objs[nb + 3u].xyz) && all(objs[nb + 2u].xyz <= hi);
+        if (meets0 || meets1) { return true; }
+    }
+    return false;
+}
+
+// hull_meets_objects for the whole light's rectangle.
+fn light_may_be_hidden(d_cam: vec3<f32>, t: f32) -> bool {
+    let x = t * d_cam;
+    let c = P.soft_c.xyz - x;
+    return hull_meets_objects(d_cam, t, array<vec3<f32>, 4>(c, c + P.soft_u.xyz, c + P.soft_v.xyz, c + P.soft_u.xyz + P.soft_v.xyz));
+}
+
+// Rows of the area light the visible share integrates over; points per row (the segments between
+// them, each with its crossing bisected LIGHT_BISECTIONS times): an occluder whose shadow ray
+// pyramid leaves a gap narrower than a segment between two samples can be missed.
+const LIGHT_ROWS: u32 = 8u;
+const LIGHT_SEGMENTS: u32 = 4u;
+const LIGHT_BISECTIONS: u32 = 7u;
+
+// Whether the segment from the target point t d_cam to the light point at `to` (camera frame,
+// relative to that point) is free of objects.
+fn light_visible(d_cam: vec3<f32>, t: f32, to: vec3<f32>) -> bool {
+    for (var i = 0u; i < P.obj.x; i = i + 1u) {
+        let od = instance_ray(i, d_cam);
+        let o = od[0] + t * od[1];
+        if (cast_instance_ray(i, o, mesh_dir(i, to), no_hit(1.0)).inst != NO_OBJECT) { return false; }
+    }
+    return true;
+}
+
+// The weight cos_x cos_light / r^2 of the light point at `to` (relative to the target point; the
+// board's camera-side normal -sign(c) n of the plane n . x = c, the emitter's u x v), up to a
+// constant factor.
+fn light_weight(to: vec3<f32>) -> f32 {
+    let n = -sign(P.plane.w) * P.plane.xyz;
+    let r2 = dot3(to, to);
+    return max(dot3(n, to), 0.0) * max(-dot3(cross(P.soft_u.xyz, P.soft_v.xyz), to), 0.0) / max(r2 * r2, 1e-30);
+}
+
+// The share of the area light the objects leave visible from the target point t d_cam, weighted
+// by light_weight (crates/scene/src/shadow.rs visible_share): per row of the emitter (rows at
+// (r + phase) / LIGHT_ROWS: soft_pixel's four sub-pixel points take the four phases, 32 rows
+// for the pixel's mean; the rule across rows is exact where the visible length is linear in the
+// row, as behind a straight occluder edge) the trapezoid rule along it, each segment whose ends
+// differ split at its bisected crossing.
+fn light_share(d_cam: vec3<f32>, t: f32, phase: f32) -> f32 {
+    let x = t * d_cam;
+    var seen = 0.0;
+    var all = 0.0;
+    for (var r = 0u; r < LIGHT_ROWS; r = r + 1u) {
+        let row = P.soft_c.xyz + P.soft_v.xyz * ((f32(r) + phase) / f32(LIGHT_ROWS)) - x;
+        var sa = 0.0;
+        var va = light_visible(d_cam, t, row);
+        var wa = light_weight(row);
+        for (var k = 1u; k <= LIGHT_SEGMENTS; k = k + 1u) {
+            let sb = f32(k) / f32(LIGHT_SEGMENTS);
+            let to_b = row + P.soft_u.xyz * sb;
+            let vb = light_visible(d_cam, t, to_b);
+            let wb = light_weight(to_b);
+            all = all + 0.5 * (wa + wb) * (sb - sa);
+            if (va == vb) {
+                seen = seen + select(0.0, 0.5 * (wa + wb) * (sb - sa), va);
+            } else {
+                var lo = sa;
+                var hi = sb;
+                for (var j = 0u; j < LIGHT_BISECTIONS; j = j + 1u) {
+                    let mid = 0.5 * (lo + hi);
+                    if (light_visible(d_cam, t, row + P.soft_u.xyz * mid) == va) { lo = mid; } else { hi = mid; }
+                }
+                let c = 0.5 * (lo + hi);
+                let wc = light_weight(row + P.soft_u.xyz * c);
+                seen = seen + select(0.5 * (wc + wb) * (sb - c), 0.5 * (wa + wc) * (c - sa), va);
+            }
+            sa = sb;
+            va = vb;
+            wa = wb;
+        }
+    }
+    return select(1.0, seen / all, all > 0.0);
 }
 
 // The class of target pixels in an object's shadow (crates/render/src/object_pass.rs).
@@ -326,8 +464,15 @@ fn cs_coarse_objects(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoca
     var h = no_hit(0.0);
     let tt = target_t(d);
     if (ray.ok) { h = cast_objects(d, tt); }
+    var cls = 0u;
     var val = 0.0;
-    var cls = select(0u, SHADOW_CLASS, ray.ok && h.inst == NO_OBJECT && tt < 3e38 && shadowed(d, tt));
+    if (ray.ok && h.inst == NO_OBJECT && tt < 3e38) {
+        // A target pixel in an object's shadow: its value is the ratio to the lit one.
+        soft = soft_pixel(ray);
+        let shade = shadow_ratio(d, tt);
+        cls = select(0u, SHADOW_CLASS, shade.x == 1.0);
+        val = shade.y;
+    }
     if (h.inst != NO_OBJECT) {
         let a = hit_albedo(h);
         let light = hit_light(h, d);
@@ -449,7 +594,10 @@ fn see(q: vec2<f32>, centre: Ray, o: vec2<f32>, gathered: bool) -> Seen1 {
     if (h.inst != NO_OBJECT) { return Seen1(hit_point_value(h, d), h.inst + 1u); }
     // Beside the sheet: the background (its image where there is one); on it, the board, darker
     // in an object's shadow.
-    if (tt < 3e38 && shadowed(d, tt)) { return Seen1(plane_value(pp.xy) * P.sun.w, SHADOW_CLASS); }
+    if (tt < 3e38) {
+        let shade = shadow_ratio(d, tt);
+        if (shade.x == 1.0) { return Seen1(plane_value(pp.xy) * shade.y, SHADOW_CLASS); }
+    }
     return Seen1(select(bg_point(d), plane_value(pp.xy), tt < 3e38), 0u);
 }
 
@@ -521,6 +669,7 @@ fn cs_fine_objects(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (wide()) { c[k] = ray_d(pixel_ray(q + corner[k] * 1.02)); }
     }
     cand_count = 0u;
+    soft = soft_pixel(centre);
     var gathered = centre.ok;
     for (var k = 0u; k < P.obj.x; k = k + 1u) {
         gathered = gathered && gather_instance(k, c, ray_d(centre));

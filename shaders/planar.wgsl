@@ -3,14 +3,49 @@
 // The grey levels at board point (x, y): as given, or under a point light (P.shade.y == 1) the
 // surface levels (dark, light, margin) times the shading there (the constant part plus the
 // lamp's inverse-square term) plus the glossy coating's GGX reflection of the lamp
-// (crates/scene/src/lighting.rs `Gloss`); the background is not a surface.
+// (crates/scene/src/gloss.rs); under an area light (P.shade.y == 2) the constant part plus its
+// closed-form term (area_irradiance). The background is not a surface.
 fn shaded_greys(x: f32, y: f32) -> vec4<f32> {
     if (P.shade.y == 0.0) { return P.grey; }
+    if (P.shade.y == 2.0) { return vec4<f32>(P.grey.xyz * (P.shade.x + area_irradiance(vec2<f32>(x, y))), P.grey.w); }
     let to_l = P.lamp.xyz - vec3<f32>(x, y, 0.0);
     let r2 = dot(to_l, to_l);
     let l = to_l / sqrt(r2);
     let s = P.shade.x + P.lamp.w * max(P.eye.w * l.z, 0.0) / r2;
     return vec4<f32>(P.grey.xyz * s + vec3<f32>(ggx_grey(l, x, y) * P.lamp.w / r2), P.grey.w);
+}
+
+// The area light's irradiance at board point b (target frame; the normal (0, 0, P.eye.w) on the
+// camera's side): the radiance times the projected solid angle of the part of the rectangle above
+// the board's horizon, Lambert's polygon formula (crates/scene/src/area_light.rs, which this
+// mirrors); 0 behind the emitter.
+fn area_irradiance(b: vec2<f32>) -> f32 {
+    let c = P.lamp.xyz - vec3<f32>(b, 0.0);
+    let u = P.area_u.xyz;
+    let v = P.area_v.xyz;
+    if (dot(cross(u, v), c) >= 0.0) { return 0.0; }
+    let q = array<vec3<f32>, 4>(c, c + u, c + u + v, c + v);
+    let nz = P.eye.w;
+    // Sutherland-Hodgman against nz z >= 0: a quad keeps at most five vertices.
+    var w: array<vec3<f32>, 5>;
+    var k = 0u;
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        let a = q[i];
+        let e = q[(i + 1u) % 4u];
+        let da = nz * a.z;
+        let de = nz * e.z;
+        if (da >= 0.0) { w[k] = a; k = k + 1u; }
+        if ((da >= 0.0) != (de >= 0.0)) { w[k] = a + (e - a) * (da / (da - de)); k = k + 1u; }
+    }
+    var sum = 0.0;
+    for (var i = 0u; i < k; i = i + 1u) {
+        let a = w[i];
+        let e = w[(i + 1u) % k];
+        let axe = cross(a, e);
+        let s = length(axe);
+        if (s > 0.0) { sum = sum + atan2(s, dot(a, e)) * nz * axe.z / s; }
+    }
+    return P.lamp.w * 0.5 * abs(sum);
 }
 
 // The coating's specular grey level per unit lamp irradiance (Cook-Torrance with GGX, Smith-

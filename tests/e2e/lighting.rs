@@ -92,8 +92,11 @@ fn lights_the_shading_does_not_cover_are_named_errors() {
     let s = spec.to_scene().expect("scene");
     assert_eq!(s.render.lighting.ambient, Some(0.2));
     let area = text.replace("kind = \"directional\"", "kind = \"area\"");
-    let e = synthcam::scene::file::parse_spec(&area).and_then(|s| s.to_scene()).expect_err("area light");
-    assert!(e.to_string().contains("\"point\" so far"), "{e}");
+    let e = synthcam::scene::file::parse_spec(&area).and_then(|s| s.to_scene()).expect_err("an area light with a direction");
+    assert!(e.to_string().contains("no direction"), "{e}");
+    let spot = text.replace("kind = \"directional\"", "kind = \"spot\"");
+    let e = synthcam::scene::file::parse_spec(&spot).and_then(|s| s.to_scene()).expect_err("a spot light");
+    assert!(e.to_string().contains("\"area\""), "{e}");
     let point = text.replace("kind = \"directional\"", "kind = \"point\"");
     let e = synthcam::scene::file::parse_spec(&point).and_then(|s| s.to_scene()).expect_err("a point light without position_m");
     assert!(e.to_string().contains("position_m"), "{e}");

@@ -18,10 +18,10 @@ use crate::common::lines::{box_crossing, line_errors_by, rms};
 use crate::common::{camera, renderer};
 
 /// Half the plate's side, metres.
-const HALF_M: f64 = 0.05;
+pub(crate) const HALF_M: f64 = 0.05;
 
 /// A square plate in its z = 0 plane, centred, two triangles (both faces count: two-sided casts).
-fn plate() -> Arc<MeshAsset> {
+pub(crate) fn plate() -> Arc<MeshAsset> {
     let p = |x: f64, y: f64| Point3::new(x, y, 0.0);
     let mesh = Mesh {
         name: "plate".into(),
@@ -36,7 +36,7 @@ fn plate() -> Arc<MeshAsset> {
 /// 20 degrees about y; the plate 0.3 m in front of it near the image's bottom, turned a little,
 /// so that a light from the upper left casts its shadow on the lower left light square; the
 /// light travels along `light` (camera frame): irradiance 0.8 over ambient 0.25.
-fn scene(light: [f64; 3]) -> Scene {
+pub(crate) fn scene(light: [f64; 3]) -> Scene {
     let board = Chessboard { squares: [2, 2], square_m: 0.3, margin_m: 0.05, ..Default::default() };
     let rot = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 20f64.to_radians());
     let cam_from_target = Isometry3::from_parts(Translation3::from(Vector3::new(0.0, 0.0, 1.0) - rot * Vector3::new(0.3, 0.3, 0.0)), rot);

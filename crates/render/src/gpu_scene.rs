@@ -198,21 +198,32 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     Ok(GpuScene { params: p, lens_variant: pipeline_variant(scene), dots, tile_start, tile_items, tile_flat, views })
 }
 
-/// A point light's uniforms (`Params::shade`, `Params::lamp`), in the target frame; nothing
-/// when the lighting is uniform over the board (the grey levels were scaled on the CPU by
-/// `synthcam_scene::lighting::shade`).
+/// A point or area light's uniforms (`Params::shade`, `lamp`, `area_u`, `area_v`), in the target
+/// frame; nothing when the lighting is uniform over the board (the grey levels were scaled on the
+/// CPU by `synthcam_scene::lighting::shade`).
 fn lamp_params(p: &mut Params, scene: &Scene) {
     let lighting = scene.render.lighting;
-    let Some(lamp) = lighting.points.iter().flatten().next() else { return };
     let n_cam = synthcam_scene::lighting::camera_side_normal(scene);
     let target_from_cam = scene.cam_from_target.inverse();
-    let l_t = target_from_cam * nalgebra::Point3::from(synthcam_scene::lighting::Lighting::point_in_camera(lamp, &scene.cam_from_target));
+    let f32s = |v: &nalgebra::Vector3<f64>, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+    let constant = lighting.factor(&n_cam, &scene.cam_from_target);
+    if let Some(area) = lighting.area {
+        let rect = area.rectangle_in_camera(&scene.cam_from_target);
+        p.shade = [constant as f32, 2.0, 0.0, 0.0];
+        p.lamp = f32s(&(target_from_cam * rect.corner).coords, area.radiance());
+        p.area_u = f32s(&(target_from_cam.rotation * rect.u), 0.0);
+        p.area_v = f32s(&(target_from_cam.rotation * rect.v), 0.0);
+    } else if let Some(lamp) = lighting.points.iter().flatten().next() {
+        let l_t = target_from_cam * nalgebra::Point3::from(synthcam_scene::lighting::Lighting::point_in_camera(lamp, &scene.cam_from_target));
+        let gloss = lighting.gloss.map_or([0.0; 2], |g| [g.specular as f32, g.roughness as f32]);
+        p.shade = [constant as f32, 1.0, gloss[0], gloss[1]];
+        p.lamp = f32s(&l_t.coords, lamp.intensity);
+    } else {
+        return;
+    }
     let eye = target_from_cam * nalgebra::Point3::origin();
     let n_z = (target_from_cam.rotation * n_cam).z.signum();
-    let gloss = lighting.gloss.map_or([0.0; 2], |g| [g.specular as f32, g.roughness as f32]);
-    p.shade = [lighting.factor(&n_cam, &scene.cam_from_target) as f32, 1.0, gloss[0], gloss[1]];
-    p.lamp = [l_t.x as f32, l_t.y as f32, l_t.z as f32, lamp.intensity as f32];
-    p.eye = [eye.x as f32, eye.y as f32, eye.z as f32, n_z as f32];
+    p.eye = f32s(&eye.coords, n_z);
 }
 
 /// The lens model's uniforms (see `Params`); `split` from [`super::bend::split_radii`].

@@ -46,7 +46,8 @@ impl Renderer {
     }
 
     /// Run the objects' passes over `tiles` and write their pixels into `img` (a target pixel in
-    /// an object's shadow: the target passes' value times `Params::sun`'s ratio).
+    /// an object's shadow: the target passes' value times the shadowed-over-lit ratio the coarse
+    /// pass returns for it).
     pub(super) fn render_objects(&self, bufs: &mut Buffers, gs: &GpuScene, tiles: &[u32], img: &mut [f32]) -> Result<(), RenderError> {
         if tiles.is_empty() {
             return Ok(());
@@ -64,7 +65,7 @@ impl Renderer {
                 // Where no object is in front, the target's value (from its own passes).
                 value[i] = match class[i] {
                     0 => img[i],
-                    SHADOW_CLASS => img[i] * gs.params.sun[3],
+                    SHADOW_CLASS => img[i] * vals[j * 64 + k],
                     _ => vals[j * 64 + k],
                 };
             }

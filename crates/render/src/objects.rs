@@ -15,6 +15,7 @@ use super::tiles::{TileCornerRays, TILE_PX};
 use super::uniforms::Params;
 use super::RenderError;
 use synthcam_core::mesh::bvh::LEAF;
+use synthcam_scene::area_light::Rectangle;
 use synthcam_scene::objects::{MeshAsset, Shading};
 use synthcam_scene::shadow::ShadowLight;
 use synthcam_scene::Scene;
@@ -197,9 +198,19 @@ fn target_plane(scene: &Scene) -> (Vector3<f64>, f64) {
     (n, n.dot(&scene.cam_from_target.translation.vector))
 }
 
-/// The objects' shadow uniform (`Params::sun`; zero without a shadow light).
+/// The objects' shadow uniforms (`Params::sun` for a directional light, `soft_c`, `soft_u`,
+/// `soft_v` for an area light; zero without a shadow light).
 pub(crate) fn shadow_params(p: &mut Params, sun: Option<&ShadowLight>) {
-    p.sun = sun.map_or([0.0; 4], |s| [s.toward_light_cam.x as f32, s.toward_light_cam.y as f32, s.toward_light_cam.z as f32, s.ratio as f32]);
+    let f32s = |v: &Vector3<f64>, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+    match sun {
+        Some(ShadowLight::Sun { toward_light_cam, ratio }) => p.sun = f32s(toward_light_cam, *ratio),
+        Some(ShadowLight::Area { rect, ambient, .. }) => {
+            p.soft_c = f32s(&rect.corner.coords, *ambient);
+            p.soft_u = f32s(&rect.u, 1.0);
+            p.soft_v = f32s(&rect.v, 0.0);
+        }
+        None => {}
+    }
 }
 
 /// A ball's shadow on the target plane `n . x = c` along `toward` (towards the light): a ball
@@ -211,6 +222,24 @@ fn shadow_ball((centre, r): (Vector3<f64>, f64), (n, c): (Vector3<f64>, f64), to
     (cos > 1e-9 && s > -r / cos).then(|| (centre - s * toward, r / cos))
 }
 
+/// A ball around every shadow a ball casts on the target plane `n . x = c` from an area light
+/// `rect`: a board point `x` in it sees the ball on its segment to a light point `p` at a point
+/// `q` of height `h_q` (over the plane, on the light's side), so `x - q = (q - p) h_q / (h_p - h_q)`;
+/// bounding `h_q <= h_c + r`, `h_p >= h_L - rho` and `|q - p| <= |c - L| + r + rho` (`L`, `rho`
+/// the light's centre and half diagonal) bounds `|x - c|`. The whole plane when the ball reaches
+/// the light's lowest height.
+fn soft_shadow_ball((centre, r): (Vector3<f64>, f64), (n, c): (Vector3<f64>, f64), rect: &Rectangle) -> (Vector3<f64>, f64) {
+    let light = (rect.corner + 0.5 * (rect.u + rect.v)).coords;
+    let rho = 0.5 * (rect.u + rect.v).norm();
+    let side = (n.dot(&light) - c).signum();
+    let (h_l, h_c) = (side * (n.dot(&light) - c), side * (n.dot(&centre) - c));
+    let gap = h_l - rho - (h_c + r);
+    if gap <= 0.0 {
+        return (centre, f64::INFINITY);
+    }
+    (centre, r + (h_c + r).max(0.0) / gap * ((centre - light).norm() + r + rho))
+}
+
 /// The tiles (packed `tx | ty << 16`) an object or its shadow on the target may cover: the cone
 /// around each tile's corner rays, widened by a pixel, meets the object's bounding sphere or the
 /// ball around that sphere's shadow.
@@ -218,12 +247,15 @@ pub(crate) fn object_tiles(scene: &Scene, grid: &TileCornerRays, sun: Option<&Sh
     // Per object its balls in the camera frame: the whole mesh's, then its parts'.
     let mut balls: Vec<Vec<(Vector3<f64>, f64)>> =
         scene.objects.iter().map(|o| o.asset.bounds.iter().map(|(c, r)| ((o.cam_from_object * (c * o.scale)).coords, r * o.scale)).collect()).collect();
-    if let Some(s) = sun {
-        let plane = target_plane(scene);
-        let shadows: Vec<Vec<(Vector3<f64>, f64)>> =
-            balls.iter().filter_map(|b| b.iter().map(|ball| shadow_ball(*ball, plane, &s.toward_light_cam)).collect::<Option<Vec<_>>>()).collect();
-        balls.extend(shadows);
-    }
+    let plane = target_plane(scene);
+    let shadows: Vec<Vec<(Vector3<f64>, f64)>> = match sun {
+        Some(ShadowLight::Sun { toward_light_cam, .. }) => {
+            balls.iter().filter_map(|b| b.iter().map(|ball| shadow_ball(*ball, plane, toward_light_cam)).collect::<Option<Vec<_>>>()).collect()
+        }
+        Some(ShadowLight::Area { rect, .. }) => balls.iter().map(|b| b.iter().map(|ball| soft_shadow_ball(*ball, plane, rect)).collect()).collect(),
+        None => Vec::new(),
+    };
+    balls.extend(shadows);
     let meets = |rays: &[Vector3<f64>; 4], b: &[(Vector3<f64>, f64)]| cone_meets(rays, &b[0].0, b[0].1) && b[1..].iter().any(|(c, r)| cone_meets(rays, c, *r));
     let (w, h) = (scene.camera.size.width, scene.camera.size.height);
     let (tiles_x, tiles_y) = (w.div_ceil(TILE_PX), h.div_ceil(TILE_PX));

@@ -67,12 +67,18 @@ pub struct Params {
     pub tfc1: [f32; 4],
     /// Row 2 (w: the camera centre's z).
     pub tfc2: [f32; 4],
-    /// Planar targets under a point light (`synthcam_scene::lighting`): the constant part of the
-    /// shading (ambient and directional lights), 1 when the point light is on (else all 0: the
-    /// grey levels are used as they are), the gloss's `F0` and roughness (0: no gloss).
+    /// Planar targets under a point or area light (`synthcam_scene::lighting`): the constant part
+    /// of the shading (ambient and directional lights), 1 when the point light is on, 2 the area
+    /// light (else all 0: the grey levels are used as they are), the gloss's `F0` and roughness
+    /// (0: no gloss).
     pub shade: [f32; 4],
-    /// The point light in the target frame: `x, y, z`, intensity.
+    /// The point light in the target frame: `x, y, z`, intensity; an area light: its corner and
+    /// radiance.
     pub lamp: [f32; 4],
+    /// An area light's edge along its width from that corner, target frame.
+    pub area_u: [f32; 4],
+    /// Its edge along its height, target frame.
+    pub area_v: [f32; 4],
     /// The camera centre in the target frame `x, y, z`, and the camera-side normal's z (+-1).
     pub eye: [f32; 4],
     /// Background (`shaders/background.wgsl`): kind (0 none, 1 panorama, 2 plane), the image's
@@ -90,6 +96,13 @@ pub struct Params {
     /// The objects' shadows (`shaders/objects.wgsl` `shadowed`): the direction towards the light
     /// in the camera frame (0: no shadows), the shadowed over the lit shading of the target.
     pub sun: [f32; 4],
+    /// The objects' soft shadows (`shaders/objects.wgsl` `light_share`): the area light's corner
+    /// in the camera frame and the ambient term.
+    pub soft_c: [f32; 4],
+    /// Its edge along the width, camera frame; w: 1 when soft shadows are on.
+    pub soft_u: [f32; 4],
+    /// Its edge along the height, camera frame.
+    pub soft_v: [f32; 4],
 }
 
 #[cfg(test)]
@@ -106,7 +119,7 @@ mod tests {
         }
         fields!(
             size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet, warp,
-            warp_c, tfc0, tfc1, tfc2, shade, lamp, eye, bg, bg0, bg1, bg2, bg_size, sun
+            warp_c, tfc0, tfc1, tfc2, shade, lamp, area_u, area_v, eye, bg, bg0, bg1, bg2, bg_size, sun, soft_c, soft_u, soft_v
         )
     }
 

@@ -8,6 +8,7 @@
 
 #![deny(missing_docs)]
 
+pub mod area_light;
 pub mod background;
 pub mod builder;
 pub mod depth;
@@ -17,6 +18,7 @@ pub mod effects;
 pub mod exact;
 pub mod facing;
 pub mod file;
+pub mod gloss;
 pub mod lighting;
 pub mod motion;
 pub mod objects;

@@ -27,6 +27,8 @@
 
 use nalgebra::Vector3;
 
+use crate::area_light::AreaLight;
+pub use crate::gloss::Gloss;
 use crate::{Scene, SceneError};
 
 /// At most this many directional lights per scene (the settings stay `Copy`).
@@ -69,43 +71,6 @@ pub struct PointLight {
     pub intensity: f64,
 }
 
-/// A glossy coating on the target (a laminated board): GGX microfacet reflection of the point
-/// light, added to the diffuse shading (not scaled by the albedo).
-///
-/// In grey levels the term is `pi 255 f_s E_l cos_l` with `f_s = D G F / (4 cos_l cos_v)` the
-/// Cook-Torrance BRDF (GGX `D` with `alpha = roughness^2`, Smith-Schlick `G` with `k = alpha / 2`,
-/// Schlick's Fresnel `F` from `specular` at normal incidence), `E_l` the lamp's irradiance: the
-/// scale at which a white Lambertian surface (albedo 1, BRDF `1 / pi`) shows 255.
-///
-/// Reference: B. Walter et al., "Microfacet models for refraction through rough surfaces",
-/// EGSR 2007 (GGX); B. Karis, "Real Shading in Unreal Engine 4", SIGGRAPH 2013 course notes
-/// (the `k = alpha / 2` Smith-Schlick form, Schlick's Fresnel).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Gloss {
-    /// Reflectance at normal incidence (Schlick's `F0`; 0.04 for plastic film).
-    pub specular: f64,
-    /// Perceptual roughness in (0, 1]; GGX `alpha = roughness^2`.
-    pub roughness: f64,
-}
-
-impl Gloss {
-    /// The specular term in grey levels per unit lamp irradiance `E_l` (module documentation),
-    /// for unit vectors `n` (normal), `l` (to the light), `v` (to the camera).
-    pub fn grey_per_irradiance(&self, n: &Vector3<f64>, l: &Vector3<f64>, v: &Vector3<f64>) -> f64 {
-        let (nl, nv) = (n.dot(l), n.dot(v));
-        if nl <= 0.0 || nv <= 0.0 {
-            return 0.0;
-        }
-        let h = (l + v).normalize();
-        let a2 = self.roughness.powi(4);
-        let d = ggx_d(n.dot(&h).max(0.0), a2);
-        let k = 0.5 * self.roughness * self.roughness;
-        let g1 = |x: f64| x / (x * (1.0 - k) + k);
-        let f = self.specular + (1.0 - self.specular) * (1.0 - v.dot(&h).max(0.0)).powi(5);
-        std::f64::consts::PI * 255.0 * d * g1(nl) * g1(nv) * f / (4.0 * nv)
-    }
-}
-
 /// The lights of a scene and its ambient term.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Lighting {
@@ -117,6 +82,9 @@ pub struct Lighting {
     pub lights: [Option<DirectionalLight>; MAX_LIGHTS],
     /// Point lights.
     pub points: [Option<PointLight>; MAX_POINT_LIGHTS],
+    /// A rectangular area light (soft light and soft shadows: [`crate::area_light`]); the
+    /// shader's lamp uniforms hold it or the point light, not both.
+    pub area: Option<AreaLight>,
 }
 
 impl Lighting {
@@ -147,12 +115,12 @@ impl Lighting {
     }
 
     fn any_light(&self) -> bool {
-        self.lights.iter().any(Option::is_some) || self.points.iter().any(Option::is_some)
+        self.lights.iter().any(Option::is_some) || self.varies()
     }
 
-    /// Whether the shading varies over a flat board (a point light).
+    /// Whether the shading varies over a flat board (a point or an area light).
     pub fn varies(&self) -> bool {
-        self.points.iter().any(Option::is_some)
+        self.points.iter().any(Option::is_some) || self.area.is_some()
     }
 
     /// Add a point light (at most [`MAX_POINT_LIGHTS`]).
@@ -176,9 +144,11 @@ impl Lighting {
     }
 
     /// The irradiance factor at the surface point `p_cam` (camera frame) with camera-side normal
-    /// `normal_cam`: [`Lighting::factor`] plus every point light's inverse-square term.
+    /// `normal_cam`: [`Lighting::factor`] plus every point light's inverse-square term and the
+    /// area light's ([`Lighting::area_term`]).
     pub fn irradiance_at(&self, p_cam: &Vector3<f64>, normal_cam: &Vector3<f64>, cam_from_target: &nalgebra::Isometry3<f64>) -> f64 {
         self.factor(normal_cam, cam_from_target)
+            + self.area_term(p_cam, normal_cam, cam_from_target)
             + self
                 .points
                 .iter()
@@ -193,6 +163,12 @@ impl Lighting {
                     }
                 })
                 .sum::<f64>()
+    }
+
+    /// The area light's irradiance at `p_cam` (camera frame), normal `normal_cam` (Lambert's
+    /// polygon formula, [`crate::area_light`]); 0 without one.
+    pub fn area_term(&self, p_cam: &Vector3<f64>, normal_cam: &Vector3<f64>, cam_from_target: &nalgebra::Isometry3<f64>) -> f64 {
+        self.area.map_or(0.0, |a| a.radiance() * a.rectangle_in_camera(cam_from_target).projected_solid_angle(&(*p_cam).into(), normal_cam))
     }
 
     /// Add a light (at most [`MAX_LIGHTS`]).
@@ -224,6 +200,15 @@ impl Lighting {
         for p in self.points.iter().flatten() {
             check_point(p.position_m, p.intensity)?;
         }
+        if let Some(a) = self.area {
+            a.validate()?;
+            if self.points.iter().any(Option::is_some) || self.gloss.is_some() {
+                return Err(invalid(
+                    "light",
+                    "an area light takes no point light and no gloss beside it (one lamp in the shader; the coating reflects point lights only)".into(),
+                ));
+            }
+        }
         for l in self.lights.iter().flatten() {
             check_directional(l.direction, l.irradiance)?;
         }
@@ -243,11 +228,6 @@ impl Lighting {
                 })
                 .sum::<f64>()
     }
-}
-
-/// GGX's normal distribution `D(h)` at `n . h`, `a2 = alpha^2` (Walter et al. 2007, eq. 33).
-fn ggx_d(nh: f64, a2: f64) -> f64 {
-    a2 / (std::f64::consts::PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2))
 }
 
 /// A directional light's values: a finite, non-zero direction and a finite irradiance >= 0.
@@ -310,16 +290,17 @@ pub fn check(scene: &Scene) -> Result<(), SceneError> {
     }
 }
 
-/// The lighting a scene with objects takes so far: one directional light (whose shadows the
-/// objects cast: [`crate::shadow`]) and the ambient term.
+/// The lighting a scene with objects takes so far: one directional light or one area light
+/// (whose shadows the objects cast: [`crate::shadow`]) and the ambient term.
 ///
 /// # Errors
-/// [`SceneError::InvalidField`] (`light`) for a point light, gloss or more directional lights.
+/// [`SceneError::InvalidField`] (`light`) for a point light, gloss or more lights.
 pub fn check_with_objects(lighting: &Lighting) -> Result<(), SceneError> {
-    if lighting.varies() || lighting.gloss.is_some() || lighting.lights.iter().flatten().count() > 1 {
+    let lamps = lighting.lights.iter().flatten().count() + usize::from(lighting.area.is_some());
+    if lighting.points.iter().any(Option::is_some) || lighting.gloss.is_some() || lamps > 1 {
         return Err(invalid(
             "light",
-            "with objects, one directional light (its shadows: scene::shadow) and the ambient term so far; point lights, gloss and more lights take scenes without objects".into(),
+            "with objects, one directional or area light (its shadows: scene::shadow) and the ambient term so far; point lights, gloss and more lights take scenes without objects".into(),
         ));
     }
     Ok(())
@@ -358,23 +339,6 @@ pub fn shade(scene: &Scene) -> Result<std::borrow::Cow<'_, Scene>, SceneError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// GGX's D is a distribution of microfacet normals: its projected area integrates to one over
-    /// the hemisphere, `int D(h) (n . h) dw = 1` (Walter et al. 2007, eq. 4), for any roughness.
-    #[test]
-    fn ggx_normals_project_to_unit_area() {
-        for alpha in [0.05f64, 0.2, 0.6, 1.0] {
-            let n = 200_000;
-            let dt = std::f64::consts::FRAC_PI_2 / n as f64;
-            let integral: f64 = (0..n)
-                .map(|i| {
-                    let t = (i as f64 + 0.5) * dt;
-                    ggx_d(t.cos(), alpha * alpha) * t.cos() * t.sin() * dt * std::f64::consts::TAU
-                })
-                .sum();
-            assert!((integral - 1.0).abs() < 1e-4, "alpha {alpha}: {integral}");
-        }
-    }
 
     /// No light and no ambient given leaves every surface as it is; a point light behind the
     /// board adds nothing; the highlight of a coating is zero where the camera or the light is

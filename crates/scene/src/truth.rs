@@ -97,7 +97,9 @@ pub struct FeatureLabel {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub specular: Option<f64>,
     /// With objects under a directional light ([`super::shadow`]): whether the feature lies in an
-    /// object's shadow (its `irradiance` then the ambient term alone); absent otherwise.
+    /// object's shadow (its `irradiance` then the ambient term alone); under an area light,
+    /// whether any of the light is hidden from it (its `irradiance` then `A + E V`, the visible
+    /// share `V` sampled on 32 x 32 cells of the emitter); absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub in_shadow: Option<bool>,
 }
@@ -110,11 +112,12 @@ fn feature_light(scene: &Scene, p_cam: &nalgebra::Point3<f64>) -> (Option<f64>, 
     let lighting = scene.render.lighting;
     let n = super::lighting::camera_side_normal(scene);
     let mut irradiance = (!lighting.is_neutral()).then(|| lighting.irradiance_at(&p_cam.coords, &n, &scene.cam_from_target));
-    let shadow = super::shadow::shadow_light(scene).map(|l| (l, super::shadow::in_shadow(scene, &l, p_cam)));
-    if let (Some(e), Some((l, true))) = (irradiance.as_mut(), shadow) {
-        *e *= l.ratio;
+    let mut in_shadow = None;
+    if let (Some(e), Some(light)) = (irradiance.as_mut(), super::shadow::shadow_light(scene)) {
+        let (shadowed, dark) = light.irradiance_at(scene, *e, p_cam);
+        (*e, in_shadow) = (shadowed, Some(dark));
     }
-    (irradiance, lighting.gloss.map(|_| lighting.specular_at(&p_cam.coords, &n, &scene.cam_from_target)), shadow.map(|s| s.1))
+    (irradiance, lighting.gloss.map(|_| lighting.specular_at(&p_cam.coords, &n, &scene.cam_from_target)), in_shadow)
 }
 
 /// Truth file contents.
