@@ -60,9 +60,12 @@ struct Params {
     tfc1: vec4<f32>,
     tfc2: vec4<f32>,
     shade: vec4<f32>,    // planar targets under a point or area light: constant shading (ambient + directional), 1 point / 2 area light, gloss F0, roughness (0: none) (planar.wgsl shaded_greys)
-    lamp: vec4<f32>,     // the point light in the target frame: x, y, z, intensity; an area light: a corner, radiance
-    area_u: vec4<f32>,   // an area light's edges from that corner, target frame (xyz)
-    area_v: vec4<f32>,
+    lamp: vec4<f32>,     // the point light in the target frame: x, y, z, intensity; an area light: a corner of its polygon above the board's horizon, radiance
+    area1: vec4<f32>,    // the polygon's other corners, target frame (xyz; the last repeated to five)
+    area2: vec4<f32>,
+    area3: vec4<f32>,
+    area4: vec4<f32>,
+    area_e: vec4<f32>,   // the emitter's plane, target frame: normal towards where it emits (xyz), its offset (w)
     eye: vec4<f32>,      // the camera centre in the target frame, the camera-side normal's z (+-1)
     bg: vec4<f32>,       // background: kind (0 none, 1 panorama, 2 plane), image width, height, 0 (background.wgsl)
     bg0: vec4<f32>,      // rows of the background's frame from the camera's (xyz); a plane: the camera centre in its frame (w)

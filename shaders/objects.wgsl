@@ -243,7 +243,7 @@ fn light_may_be_hidden(d_cam: vec3<f32>, t: f32) -> bool {
 // them, each with its crossing bisected LIGHT_BISECTIONS times): an occluder whose shadow ray
 // pyramid leaves a gap narrower than a segment between two samples can be missed.
 const LIGHT_ROWS: u32 = 8u;
-const LIGHT_SEGMENTS: u32 = 4u;
+const LIGHT_SEGMENTS: u32 = 8u;
 const LIGHT_BISECTIONS: u32 = 7u;
 
 // Whether the segment from the target point t d_cam to the light point at `to` (camera frame,
@@ -465,7 +465,8 @@ fn cs_coarse_objects(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoca
     let tt = target_t(d);
     if (ray.ok) { h = cast_objects(d, tt); }
     var cls = 0u;
-    var val = 0.0;
+    // Beside the sheet and on it: the shadowed-over-lit ratio (1 where nothing shadows).
+    var val = 1.0;
     if (ray.ok && h.inst == NO_OBJECT && tt < 3e38) {
         // A target pixel in an object's shadow: its value is the ratio to the lit one.
         soft = soft_pixel(ray);
@@ -573,9 +574,10 @@ fn cast_candidates(d_cam: vec3<f32>, t_max: f32) -> MeshHit {
     return best;
 }
 
-// What one sub-sample of the pixel at q (centre ray `centre`) sees at offset o: the grey level
-// and a class (0: the target or the background; else the object's instance + 1).
-struct Seen1 { v: f32, cls: u32, };
+// What one sub-sample of the pixel at q (centre ray `centre`) sees at offset o: the grey level,
+// a class (0: the target or the background; else the object's instance + 1) and whether it is the
+// target's sheet (1: its value is what a soft shadow scales).
+struct Seen1 { v: f32, cls: u32, sheet: f32, };
 
 fn see(q: vec2<f32>, centre: Ray, o: vec2<f32>, gathered: bool) -> Seen1 {
     // A fisheye's rays bend across the pixel: each its own inversion; the other models' pixels
@@ -586,25 +588,30 @@ fn see(q: vec2<f32>, centre: Ray, o: vec2<f32>, gathered: bool) -> Seen1 {
         ray = pixel_ray(q + o);
         d = ray_d(ray);
     }
-    if (!ray.ok) { return Seen1(P.grey.w, 0u); }
+    if (!ray.ok) { return Seen1(P.grey.w, 0u, 0.0); }
     let pp = plane_point(d);
     let tt = target_t(d);
     var h: MeshHit;
     if (gathered) { h = cast_candidates(d, tt); } else { h = cast_objects(d, tt); }
-    if (h.inst != NO_OBJECT) { return Seen1(hit_point_value(h, d), h.inst + 1u); }
+    if (h.inst != NO_OBJECT) { return Seen1(hit_point_value(h, d), h.inst + 1u, 0.0); }
     // Beside the sheet: the background (its image where there is one); on it, the board, darker
     // in an object's shadow.
     if (tt < 3e38) {
         let shade = shadow_ratio(d, tt);
-        if (shade.x == 1.0) { return Seen1(plane_value(pp.xy) * shade.y, SHADOW_CLASS); }
+        if (shade.x == 1.0) { return Seen1(plane_value(pp.xy) * shade.y, SHADOW_CLASS, 1.0); }
     }
-    return Seen1(select(bg_point(d), plane_value(pp.xy), tt < 3e38), 0u);
+    return Seen1(select(bg_point(d), plane_value(pp.xy), tt < 3e38), 0u, select(0.0, 1.0, tt < 3e38));
 }
 
 fn same_side(a: Seen1, b: Seen1) -> bool { return a.cls == b.cls && abs(a.v - b.v) <= 1.0; }
 
 // Bisections of a crossing along a scan line: its place to 1/128 px.
 const CROSSING_BISECTIONS: u32 = 6u;
+
+// The share of a fine pixel's value that comes from the target's sheet (summed as `acc` is):
+// under an area light the CPU scales it by the pixel's soft-shadow ratio from the coarse pass
+// (crates/render/src/object_pass.rs), so the fine pass casts no shadow ray.
+var<private> acc_sheet: f32;
 
 // The mean along the scan line through the pixel at `pos` across `axis` (0: a row, 1: a
 // column): samples at its ends and middle; between two that differ (another object, the
@@ -619,26 +626,32 @@ fn scan_line(q: vec2<f32>, centre: Ray, gathered: bool, axis: u32, pos: f32) -> 
         let b = see(q, centre, select(vec2<f32>(sb, pos), vec2<f32>(pos, sb), axis == 1u), gathered);
         if (same_side(a, b)) {
             acc = acc + 0.25 * (a.v + b.v);
+            acc_sheet = acc_sheet + 0.25 * (a.v * a.sheet + b.v * b.sheet);
         } else {
             var lo = sa;
             var hi = sb;
             var v_lo = a.v;
             var v_hi = b.v;
+            var s_lo = a.sheet;
+            var s_hi = b.sheet;
             for (var k = 0u; k < CROSSING_BISECTIONS; k = k + 1u) {
                 let mid = 0.5 * (lo + hi);
                 let m = see(q, centre, select(vec2<f32>(mid, pos), vec2<f32>(pos, mid), axis == 1u), gathered);
                 if (same_side(m, a)) {
                     lo = mid;
                     v_lo = m.v;
+                    s_lo = m.sheet;
                 } else {
                     hi = mid;
                     v_hi = m.v;
+                    s_hi = m.sheet;
                 }
             }
             // Each side by the trapezoid rule between its end and its sample nearest the crossing
             // (a lit object's shade changes fastest near its outline).
             let c = 0.5 * (lo + hi);
             acc = acc + 0.5 * (a.v + v_lo) * (c - sa) + 0.5 * (v_hi + b.v) * (sb - c);
+            acc_sheet = acc_sheet + 0.5 * (a.v * a.sheet + v_lo * s_lo) * (c - sa) + 0.5 * (v_hi * s_hi + b.v * b.sheet) * (sb - c);
         }
         a = b;
         sa = sb;
@@ -669,7 +682,9 @@ fn cs_fine_objects(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (wide()) { c[k] = ray_d(pixel_ray(q + corner[k] * 1.02)); }
     }
     cand_count = 0u;
-    soft = soft_pixel(centre);
+    // Under an area light the sheet's samples stay unscaled (class 0): see acc_sheet.
+    soft = vec2<f32>(0.0, 1.0);
+    acc_sheet = 0.0;
     var gathered = centre.ok;
     for (var k = 0u; k < P.obj.x; k = k + 1u) {
         gathered = gathered && gather_instance(k, c, ray_d(centre));
@@ -684,7 +699,11 @@ fn cs_fine_objects(@builtin(global_invocation_id) gid: vec3<u32>) {
     let n = select(0u, P.obj.w, grid);
     let inv = 1.0 / f32(max(n, 1u));
     for (var k = 0u; k < n * n; k = k + 1u) {
-        acc = acc + see(q, centre, (vec2<f32>(f32(k % n), f32(k / n)) + 0.5) * inv - 0.5, gathered).v * inv;
+        let m = see(q, centre, (vec2<f32>(f32(k % n), f32(k / n)) + 0.5) * inv - 0.5, gathered);
+        acc = acc + m.v * inv;
+        acc_sheet = acc_sheet + m.v * m.sheet * inv;
     }
-    out_vals[gid.y * 65535u * 64u + gid.x] = select(acc / f32(max(lines, 1u)), acc * inv, grid);
+    let slot = gid.y * 65535u * 64u + gid.x;
+    out_vals[slot] = select(acc / f32(max(lines, 1u)), acc * inv, grid);
+    out_hard[slot] = bitcast<u32>(select(acc_sheet / f32(max(lines, 1u)), acc_sheet * inv, grid));
 }

@@ -15,37 +15,30 @@ fn shaded_greys(x: f32, y: f32) -> vec4<f32> {
     return vec4<f32>(P.grey.xyz * s + vec3<f32>(ggx_grey(l, x, y) * P.lamp.w / r2), P.grey.w);
 }
 
-// The area light's irradiance at board point b (target frame; the normal (0, 0, P.eye.w) on the
-// camera's side): the radiance times the projected solid angle of the part of the rectangle above
-// the board's horizon, Lambert's polygon formula (crates/scene/src/area_light.rs, which this
-// mirrors); 0 behind the emitter.
+// The area light's irradiance at board point b (target frame): the radiance times the projected
+// solid angle of its rectangle, Lambert's polygon formula (crates/scene/src/area_light.rs, which
+// this mirrors); 0 behind the emitter. The part of the rectangle below the board's horizon is the
+// same for every board point (the horizon is the board's plane), so the CPU clips it once and
+// passes the polygon: P.lamp and P.area1..4 (up to five corners, the last repeated to pad; a
+// repeated corner adds nothing) and the emitter's plane P.area_e.
 fn area_irradiance(b: vec2<f32>) -> f32 {
-    let c = P.lamp.xyz - vec3<f32>(b, 0.0);
-    let u = P.area_u.xyz;
-    let v = P.area_v.xyz;
-    if (dot(cross(u, v), c) >= 0.0) { return 0.0; }
-    let q = array<vec3<f32>, 4>(c, c + u, c + u + v, c + v);
-    let nz = P.eye.w;
-    // Sutherland-Hodgman against nz z >= 0: a quad keeps at most five vertices.
-    var w: array<vec3<f32>, 5>;
-    var k = 0u;
-    for (var i = 0u; i < 4u; i = i + 1u) {
-        let a = q[i];
-        let e = q[(i + 1u) % 4u];
-        let da = nz * a.z;
-        let de = nz * e.z;
-        if (da >= 0.0) { w[k] = a; k = k + 1u; }
-        if ((da >= 0.0) != (de >= 0.0)) { w[k] = a + (e - a) * (da / (da - de)); k = k + 1u; }
-    }
-    var sum = 0.0;
-    for (var i = 0u; i < k; i = i + 1u) {
-        let a = w[i];
-        let e = w[(i + 1u) % k];
-        let axe = cross(a, e);
-        let s = length(axe);
-        if (s > 0.0) { sum = sum + atan2(s, dot(a, e)) * nz * axe.z / s; }
-    }
+    let p = vec3<f32>(b, 0.0);
+    if (dot(P.area_e.xyz, p) <= P.area_e.w) { return 0.0; }
+    let v0 = P.lamp.xyz - p;
+    let v1 = P.area1.xyz - p;
+    let v2 = P.area2.xyz - p;
+    let v3 = P.area3.xyz - p;
+    let v4 = P.area4.xyz - p;
+    let sum = edge_angle(v0, v1) + edge_angle(v1, v2) + edge_angle(v2, v3) + edge_angle(v3, v4) + edge_angle(v4, v0);
     return P.lamp.w * 0.5 * abs(sum);
+}
+
+// One edge's term of Lambert's formula, theta (a x e / |a x e|) . n with the board's camera-side
+// normal n = (0, 0, P.eye.w); 0 for a degenerate edge.
+fn edge_angle(a: vec3<f32>, e: vec3<f32>) -> f32 {
+    let axe = cross(a, e);
+    let s = length(axe);
+    return select(0.0, atan2(s, dot(a, e)) * P.eye.w * axe.z / max(s, 1e-30), s > 0.0);
 }
 
 // The coating's specular grey level per unit lamp irradiance (Cook-Torrance with GGX, Smith-

@@ -163,11 +163,9 @@ fn an_area_light_shades_a_flat_board_as_its_integral_says() {
 }
 
 /// The plate's soft shadow from the area light: every 3rd pixel the shadow touches and every
-/// 97th elsewhere against the reference. The stated tolerance: 1.5 grey levels at most (about
-/// 1 % of this shadow's depth; measured 1.24, on a few bands of pixels where an edge of the
-/// plate's shadow on the emitter runs nearly along its rows, whose rule across rows then has a
-/// kink between two rows) and 0.15 RMS (measured 0.096). The truth's features get the shadowed
-/// irradiance of the library's own sampling, within 0.01 of this test's.
+/// 97th elsewhere against the reference, within the 0.5 grey levels (the Lambert bound;
+/// measured max 0.41, RMS 0.032) and 0.1 RMS. The truth's features get the shadowed irradiance of
+/// the library's own sampling, within 0.01 of this test's.
 #[test]
 fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
     let s = lit_scene(true);
@@ -185,7 +183,7 @@ fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
     report("soft shadow, penumbra and umbra", &penumbra);
     assert!(penumbra.len() > 500, "the plate's shadow covers many compared pixels: {}", penumbra.len());
     let rms = (penumbra.iter().map(|(r, g, ..)| (g - r) * (g - r)).sum::<f64>() / penumbra.len() as f64).sqrt();
-    assert!(max_all <= 1.5 && rms <= 0.15, "soft shadows within the stated 1.5 grey levels (max) and 0.15 (RMS): {max_all}, {rms}");
+    assert!(max_all <= 0.5 && rms <= 0.1, "soft shadows within 0.5 grey levels (max) and 0.1 (RMS): {max_all}, {rms}");
     let z = s.cam_from_target.rotation * Vector3::z();
     let n = if z.dot(&s.cam_from_target.translation.vector) > 0.0 { -z } else { z };
     let truth = synthcam::scene::truth_labels(&s);
@@ -194,4 +192,63 @@ fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
         let e = f.irradiance.expect("irradiance");
         assert!((e - reference(&s, &x, &n)).abs() < 0.01, "feature {}: {e} vs {}", f.id, reference(&s, &x, &n));
     }
+}
+
+/// The gripper's soft shadow (`assets/scenes/objects/gripper_soft_shadow.toml`: a mesh of many
+/// triangles, whose shadow rays walk a deep hierarchy, where llvmpipe's loop budget per
+/// invocation could cut the shader's integral short) against the library's own CPU sampling:
+/// every 41st board pixel the gripper's shadow touches, away from the gripper's outline and the
+/// board's edges, the lit board's render times the mean over the pixel's 2 x 2 points of
+/// `A + E V` over the mean of `A + E`, `V` from `scene::shadow::visible_share` (64 x 64 emitter
+/// cells, f64 rays through the CPU hierarchy; its own cells err by up to a few tenths of a grey
+/// level). Within 0.75 grey levels (measured max 0.56, RMS 0.083).
+#[test]
+fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
+    let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("assets/scenes/objects"));
+    let s = synthcam::scene::file::parse_scene_with(include_str!("../../assets/scenes/objects/gripper_soft_shadow.toml"), &meshes).expect("scene");
+    let img = renderer().render_linear(&s).expect("soft");
+    let lit = renderer().render_linear(&Scene { objects: Vec::new(), ..s.clone() }).expect("lit");
+    let unlit = renderer().render_linear(&Scene { objects: Vec::new(), render: Default::default(), ..s.clone() }).expect("unlit");
+    let Some(synthcam::scene::shadow::ShadowLight::Area { rect, radiance, ambient }) = synthcam::scene::shadow::shadow_light(&s) else {
+        panic!("an area light")
+    };
+    let greys = s.target.greys();
+    let z = s.cam_from_target.rotation * Vector3::z();
+    let n = if z.dot(&s.cam_from_target.translation.vector) > 0.0 { -z } else { z };
+    let c = n.dot(&s.cam_from_target.translation.vector);
+    let w = s.camera.size.width as usize;
+    let (mut errs, mut deepest) = (Vec::new(), 1.0f64);
+    for k in (0..img.len()).step_by(41) {
+        if !greys[..3].iter().any(|g| (f64::from(unlit[k]) - g).abs() < 1e-4) {
+            continue;
+        }
+        let (px, py) = ((k % w) as f64, (k / w) as f64);
+        let ray = |dx: f64, dy: f64| s.camera.unproject(&Point2::new(px + dx, py + dy)).expect("ray");
+        let edges = [(-0.6, -0.6), (0.6, -0.6), (0.6, 0.6), (-0.6, 0.6), (0.0, 0.0)];
+        if edges.iter().any(|(dx, dy)| synthcam::scene::objects::cast_objects(&s.objects, &ray(*dx, *dy), f64::INFINITY).is_some()) {
+            continue;
+        }
+        let points = [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)].map(|(dx, dy)| {
+            let d = ray(dx, dy);
+            Point3::from(d * (c / n.dot(&d)))
+        });
+        if !points.iter().any(|x| synthcam::scene::shadow::in_shadow(&s, &synthcam::scene::shadow::shadow_light(&s).expect("light"), x)) {
+            continue;
+        }
+        let (mut shaded, mut full) = (0.0, 0.0);
+        for x in &points {
+            let e = radiance * rect.projected_solid_angle(x, &n);
+            shaded += ambient + e * synthcam::scene::shadow::visible_share(&s, &rect, x, &n, 64);
+            full += ambient + e;
+        }
+        let expected = f64::from(lit[k]) * shaded / full;
+        errs.push((f64::from(img[k]) - expected).abs());
+        deepest = deepest.min(shaded / full);
+    }
+    errs.sort_by(f64::total_cmp);
+    let (count, worst) = (errs.len(), errs.last().copied().unwrap_or(0.0));
+    let rms = (errs.iter().map(|e| e * e).sum::<f64>() / count.max(1) as f64).sqrt();
+    eprintln!("gripper's soft shadow: {count} pixels, |rendered - CPU sampling| RMS {rms:.3}, p99 {:.3}, max {worst:.3} grey levels, deepest shadow ratio {deepest:.3}", errs[count * 99 / 100]);
+    assert!(count > 300 && deepest < 0.7, "the shadow covers many pixels, some deeply: {count}, {deepest}");
+    assert!(worst <= 0.75 && rms <= 0.15, "within the stated tolerance: max {worst}, RMS {rms}");
 }

@@ -198,7 +198,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
     Ok(GpuScene { params: p, lens_variant: pipeline_variant(scene), dots, tile_start, tile_items, tile_flat, views })
 }
 
-/// A point or area light's uniforms (`Params::shade`, `lamp`, `area_u`, `area_v`), in the target
+/// A point or area light's uniforms (`Params::shade`, `lamp`, `area1..4`, `area_e`), in the target
 /// frame; nothing when the lighting is uniform over the board (the grey levels were scaled on the
 /// CPU by `synthcam_scene::lighting::shade`).
 fn lamp_params(p: &mut Params, scene: &Scene) {
@@ -208,11 +208,17 @@ fn lamp_params(p: &mut Params, scene: &Scene) {
     let f32s = |v: &nalgebra::Vector3<f64>, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
     let constant = lighting.factor(&n_cam, &scene.cam_from_target);
     if let Some(area) = lighting.area {
-        let rect = area.rectangle_in_camera(&scene.cam_from_target);
+        // The part of the light above the board's plane (the horizon of every board point).
+        let rect = area.rectangle_in_camera(&scene.cam_from_target).moved(&target_from_cam);
+        let n_t = target_from_cam.rotation * n_cam;
+        let mut polygon = rect.part_above(&nalgebra::Point3::origin(), &nalgebra::Vector3::new(0.0, 0.0, n_t.z.signum()));
+        let last = polygon.last().copied().unwrap_or(rect.corner);
+        polygon.resize(5, last);
+        let emit = rect.u.cross(&rect.v).normalize();
         p.shade = [constant as f32, 2.0, 0.0, 0.0];
-        p.lamp = f32s(&(target_from_cam * rect.corner).coords, area.radiance());
-        p.area_u = f32s(&(target_from_cam.rotation * rect.u), 0.0);
-        p.area_v = f32s(&(target_from_cam.rotation * rect.v), 0.0);
+        p.lamp = f32s(&polygon[0].coords, area.radiance());
+        [p.area1, p.area2, p.area3, p.area4] = [1, 2, 3, 4].map(|k| f32s(&polygon[k].coords, 0.0));
+        p.area_e = f32s(&emit, emit.dot(&rect.corner.coords));
     } else if let Some(lamp) = lighting.points.iter().flatten().next() {
         let l_t = target_from_cam * nalgebra::Point3::from(synthcam_scene::lighting::Lighting::point_in_camera(lamp, &scene.cam_from_target));
         let gloss = lighting.gloss.map_or([0.0; 2], |g| [g.specular as f32, g.roughness as f32]);

@@ -70,6 +70,19 @@ impl Renderer {
                 };
             }
         }
+        // Under an area light: the coarse pass's soft-shadow ratio per target pixel (1 elsewhere),
+        // which scales the sheet's share of each fine pixel.
+        let soft = gs.params.soft_u[3] == 1.0;
+        let mut ratio = if soft { vec![1.0f32; w * h] } else { Vec::new() };
+        if soft {
+            for (j, packed) in tiles.iter().enumerate() {
+                for (k, x, y) in tile_pixels(*packed, w, h) {
+                    if matches!(class[y * w + x], 0 | SHADOW_CLASS) {
+                        ratio[y * w + x] = vals[j * 64 + k];
+                    }
+                }
+            }
+        }
         let mut fine = Vec::new();
         for packed in tiles {
             for (_, x, y) in tile_pixels(*packed, w, h) {
@@ -89,9 +102,13 @@ impl Renderer {
         fine.sort_by_key(|p| p >> 31);
         log::debug!("objects: {} tiles, {} fine pixels ({} on a grid)", tiles.len(), fine.len(), fine.iter().filter(|p| **p >> 31 == 1).count());
         if !fine.is_empty() {
-            let (vals, _) = self.run_pass(bufs, gs, PassKind::Objects, true, &fine)?;
-            for (packed, v) in fine.iter().zip(vals) {
-                img[((packed >> 16) & 0x7fff) as usize * w + (packed & 0x7fff) as usize] = v;
+            let (vals, sheet) = self.run_pass(bufs, gs, PassKind::Objects, true, &fine)?;
+            for (j, (packed, v)) in fine.iter().zip(vals).enumerate() {
+                let (x, y) = ((packed & 0x7fff) as usize, ((packed >> 16) & 0x7fff) as usize);
+                img[y * w + x] = match sheet.get(j) {
+                    Some(s) if soft => v + (pixel_ratio(&class, &ratio, w, h, x, y) - 1.0) * f32::from_bits(*s),
+                    _ => v,
+                };
             }
         }
         Ok(())
@@ -113,6 +130,29 @@ const VALUE_STEP: f32 = 0.5;
 fn tile_pixels(packed: u32, w: usize, h: usize) -> impl Iterator<Item = (usize, usize, usize)> {
     let (tx, ty) = ((packed & 0xffff) as usize * TILE_PX as usize, (packed >> 16) as usize * TILE_PX as usize);
     (0..64usize).map(move |k| (k, tx + k % 8, ty + k / 8)).filter(move |(_, x, y)| *x < w && *y < h)
+}
+
+/// The soft-shadow ratio for the sheet's share of pixel (x, y): its own where the coarse pass saw
+/// the target there, else the mean of its 8-neighbours' that saw it (an object's outline: the ratio
+/// varies smoothly across it), else 1.
+fn pixel_ratio(class: &[u32], ratio: &[f32], w: usize, h: usize, x: usize, y: usize) -> f32 {
+    let target = |i: usize| matches!(class[i], 0 | SHADOW_CLASS);
+    if target(y * w + x) {
+        return ratio[y * w + x];
+    }
+    let (mut sum, mut n) = (0.0f32, 0.0f32);
+    for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+        let (u, v) = (x as i64 + dx, y as i64 + dy);
+        if u >= 0 && v >= 0 && (u as usize) < w && (v as usize) < h && target(v as usize * w + u as usize) {
+            sum += ratio[v as usize * w + u as usize];
+            n += 1.0;
+        }
+    }
+    if n > 0.0 {
+        sum / n
+    } else {
+        1.0
+    }
 }
 
 /// How the fine pass integrates a pixel.

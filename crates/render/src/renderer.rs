@@ -238,12 +238,14 @@ impl Renderer {
             pass.dispatch_workgroups(gx, gy, 1);
         }
         enc.copy_buffer_to_buffer(vals, 0, staging_vals, 0, out_bytes);
-        if !fine {
+        // The fine objects pass under an area light returns each pixel's sheet share there.
+        let with_hard = !fine || (kind == PassKind::Objects && gs.params.soft_u[3] == 1.0);
+        if with_hard {
             enc.copy_buffer_to_buffer(hard, 0, staging_hard, 0, out_bytes);
         }
         queue.submit([enc.finish()]);
         let n = if fine { work.len() } else { outputs as usize };
-        let (v, h) = read_back(device, staging_vals, (!fine).then_some(staging_hard), out_bytes, n)?;
+        let (v, h) = read_back(device, staging_vals, with_hard.then_some(staging_hard), out_bytes, n)?;
         log::debug!("pass kind {kind:?} fine {fine}: {} items in {:.2} ms", work.len(), t0.elapsed().as_secs_f64() * 1e3);
         Ok((v, h))
     }

@@ -72,13 +72,19 @@ pub struct Params {
     /// light (else all 0: the grey levels are used as they are), the gloss's `F0` and roughness
     /// (0: no gloss).
     pub shade: [f32; 4],
-    /// The point light in the target frame: `x, y, z`, intensity; an area light: its corner and
-    /// radiance.
+    /// The point light in the target frame: `x, y, z`, intensity; an area light: the first corner
+    /// of its polygon above the board's horizon and its radiance.
     pub lamp: [f32; 4],
-    /// An area light's edge along its width from that corner, target frame.
-    pub area_u: [f32; 4],
-    /// Its edge along its height, target frame.
-    pub area_v: [f32; 4],
+    /// The polygon's second corner, target frame (the last corner repeated up to the fifth).
+    pub area1: [f32; 4],
+    /// Its third corner.
+    pub area2: [f32; 4],
+    /// Its fourth corner.
+    pub area3: [f32; 4],
+    /// Its fifth corner.
+    pub area4: [f32; 4],
+    /// The emitter's plane in the target frame: its normal towards where it emits and offset.
+    pub area_e: [f32; 4],
     /// The camera centre in the target frame `x, y, z`, and the camera-side normal's z (+-1).
     pub eye: [f32; 4],
     /// Background (`shaders/background.wgsl`): kind (0 none, 1 panorama, 2 plane), the image's
@@ -119,7 +125,7 @@ mod tests {
         }
         fields!(
             size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet, warp,
-            warp_c, tfc0, tfc1, tfc2, shade, lamp, area_u, area_v, eye, bg, bg0, bg1, bg2, bg_size, sun, soft_c, soft_u, soft_v
+            warp_c, tfc0, tfc1, tfc2, shade, lamp, area1, area2, area3, area4, area_e, eye, bg, bg0, bg1, bg2, bg_size, sun, soft_c, soft_u, soft_v
         )
     }
 

@@ -73,9 +73,10 @@ impl AreaLight {
         let (u, v) = (turn * Vector3::x() * self.size_m[0], turn * Vector3::y() * self.size_m[1]);
         let centre = Point3::from(self.position_m);
         let corner = centre - 0.5 * (u + v);
+        let rect = Rectangle { corner, u, v };
         match self.frame {
-            LightFrame::Camera => Rectangle { corner, u, v },
-            LightFrame::Target => Rectangle { corner: cam_from_target * corner, u: cam_from_target.rotation * u, v: cam_from_target.rotation * v },
+            LightFrame::Camera => rect,
+            LightFrame::Target => rect.moved(cam_from_target),
         }
     }
 }
@@ -117,6 +118,20 @@ impl Rectangle {
             })
             .sum();
         0.5 * sum.abs()
+    }
+
+    /// The rectangle's part on the side `n . (p - origin) >= 0` of a plane: the corners of that
+    /// convex polygon (0, 3, 4 or 5 of them) in the rectangle's order. A receiver on that plane
+    /// sees only this part, so the renderer clips once per frame (its shader's polygon).
+    pub fn part_above(&self, origin: &Point3<f64>, n: &Vector3<f64>) -> Vec<Point3<f64>> {
+        let c = self.corner - origin;
+        let quad = [c, c + self.u, c + self.u + self.v, c + self.v];
+        clip_above(&quad, n).into_iter().map(|v| origin + v).collect()
+    }
+
+    /// The same rectangle after the rigid motion `to_from`.
+    pub fn moved(&self, to_from: &Isometry3<f64>) -> Rectangle {
+        Rectangle { corner: to_from * self.corner, u: to_from.rotation * self.u, v: to_from.rotation * self.v }
     }
 
     /// The point at `(s, t)` in `[0, 1]^2` of the rectangle.
