@@ -58,29 +58,23 @@ impl Renderer {
         // where no object is in front, the value is the target passes').
         let mut class = vec![0u32; w * h];
         let mut value = img.to_vec();
+        // Under an area light: the coarse pass's soft-shadow ratio per target pixel (1 elsewhere),
+        // which scales the sheet's share of each fine pixel.
+        let soft = gs.params.soft_u[3] == 1.0;
+        let mut ratio = if soft { vec![1.0f32; w * h] } else { Vec::new() };
         for (j, packed) in tiles.iter().enumerate() {
             for (k, x, y) in tile_pixels(*packed, w, h) {
                 let i = y * w + x;
                 class[i] = classes[j * 64 + k];
+                if soft && matches!(class[i], 0 | SHADOW_CLASS) {
+                    ratio[i] = vals[j * 64 + k];
+                }
                 // Where no object is in front, the target's value (from its own passes).
                 value[i] = match class[i] {
                     0 => img[i],
                     SHADOW_CLASS => img[i] * vals[j * 64 + k],
                     _ => vals[j * 64 + k],
                 };
-            }
-        }
-        // Under an area light: the coarse pass's soft-shadow ratio per target pixel (1 elsewhere),
-        // which scales the sheet's share of each fine pixel.
-        let soft = gs.params.soft_u[3] == 1.0;
-        let mut ratio = if soft { vec![1.0f32; w * h] } else { Vec::new() };
-        if soft {
-            for (j, packed) in tiles.iter().enumerate() {
-                for (k, x, y) in tile_pixels(*packed, w, h) {
-                    if matches!(class[y * w + x], 0 | SHADOW_CLASS) {
-                        ratio[y * w + x] = vals[j * 64 + k];
-                    }
-                }
             }
         }
         let mut fine = Vec::new();
