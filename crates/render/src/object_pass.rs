@@ -77,13 +77,18 @@ impl Renderer {
                 };
             }
         }
+        // A soft shadow is continuous: where it begins is no edge (its pixels hold the target
+        // passes' exact value times the pixel's ratio already), so the edges are looked for with
+        // shadowed target pixels counted as target pixels.
+        let edge_class: std::borrow::Cow<'_, [u32]> =
+            if soft { class.iter().map(|c| if *c == SHADOW_CLASS { 0 } else { *c }).collect::<Vec<_>>().into() } else { (&class[..]).into() };
         let mut fine = Vec::new();
         for packed in tiles {
             for (_, x, y) in tile_pixels(*packed, w, h) {
                 let i = y * w + x;
-                if let Some(how) = edge(&class, &value, w, h, x, y) {
+                if let Some(how) = edge(&edge_class, &value, w, h, x, y) {
                     let flags = match how {
-                        Fine::Lines => u32::from(across_columns(&class, &value, w, h, x, y)) << 15,
+                        Fine::Lines => u32::from(across_columns(&edge_class, &value, w, h, x, y)) << 15,
                         Fine::Grid => 1 << 31,
                     };
                     fine.push((x | (y << 16)) as u32 | flags);
