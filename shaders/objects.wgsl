@@ -188,7 +188,8 @@ var<private> soft: vec2<f32>;
 // Under the area light, the mean over the pixel of the target's shading in the objects' shadow
 // over its mean lit shading, (A + E V) / (A + E) with the light's closed-form term E
 // (planar.wgsl area_irradiance) and its visible share V (light_share, each point its own rows),
-// at 2 x 2 sub-pixel points; x: 1 when some of the light is hidden from one of them. (1, 1) without area light.
+// at 2 x 2 sub-pixel points; x: 1 when some of the light is hidden from one of them. (0, 1)
+// without an area light.
 fn soft_pixel(centre: Ray) -> vec2<f32> {
     if (P.soft_u.w != 1.0 || !centre.ok) { return vec2<f32>(0.0, 1.0); }
     var shaded = 0.0;
