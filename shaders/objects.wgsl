@@ -158,12 +158,18 @@ fn cast_objects(d_cam: vec3<f32>, t_max: f32) -> MeshHit {
 // meets an instance (crates/scene/src/shadow.rs).
 fn shadowed(d_cam: vec3<f32>, t: f32) -> bool {
     if (P.sun.x == 0.0 && P.sun.y == 0.0 && P.sun.z == 0.0) { return false; }
+    return blocked(d_cam, t, P.sun.xyz, 3e38);
+}
+
+// Whether an instance meets the ray from the target point t d_cam along `dir` (camera frame)
+// before parameter s_max.
+fn blocked(d_cam: vec3<f32>, t: f32, dir: vec3<f32>, s_max: f32) -> bool {
     for (var i = 0u; i < P.obj.x; i = i + 1u) {
         // The camera ray in the mesh frame (as the camera's own casts take it: no arithmetic on
         // the ray's literal z, which Mesa's SPIR-V and GLSL paths fold differently), to t.
         let od = instance_ray(i, d_cam);
         let o = od[0] + t * od[1];
-        if (cast_instance_ray(i, o, mesh_dir(i, P.sun.xyz), no_hit(3e38)).inst != NO_OBJECT) { return true; }
+        if (cast_instance_ray(i, o, mesh_dir(i, dir), no_hit(s_max)).inst != NO_OBJECT) { return true; }
     }
     return false;
 }
@@ -250,12 +256,7 @@ const LIGHT_BISECTIONS: u32 = 7u;
 // Whether the segment from the target point t d_cam to the light point at `to` (camera frame,
 // relative to that point) is free of objects.
 fn light_visible(d_cam: vec3<f32>, t: f32, to: vec3<f32>) -> bool {
-    for (var i = 0u; i < P.obj.x; i = i + 1u) {
-        let od = instance_ray(i, d_cam);
-        let o = od[0] + t * od[1];
-        if (cast_instance_ray(i, o, mesh_dir(i, to), no_hit(1.0)).inst != NO_OBJECT) { return false; }
-    }
-    return true;
+    return !blocked(d_cam, t, to, 1.0);
 }
 
 // The weight cos_x cos_light / r^2 of the light point at `to` (relative to the target point; the

@@ -90,6 +90,14 @@ fn reference(s: &Scene, x: &Point3<f64>, n: &Vector3<f64>) -> f64 {
     0.25 + l.radiance() * integral * l.size_m[0] * l.size_m[1]
 }
 
+/// The board's plane `n . x = c` (camera frame), `n` its normal on the camera's side, worked out
+/// from the pose.
+fn board_plane(s: &Scene) -> (Vector3<f64>, f64) {
+    let z = s.cam_from_target.rotation * Vector3::z();
+    let n = if z.dot(&s.cam_from_target.translation.vector) > 0.0 { -z } else { z };
+    (n, n.dot(&s.cam_from_target.translation.vector))
+}
+
 /// Whether the camera ray `d` passes through the plate enlarged by 2 % (its outline's pixels).
 fn near_plate(s: &Scene, d: &Vector3<f64>) -> bool {
     let inv = s.objects[0].cam_from_object.inverse();
@@ -113,9 +121,7 @@ fn compare(s: &Scene, stride: usize, near: usize) -> Vec<(f64, f64, bool, usize)
     let unlit = renderer().render_linear(&unlit_scene).expect("unlit");
     let img = renderer().render_linear(s).expect("lit");
     let Target::Chessboard(b) = &s.target else { unreachable!() };
-    let z = s.cam_from_target.rotation * Vector3::z();
-    let n = if z.dot(&s.cam_from_target.translation.vector) > 0.0 { -z } else { z };
-    let c = n.dot(&s.cam_from_target.translation.vector);
+    let (n, c) = board_plane(s);
     let on_board = |d: &Vector3<f64>| Point3::from(d * (c / n.dot(d)));
     let w = s.camera.size.width as usize;
     let mut out = Vec::new();
@@ -184,8 +190,7 @@ fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
     assert!(penumbra.len() > 500, "the plate's shadow covers many compared pixels: {}", penumbra.len());
     let rms = (penumbra.iter().map(|(r, g, ..)| (g - r) * (g - r)).sum::<f64>() / penumbra.len() as f64).sqrt();
     assert!(max_all <= 0.5 && rms <= 0.1, "soft shadows within 0.5 grey levels (max) and 0.1 (RMS): {max_all}, {rms}");
-    let z = s.cam_from_target.rotation * Vector3::z();
-    let n = if z.dot(&s.cam_from_target.translation.vector) > 0.0 { -z } else { z };
+    let (n, _) = board_plane(&s);
     let truth = synthcam::scene::truth_labels(&s);
     for f in &truth.features {
         let x = s.cam_from_target * Point3::from(f.point_target_m);
@@ -209,13 +214,10 @@ fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
     let img = renderer().render_linear(&s).expect("soft");
     let lit = renderer().render_linear(&Scene { objects: Vec::new(), ..s.clone() }).expect("lit");
     let unlit = renderer().render_linear(&Scene { objects: Vec::new(), render: Default::default(), ..s.clone() }).expect("unlit");
-    let Some(synthcam::scene::shadow::ShadowLight::Area { rect, radiance, ambient }) = synthcam::scene::shadow::shadow_light(&s) else {
-        panic!("an area light")
-    };
+    let light = synthcam::scene::shadow::shadow_light(&s).expect("a shadow light");
+    let synthcam::scene::shadow::ShadowLight::Area { rect, radiance, ambient } = light else { panic!("an area light") };
     let greys = s.target.greys();
-    let z = s.cam_from_target.rotation * Vector3::z();
-    let n = if z.dot(&s.cam_from_target.translation.vector) > 0.0 { -z } else { z };
-    let c = n.dot(&s.cam_from_target.translation.vector);
+    let (n, c) = board_plane(&s);
     let w = s.camera.size.width as usize;
     let (mut errs, mut deepest) = (Vec::new(), 1.0f64);
     for k in (0..img.len()).step_by(41) {
@@ -232,7 +234,7 @@ fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
             let d = ray(dx, dy);
             Point3::from(d * (c / n.dot(&d)))
         });
-        if !points.iter().any(|x| synthcam::scene::shadow::in_shadow(&s, &synthcam::scene::shadow::shadow_light(&s).expect("light"), x)) {
+        if !points.iter().any(|x| synthcam::scene::shadow::in_shadow(&s, &light, x)) {
             continue;
         }
         let (mut shaded, mut full) = (0.0, 0.0);

@@ -60,13 +60,13 @@ impl Renderer {
         let mut value = img.to_vec();
         // Under an area light: the coarse pass's soft-shadow ratio per target pixel (1 elsewhere),
         // which scales the sheet's share of each fine pixel.
-        let soft = gs.params.soft_u[3] == 1.0;
+        let soft = gs.params.soft_shadows();
         let mut ratio = if soft { vec![1.0f32; w * h] } else { Vec::new() };
         for (j, packed) in tiles.iter().enumerate() {
             for (k, x, y) in tile_pixels(*packed, w, h) {
                 let i = y * w + x;
                 class[i] = classes[j * 64 + k];
-                if soft && matches!(class[i], 0 | SHADOW_CLASS) {
+                if soft && on_target(class[i]) {
                     ratio[i] = vals[j * 64 + k];
                 }
                 // Where no object is in front, the target's value (from its own passes).
@@ -131,11 +131,16 @@ fn tile_pixels(packed: u32, w: usize, h: usize) -> impl Iterator<Item = (usize, 
     (0..64usize).map(move |k| (k, tx + k % 8, ty + k / 8)).filter(move |(_, x, y)| *x < w && *y < h)
 }
 
+/// Whether a coarse class is the target's (or the background's): no object in front.
+fn on_target(class: u32) -> bool {
+    matches!(class, 0 | SHADOW_CLASS)
+}
+
 /// The soft-shadow ratio for the sheet's share of pixel (x, y): its own where the coarse pass saw
 /// the target there, else the mean of its 8-neighbours' that saw it (an object's outline: the ratio
 /// varies smoothly across it), else 1.
 fn pixel_ratio(class: &[u32], ratio: &[f32], w: usize, h: usize, x: usize, y: usize) -> f32 {
-    let target = |i: usize| matches!(class[i], 0 | SHADOW_CLASS);
+    let target = |i: usize| on_target(class[i]);
     if target(y * w + x) {
         return ratio[y * w + x];
     }

@@ -239,7 +239,7 @@ impl Renderer {
         }
         enc.copy_buffer_to_buffer(vals, 0, staging_vals, 0, out_bytes);
         // The fine objects pass under an area light returns each pixel's sheet share there.
-        let with_hard = !fine || (kind == PassKind::Objects && gs.params.soft_u[3] == 1.0);
+        let with_hard = !fine || (kind == PassKind::Objects && gs.params.soft_shadows());
         if with_hard {
             enc.copy_buffer_to_buffer(hard, 0, staging_hard, 0, out_bytes);
         }

@@ -111,6 +111,13 @@ pub struct Params {
     pub soft_v: [f32; 4],
 }
 
+impl Params {
+    /// Whether the objects cast soft shadows from an area light (`soft_u`'s flag).
+    pub(crate) fn soft_shadows(&self) -> bool {
+        self.soft_u[3] == 1.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use std::mem::{offset_of, size_of};

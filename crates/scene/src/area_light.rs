@@ -98,11 +98,10 @@ impl Rectangle {
     /// (steradians; times the radiance: the irradiance): Lambert's formula on the part above the
     /// surface's horizon; 0 where `x` lies behind the emitter.
     pub fn projected_solid_angle(&self, x: &Point3<f64>, n: &Vector3<f64>) -> f64 {
-        let c = self.corner - x;
-        if self.u.cross(&self.v).dot(&c) >= 0.0 {
+        let quad = self.corners_from(x);
+        if self.u.cross(&self.v).dot(&quad[0]) >= 0.0 {
             return 0.0; // behind (or in) the emitting plane
         }
-        let quad = [c, c + self.u, c + self.u + self.v, c + self.v];
         let clipped = clip_above(&quad, n);
         let k = clipped.len();
         let sum: f64 = (0..k)
@@ -124,9 +123,13 @@ impl Rectangle {
     /// convex polygon (0, 3, 4 or 5 of them) in the rectangle's order. A receiver on that plane
     /// sees only this part, so the renderer clips once per frame (its shader's polygon).
     pub fn part_above(&self, origin: &Point3<f64>, n: &Vector3<f64>) -> Vec<Point3<f64>> {
+        clip_above(&self.corners_from(origin), n).into_iter().map(|v| origin + v).collect()
+    }
+
+    /// The four corners relative to `origin`, in order.
+    fn corners_from(&self, origin: &Point3<f64>) -> [Vector3<f64>; 4] {
         let c = self.corner - origin;
-        let quad = [c, c + self.u, c + self.u + self.v, c + self.v];
-        clip_above(&quad, n).into_iter().map(|v| origin + v).collect()
+        [c, c + self.u, c + self.u + self.v, c + self.v]
     }
 
     /// The same rectangle after the rigid motion `to_from`.
