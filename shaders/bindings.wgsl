@@ -76,6 +76,7 @@ struct Params {
     soft_c: vec4<f32>,   // objects' soft shadows (area light): a corner in the camera frame, the ambient term
     soft_u: vec4<f32>,   // its edges, camera frame; w: 1 when on (soft_u), 0
     soft_v: vec4<f32>,
+    obj_sun: vec4<f32>,  // lit objects: the directional light's irradiance times the unit direction towards it (camera frame; 0: none), the ambient term (objects.wgsl sun_on)
 };
 
 // Pass kinds (crates/render/src/gpu_scene.rs `PassKind`; the test

@@ -367,16 +367,31 @@ fn texture_box(inst: u32, lo_in: vec2<f32>, hi_in: vec2<f32>) -> f32 {
     return acc / wsum;
 }
 
-// Lambert factor of hit h under the head light (1 unlit), from the triangle's normal and the ray
-// in the mesh frame (a similarity of the camera frame: angles are kept).
+// Lambert factor of hit h under the head light (flag 1) or the scene's light (flag 4, sun_on);
+// 1 unlit. From the triangle's normal and the ray in the mesh frame (a similarity of the camera
+// frame: angles are kept).
 fn hit_light(h: MeshHit, d_cam: vec3<f32>) -> f32 {
     let flags = bitcast<u32>(objs[P.obj.y + 5u * h.inst + 4u].z);
-    if ((flags & 1u) == 0u) { return 1.0; }
+    if ((flags & 5u) == 0u) { return 1.0; }
     let info = bitcast<vec4<u32>>(objs[P.obj.y + 5u * h.inst + 3u]);
     let b = info.y + 4u * h.tri;
     let n = cross3(objs[b + 1u].xyz, objs[b + 2u].xyz);
     let d = instance_ray(h.inst, d_cam)[1];
-    return abs(dot3(n, d)) / (len3(n) * len3(d));
+    if ((flags & 1u) != 0u) { return abs(dot3(n, d)) / (len3(n) * len3(d)); }
+    return sun_on(h, d_cam, select(n, -n, dot3(n, d) > 0.0));
+}
+
+// A lit object's factor A + E max(0, n . l) at hit h (n_seen: its face normal in the mesh frame on
+// the side seen), A alone where an object, itself included, meets the ray towards the light from
+// the hit moved back along the camera ray to SHADOW_RAY_START t (crates/scene/src/shadow.rs
+// ObjectLight::factor).
+const SHADOW_RAY_START: f32 = 0.9999;
+fn sun_on(h: MeshHit, d_cam: vec3<f32>, n_seen: vec3<f32>) -> f32 {
+    if (dot3(P.obj_sun.xyz, P.obj_sun.xyz) == 0.0) { return P.obj_sun.w; }
+    let l = mesh_dir(h.inst, P.obj_sun.xyz);
+    let lit = dot3(n_seen, l) / len3(n_seen) * (len3(P.obj_sun.xyz) / len3(l));
+    if (lit <= 0.0 || blocked(d_cam, h.t * SHADOW_RAY_START, P.obj_sun.xyz, 3e38)) { return P.obj_sun.w; }
+    return P.obj_sun.w + lit;
 }
 
 // The albedo of hit h without its texture: the triangle's material or the instance's albedo

@@ -28,6 +28,7 @@ mod handeye;
 mod html_report;
 mod lens_models;
 mod lighting;
+mod lit_objects;
 mod objects;
 mod open_scenario;
 mod options_proptest;

@@ -147,10 +147,16 @@ fn vulkan_and_gl_agree_on_shadows_to_a_hundredth_of_a_grey_level() {
     use synthcam::render::{BackendChoice, GpuContext, Renderer};
     let gl = Renderer::new(GpuContext::with_backend(BackendChoice::Gl).expect("GL backend (llvmpipe)"));
     let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("assets/scenes/objects"));
-    let s = synthcam::scene::file::parse_scene_with(include_str!("../../assets/scenes/objects/gripper_shadow.toml"), &meshes).expect("scene");
-    let (a, b) = (renderer().render_linear(&s).expect("vulkan"), gl.render_linear(&s).expect("gl"));
-    let worst = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
-    let differing = a.iter().zip(&b).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
-    eprintln!("gripper_shadow: {differing} of {} float pixels differ between the backends, worst {worst}", a.len());
-    assert!(worst < 0.01, "{worst}");
+    // The gripper head-lit, and lit by the scene's light (its own shadow rays: lit_objects.rs).
+    for (name, text) in [
+        ("gripper_shadow", include_str!("../../assets/scenes/objects/gripper_shadow.toml")),
+        ("gripper_lit", include_str!("../../assets/scenes/objects/gripper_lit.toml")),
+    ] {
+        let s = synthcam::scene::file::parse_scene_with(text, &meshes).expect("scene");
+        let (a, b) = (renderer().render_linear(&s).expect("vulkan"), gl.render_linear(&s).expect("gl"));
+        let worst = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+        let differing = a.iter().zip(&b).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
+        eprintln!("{name}: {differing} of {} float pixels differ between the backends, worst {worst}", a.len());
+        assert!(worst < 0.01, "{name}: {worst}");
+    }
 }

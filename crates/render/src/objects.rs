@@ -17,7 +17,7 @@ use super::RenderError;
 use synthcam_core::mesh::bvh::LEAF;
 use synthcam_scene::area_light::Rectangle;
 use synthcam_scene::objects::{MeshAsset, Shading};
-use synthcam_scene::shadow::ShadowLight;
+use synthcam_scene::shadow::{ObjectLight, ShadowLight};
 use synthcam_scene::Scene;
 
 /// The shader's traversal stack (`MESH_STACK` in `shaders/objects.wgsl`).
@@ -173,7 +173,7 @@ pub(crate) fn instance_rows(scene: &Scene, meshes: &MeshRows) -> Vec<[f32; 4]> {
         // Back faces may be skipped when the mesh is closed and the camera outside its ball.
         let (c, r) = o.asset.bounds[0];
         let outside = (o.cam_from_object * (c * o.scale)).coords.norm() > r * o.scale * (1.0 + 1e-6);
-        let flags = u32::from(o.shading == Shading::HeadLight) | (u32::from(o.asset.closed && outside) << 1);
+        let flags = u32::from(o.shading == Shading::HeadLight) | (u32::from(o.asset.closed && outside) << 1) | (u32::from(o.shading == Shading::Lit) << 2);
         rows.push(Vec4::new(o.albedo as f32, f32::from_bits(off.tex_size[1]), f32::from_bits(flags), 0.0).to_array());
     }
     rows
@@ -199,9 +199,11 @@ fn target_plane(scene: &Scene) -> (Vector3<f64>, f64) {
 }
 
 /// The objects' shadow uniforms (`Params::sun` for a directional light, `soft_c`, `soft_u`,
-/// `soft_v` for an area light; zero without a shadow light).
-pub(crate) fn shadow_params(p: &mut Params, sun: Option<&ShadowLight>) {
+/// `soft_v` for an area light; zero without a shadow light) and their own light (`obj_sun`).
+pub(crate) fn shadow_params(p: &mut Params, sun: Option<&ShadowLight>, on_objects: &ObjectLight) {
     let f32s = |v: &Vector3<f64>, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+    let (toward, e) = on_objects.sun.unwrap_or_default();
+    p.obj_sun = f32s(&(toward * e), on_objects.ambient);
     match sun {
         Some(ShadowLight::Sun { toward_light_cam, ratio }) => p.sun = f32s(toward_light_cam, *ratio),
         Some(ShadowLight::Area { rect, ambient, .. }) => {

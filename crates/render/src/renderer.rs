@@ -14,6 +14,7 @@ use super::gpu_scene::{gpu_scene, pipeline_variant, scene_pass_kind, GpuScene, P
 use super::shader::SHADER;
 use super::tiles::{TileCornerRays, TILE_PX};
 use super::{GreyImage, RenderError};
+use synthcam_scene::shadow::{ObjectLight, ShadowLight};
 use synthcam_scene::Scene;
 
 /// Most workgroups along one dispatch dimension (WebGPU's minimum limit).
@@ -257,12 +258,12 @@ impl Renderer {
     pub fn render_linear(&self, scene: &Scene) -> Result<Vec<f32>, RenderError> {
         scene.validate()?;
         // Lights on a flat board are one factor on its grey levels (synthcam_scene::lighting).
-        let sun = synthcam_scene::shadow::shadow_light(scene);
+        let lights = (synthcam_scene::shadow::shadow_light(scene), synthcam_scene::shadow::ObjectLight::of(scene));
         let shaded = synthcam_scene::lighting::shade(scene)?;
         let scene: &Scene = &shaded;
         std::thread::scope(|scope| {
             self.compile_ahead(scope, scene);
-            self.render_valid(scene, sun.as_ref())
+            self.render_valid(scene, &lights)
         })
     }
 
@@ -285,21 +286,22 @@ impl Renderer {
         }
     }
 
-    /// [`Renderer::render_linear`] of a validated scene (its lighting folded into its greys; `sun`
-    /// casts the objects' shadows: `synthcam_scene::shadow`).
-    fn render_valid(&self, scene: &Scene, sun: Option<&synthcam_scene::shadow::ShadowLight>) -> Result<Vec<f32>, RenderError> {
+    /// [`Renderer::render_linear`] of a validated scene (its lighting folded into its greys; the
+    /// scene's lights as given: the one that casts the objects' shadows on the target and the one
+    /// on lit objects, `synthcam_scene::shadow`).
+    fn render_valid(&self, scene: &Scene, (sun, on_objects): &(Option<ShadowLight>, ObjectLight)) -> Result<Vec<f32>, RenderError> {
         let grid_rays = self.corner_rays(scene)?;
         let mut gs: GpuScene = gpu_scene(scene, &grid_rays)?;
         let mut bufs = self.buffers.lock().map_err(|_| RenderError::Device("renderer mutex poisoned".into()))?;
         if !scene.objects.is_empty() {
             self.upload_objects(&mut bufs, &mut gs, scene)?;
-            super::objects::shadow_params(&mut gs.params, sun);
+            super::objects::shadow_params(&mut gs.params, sun.as_ref(), on_objects);
         }
         self.upload_background(&mut bufs, scene)?;
         let mut img = self.target_image(&mut bufs, &gs, scene)?;
         self.compose_background(&mut bufs, &gs, scene, &grid_rays, &mut img)?;
         if !scene.objects.is_empty() {
-            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays, sun), &mut img)?;
+            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays, sun.as_ref()), &mut img)?;
         }
         Ok(img)
     }

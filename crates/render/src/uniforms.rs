@@ -109,6 +109,9 @@ pub struct Params {
     pub soft_u: [f32; 4],
     /// Its edge along the height, camera frame.
     pub soft_v: [f32; 4],
+    /// Lit objects (`shaders/objects.wgsl` `sun_on`): the directional light's irradiance `E`
+    /// times the unit direction towards it (camera frame; 0: no light), the ambient term `A`.
+    pub obj_sun: [f32; 4],
 }
 
 impl Params {
@@ -132,7 +135,7 @@ mod tests {
         }
         fields!(
             size, tiles, intr, intr2, dist0, dist1, dist2, tilt0, tilt1, tilt2, h0, h1, h2, board, grey, sphere, lat, lat2, vw, obj, plane, sheet, warp,
-            warp_c, tfc0, tfc1, tfc2, shade, lamp, area1, area2, area3, area4, area_e, eye, bg, bg0, bg1, bg2, bg_size, sun, soft_c, soft_u, soft_v
+            warp_c, tfc0, tfc1, tfc2, shade, lamp, area1, area2, area3, area4, area_e, eye, bg, bg0, bg1, bg2, bg_size, sun, soft_c, soft_u, soft_v, obj_sun
         )
     }
 

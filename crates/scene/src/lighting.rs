@@ -284,10 +284,16 @@ pub fn check(scene: &Scene) -> Result<(), SceneError> {
         return Err(invalid("light", "lights shade flat boards only so far (not the S-path or a warped board)".into()));
     }
     if scene.objects.is_empty() {
-        Ok(())
-    } else {
-        check_with_objects(&lighting)
+        return Ok(());
     }
+    check_with_objects(&lighting)?;
+    if lighting.area.is_some() && scene.objects.iter().any(|o| o.shading == crate::objects::Shading::Lit) {
+        return Err(invalid(
+            "light",
+            "lit objects (shading = \"lit\") take a directional light so far; under an area light give them \"unlit\" or \"head-light\"".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// The lighting a scene with objects takes so far: one directional light or one area light

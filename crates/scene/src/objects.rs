@@ -1,6 +1,7 @@
 //! The user's objects in a scene: meshes ([`synthcam_core::mesh`]) placed in the camera frame, shaded
-//! unlit (their albedo) or under a head light, and the exact f64 ray casts against them that the
-//! CPU side needs (the reference renderer, occlusion truth, depth and instance masks).
+//! unlit (their albedo), under a head light, or under the scene's light with the objects' shadows
+//! ([`crate::shadow::ObjectLight`]), and the exact f64 ray casts against them that the CPU side
+//! needs (the reference renderer, occlusion truth, depth and instance masks).
 //!
 //! Targets stay analytic; objects and targets occlude each other by ray parameter.
 
@@ -58,6 +59,11 @@ pub enum Shading {
     /// Lambert under a light at the camera: albedo x |cos| of the angle between the ray and the
     /// face normal.
     HeadLight,
+    /// Lambert under the scene's lights, as the targets are: albedo x `(A + E max(0, n . l))`
+    /// with `n` the face normal on the side the camera sees and `l` towards the directional
+    /// light; `A` alone where an object (this one included) hides the light
+    /// ([`crate::shadow::ObjectLight`]).
+    Lit,
 }
 
 /// One object in a scene.
@@ -113,26 +119,41 @@ impl SceneObject {
         ((inv * origin_cam) / self.scale, (inv.rotation * d_cam) / self.scale)
     }
 
-    /// The grey level seen where ray `d_cam` hits this object at `hit`: the texture (nearest
-    /// texel), the triangle's material or the object's albedo, times the head light's cosine.
-    pub fn shade(&self, hit: &RayHit, d_cam: &Vector3<f64>) -> f64 {
+    /// The albedo at `hit`: the texture (nearest texel), the triangle's material or the object's
+    /// albedo.
+    pub fn albedo_at(&self, hit: &RayHit) -> f64 {
         let mesh = &self.asset.mesh;
         let tri = &mesh.triangles[hit.triangle as usize];
         let [u, v] = hit.bary;
-        let albedo = match (tri.uv, &mesh.texture) {
+        match (tri.uv, &mesh.texture) {
             (Some(uv), Some(tex)) => {
                 let at = |k: usize| f64::from(uv[0][k]) * (1.0 - u - v) + f64::from(uv[1][k]) * u + f64::from(uv[2][k]) * v;
                 tex.at(tex.texel_of([at(0), at(1)]))
             }
             _ => tri.albedo.map_or(self.albedo, f64::from),
-        };
+        }
+    }
+
+    /// The unit normal of the face `hit` lies on, camera frame, on the side the ray `d_cam` sees.
+    pub fn seen_normal(&self, hit: &RayHit, d_cam: &Vector3<f64>) -> Vector3<f64> {
+        let [a, b, c] = self.asset.mesh.corners_m(hit.triangle as usize);
+        let n = (self.cam_from_object.rotation * (b - a).cross(&(c - a))).normalize();
+        if n.dot(d_cam) > 0.0 {
+            -n
+        } else {
+            n
+        }
+    }
+
+    /// The grey level seen where ray `d_cam` hits this object at `hit` unlit or under the head
+    /// light ([`Self::albedo_at`] times the head light's cosine); a [`Shading::Lit`] object's
+    /// light comes from the scene ([`crate::shadow::ObjectLight`]): `lit` is its factor.
+    pub fn shade(&self, hit: &RayHit, d_cam: &Vector3<f64>, lit: f64) -> f64 {
+        let albedo = self.albedo_at(hit);
         match self.shading {
             Shading::Unlit => albedo,
-            Shading::HeadLight => {
-                let [a, b, c] = mesh.corners_m(hit.triangle as usize);
-                let n = self.cam_from_object.rotation * (b - a).cross(&(c - a));
-                albedo * (n.dot(d_cam) / (n.norm() * d_cam.norm())).abs()
-            }
+            Shading::HeadLight => albedo * -self.seen_normal(hit, d_cam).dot(&d_cam.normalize()),
+            Shading::Lit => albedo * lit,
         }
     }
 

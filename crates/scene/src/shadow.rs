@@ -6,8 +6,13 @@
 //! directional light (`x + s l`, `s > 0`, `l` against the light's travel) meets an object gets
 //! only the ambient term, `a A` instead of `a (A + E cos)`. Under an area light `x` gets
 //! `a (A + E V)`, `E` the light's closed-form term ([`crate::area_light`]) and `V` the visible
-//! share of the emitter, weighted by `cos_x cos_light / r^2` ([`visible_share`]). The objects keep
-//! their own shading ([`crate::objects::Shading`]) and do not shadow each other.
+//! share of the emitter, weighted by `cos_x cos_light / r^2` ([`visible_share`]).
+//!
+//! Objects shaded [`Shading::Lit`] take the same light: `a (A + E max(0, n . l))` at a surface
+//! point of normal `n` (the side the camera sees), `a A` where an object, itself included, meets
+//! the point's ray towards the directional light ([`ObjectLight`]): objects shadow each other and
+//! themselves. Under an area light they are refused so far (unlit and head-lit objects keep
+//! their own shading under any light).
 //!
 //! The renderer draws a shadowed board pixel as the lit one times the ratio of the two shadings
 //! and integrates the pixels a hard shadow's edge crosses exactly along scan lines (the objects'
@@ -23,6 +28,7 @@ use nalgebra::{Point3, Vector3};
 
 use crate::area_light::Rectangle;
 use crate::lighting::{camera_side_normal, direction_in_camera};
+use crate::objects::{ObjectHit, SceneObject, Shading};
 use crate::Scene;
 
 /// The light that casts the objects' shadows on the target.
@@ -76,7 +82,7 @@ impl ShadowLight {
     pub fn irradiance_at(&self, scene: &Scene, lit: f64, p_cam: &Point3<f64>) -> (f64, bool) {
         match self {
             ShadowLight::Sun { toward_light_cam, ratio } => {
-                let dark = blocked(scene, p_cam, toward_light_cam, f64::INFINITY);
+                let dark = blocked(&scene.objects, p_cam, toward_light_cam, f64::INFINITY);
                 (if dark { lit * ratio } else { lit }, dark)
             }
             ShadowLight::Area { rect, radiance, .. } => {
@@ -90,8 +96,8 @@ impl ShadowLight {
 }
 
 /// Whether the segment `p_cam + s d_cam`, `0 < s < s_max`, meets an object.
-fn blocked(scene: &Scene, p_cam: &Point3<f64>, d_cam: &Vector3<f64>, s_max: f64) -> bool {
-    scene.objects.iter().any(|o| {
+fn blocked(objects: &[SceneObject], p_cam: &Point3<f64>, d_cam: &Vector3<f64>, s_max: f64) -> bool {
+    objects.iter().any(|o| {
         let (origin, dir) = o.ray_in_object_from(p_cam, d_cam);
         o.asset.bvh.cast(&o.asset.mesh, &origin, &dir, 1e-9, s_max).is_some()
     })
@@ -108,7 +114,7 @@ pub fn visible_share(scene: &Scene, rect: &Rectangle, x: &Point3<f64>, n: &Vecto
             let w = rect.weight(x, n, &p);
             if w > 0.0 {
                 all += w;
-                if !blocked(scene, x, &(p - x), 1.0) {
+                if !blocked(&scene.objects, x, &(p - x), 1.0) {
                     seen += w;
                 }
             }
@@ -125,4 +131,49 @@ pub fn visible_share(scene: &Scene, rect: &Rectangle, x: &Point3<f64>, n: &Vecto
 /// light: whether any of it is hidden).
 pub fn in_shadow(scene: &Scene, light: &ShadowLight, p_cam: &Point3<f64>) -> bool {
     light.irradiance_at(scene, 1.0, p_cam).1
+}
+
+/// Where a lit object's shadow ray starts: its surface point `t d_cam` moved back along the camera
+/// ray to `SHADOW_RAY_START t d_cam`, off the surface on the side the camera sees (the side the
+/// light reaches when `n . l > 0`), so that the ray does not meet its own face; the shader's rays
+/// start there too (`shaders/objects.wgsl` `sun_on`).
+pub const SHADOW_RAY_START: f64 = 1.0 - 1e-4;
+
+/// The light on [`Shading::Lit`] objects: the ambient term and the directional light, from the
+/// scene as given (before [`crate::lighting::shade`] folds the target's light into its greys).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObjectLight {
+    /// The ambient term `A`.
+    pub ambient: f64,
+    /// The directional light: the unit direction towards it (camera frame) and its irradiance `E`.
+    pub sun: Option<(Vector3<f64>, f64)>,
+}
+
+impl ObjectLight {
+    /// The light `scene` sheds on its lit objects (with objects a scene has one directional light
+    /// at most: [`crate::lighting::check_with_objects`]).
+    pub fn of(scene: &Scene) -> Self {
+        let lighting = &scene.render.lighting;
+        let sun = lighting.lights.iter().flatten().next().map(|l| (-direction_in_camera(l, &scene.cam_from_target), l.irradiance));
+        Self { ambient: lighting.ambient_term(), sun }
+    }
+
+    /// The factor `A + E max(0, n . l)` at the surface point `p_cam` of normal `n_seen` (unit,
+    /// the side seen), `A` where one of `objects` meets the shadow ray ([`SHADOW_RAY_START`]).
+    pub fn factor(&self, objects: &[SceneObject], p_cam: &Point3<f64>, n_seen: &Vector3<f64>) -> f64 {
+        let Some((toward, e)) = self.sun else { return self.ambient };
+        let cos = n_seen.dot(&toward);
+        if cos <= 0.0 || blocked(objects, &(p_cam * SHADOW_RAY_START), &toward, f64::INFINITY) {
+            self.ambient
+        } else {
+            self.ambient + e * cos
+        }
+    }
+
+    /// The grey level the object hit `h` shows along `d_cam` (camera frame), among `objects`.
+    pub fn object_value(&self, objects: &[SceneObject], h: &ObjectHit, d_cam: &Vector3<f64>) -> f64 {
+        let o = &objects[h.object];
+        let lit = if o.shading == Shading::Lit { self.factor(objects, &Point3::from(d_cam * h.hit.t), &o.seen_normal(&h.hit, d_cam)) } else { 1.0 };
+        o.shade(&h.hit, d_cam, lit)
+    }
 }

@@ -61,6 +61,8 @@ pub struct Tracer<'a> {
     dots: Vec<SphereCam>,
     /// A warped board's warp (flat: the default).
     warp: synthcam_core::target::Warp,
+    /// The light on lit objects.
+    object_light: crate::shadow::ObjectLight,
 }
 
 impl<'a> Tracer<'a> {
@@ -75,7 +77,8 @@ impl<'a> Tracer<'a> {
             }
             _ => (None, Vec::new()),
         };
-        Self { scene, target_from_cam, sphere, dots, warp: scene.target.warp().unwrap_or_default() }
+        let object_light = crate::shadow::ObjectLight::of(scene);
+        Self { scene, target_from_cam, sphere, dots, warp: scene.target.warp().unwrap_or_default(), object_light }
     }
 
     /// The scene.
@@ -109,7 +112,7 @@ impl<'a> Tracer<'a> {
     fn object_in_front(&self, d_cam: &Vector3<f64>, t_max: f64) -> Option<Hit> {
         let objects = &self.scene.objects;
         let h = super::objects::cast_objects(objects, d_cam, t_max)?;
-        Some(Hit { intensity: objects[h.object].shade(&h.hit, d_cam), feature: None })
+        Some(Hit { intensity: self.object_light.object_value(objects, &h, d_cam), feature: None })
     }
 
     fn trace_px_in(&self, q_px: &Point2<f64>, candidates: Option<&[usize]>) -> Hit {

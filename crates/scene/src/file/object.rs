@@ -8,7 +8,7 @@
 //! t_m = [0.02, -0.01, 0.35]
 //! scale = 1.0                          # uniform, applied to the mesh before the pose
 //! albedo = 160.0                       # grey where the OBJ has no material
-//! shading = "unlit"                    # or "head-light" (Lambert, light at the camera)
+//! shading = "unlit"                    # "head-light" (Lambert, light at the camera) or "lit" (the scene's light, shadows)
 //! ```
 
 use std::sync::Arc;
