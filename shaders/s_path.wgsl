@@ -264,12 +264,21 @@ fn ball_silhouette_area(ray: Ray, c: vec3<f32>, r: f32) -> f32 {
     return ellipse_area(q, b, (rho - t) * (rho + t));
 }
 
-// Area of the pixel square inside the image of painted cap b (the sphere's points within b.w of
-// the dot centre b.xyz, which lies on the sphere): its rim is the circle of centre m, radius rho
-// in the plane p.nu = h, and the rays through it satisfy |h d - (d.nu) m| <= rho |d.nu|. Negative
-// when the cap is not wholly on the side of the sphere the camera sees (its image is then not
-// that ellipse) or the conic is no ellipse.
+// Area of the pixel square inside the image of painted cap b when the centre ray sees the dot
+// exactly where it passes inside the rim (rim_conic); negative otherwise.
 fn cap_area(ray: Ray, b: vec4<f32>) -> f32 {
+    let rim = rim_conic(ray, b);
+    let consistent = (rim.y == 1.0) == dot_covers(ray_d(ray), b);
+    return select(-1.0, rim.x, rim.x >= 0.0 && consistent);
+}
+
+// The image of painted cap b's rim (the sphere's points b.w from the dot centre b.xyz, which lies
+// on the sphere) over the pixel: the rim is the circle of centre m, radius rho in the plane
+// p.nu = h, and the rays through it satisfy |h d - (d.nu) m| <= rho |d.nu|. x: the area of the
+// pixel square inside it, negative when the cap is not wholly on the side of the sphere the
+// camera sees (its image is then not that ellipse) or the conic is no ellipse; y: 1 when the
+// centre ray passes inside it.
+fn rim_conic(ray: Ray, b: vec4<f32>) -> vec2<f32> {
     let cs = P.sphere.xyz;
     let rs = P.sphere.w;
     let r = b.w;
@@ -292,9 +301,7 @@ fn cap_area(ray: Ray, b: vec4<f32>) -> f32 {
     let lv = len3(v0);
     let t = rho * abs(w0);
     let area = ellipse_area(q, bb, (lv - t) * (lv + t));
-    // The pixel centre's side of the rim must be what the centre ray sees (inside: the dot).
-    let consistent = (lv <= t) == dot_covers(pr.d0, b);
-    return select(-1.0, area, front && consistent);
+    return vec2<f32>(select(-1.0, area, front), select(0.0, 1.0, lv <= t));
 }
 
 // Does the ray d see dot b (a bead in front of the sphere, or a painted cap)?
@@ -310,6 +317,47 @@ fn dot_covers(d: vec3<f32>, b: vec4<f32>) -> bool {
 // Distance (px) beyond which a linearised boundary cannot cross the pixel: the half-diagonal 0.707
 // plus room for the boundary's curvature.
 const MARGIN_PX: f32 = 0.9;
+
+// Inside a bead's silhouette the bead and the sphere meet along the circle where the two spheres
+// meet: a painted cap's rim (cap_area's ellipse in pixel offsets), whose arc on the bead's far
+// side the bead itself hides. Its visible arc is the only boundary of a pixel the silhouette does
+// not cross, with the bead inside the ellipse, when at the four corners the bead shows exactly
+// where the rays pass inside the rim (the sphere's hit point lies in the cap): the ellipse's
+// interior is convex, so a boundary that left every corner on the side the ray sees there cannot
+// cross the pixel (cap_area checks the centre). Where the hidden arc crosses the pixel some
+// corner outside it sees the bead: the fine pass takes the pixel.
+fn bead_rim_agrees(ray: Ray, b: vec4<f32>) -> bool {
+    var ok = true;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let d = ray_at(ray, vec2<f32>(select(-0.5, 0.5, (k & 1u) == 1u), select(-0.5, 0.5, k >= 2u)));
+        ok = ok && ((dot_boundary(2u, d, b) < 0.0) == dot_covers(d, b));
+    }
+    return ok;
+}
+
+// A bead's pixel that the image of its rim (rim_conic) does not reach: inside the silhouette the
+// bead either shows everywhere or nowhere (the rim's visible arc is the only boundary between the
+// bead and the sphere there), so the pixel is the silhouette's closed form or none of it. 1 when a
+// sample point (the centre, then the corners) sees the bead, 0 when it does not; -1 when the rim
+// reaches the pixel (more than 1e-5 of it: 0.003 grey levels) or no sample point answers surely.
+// A sure answer: the point lies a twentieth of a pixel or more inside the silhouette (`sil`: its
+// linearised distance; a ray that grazes the bead gives its entry to f32's few digits) and its
+// bead and sphere entries differ by more than 1e-5 of the bead's distance (near the rim they
+// meet, and f32 cannot order them: a sure-looking sample saw a hidden bead, 80 grey levels off).
+fn bead_beside_rim(ray: Ray, b: vec4<f32>, sil: vec3<f32>) -> f32 {
+    let rim = rim_conic(ray, b);
+    let inside = -0.05 * len2(sil.yz);
+    let apart = 1e-5 * len3(b.xyz);
+    var seen = -1.0;
+    for (var k = 0u; k < 5u; k = k + 1u) {
+        let o = select(vec2<f32>(select(-0.5, 0.5, (k & 1u) == 1u), select(-0.5, 0.5, k >= 3u)), vec2<f32>(0.0), k == 0u);
+        let d = ray_at(ray, o);
+        let cut = bead_cut(d, b);
+        let first = seen < 0.0 && dot_boundary(0u, d, b) < inside && abs(cut) > apart;
+        seen = select(seen, select(0.0, 1.0, cut < 0.0), first);
+    }
+    return select(-1.0, seen, rim.x >= 0.0 && rim.x <= 1e-5);
+}
 
 // S-path, coarse pass over tiles with dots. Pixels whose colour is explained by one smooth boundary
 // (a bead's silhouette, the curve where a bead enters the sphere, or a cap's rim), checked at the
@@ -353,12 +401,17 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     // the cap's rim is close enough to a straight line over the pixel for the closed form.
     let off_sphere = disc && ts <= 0.0;
     let lin = boundary_linear(which, ray, b);
-    // Exact: a bead's silhouette and a wholly visible cap's rim are ellipses in pixel offsets.
-    // (The curve where a bead enters the sphere is the same circle as a cap's rim, but which
-    // side of it shows the bead depends on the view.)
-    let conic = select(select(-1.0, cap_area(ray, b), disc), ball_silhouette_area(ray, b.xyz, b.w), sil_only);
+    // A bead's pixel wholly inside its silhouette (lin: the silhouette's linearised distance) that
+    // the curve where it enters the sphere crosses: see bead_rim_agrees.
+    let rim = !disc && !sil_only && lin.x < -MARGIN_PX * len2(lin.yz) && bead_rim_agrees(ray, b);
+    // Exact: a bead's silhouette, a wholly visible cap's rim and the part of that rim a bead shows
+    // are ellipses in pixel offsets.
+    // Beside the rim: the silhouette's closed form where the bead shows, none of it where not.
+    let beside = select(-1.0, bead_beside_rim(ray, b, lin), !disc && !sil_only);
+    let sil = ball_silhouette_area(ray, b.xyz, b.w);
+    let conic = select(select(select(-1.0, sil * beside, beside >= 0.0), cap_area(ray, b), disc || rim), sil, sil_only);
     let exact = conic >= 0.0;
-    let single = n_touch == 1u && !limb && (sil_only || off_sphere || (disc && (exact || cap_rim_linear(ray, b, lin))));
+    let single = n_touch == 1u && !limb && (sil_only || off_sphere || (disc && (exact || cap_rim_linear(ray, b, lin))) || ((rim || beside >= 0.0) && exact));
     let cov = select(select(dot_coverage(which, ray, b, lin), conic, exact), 0.0, off_sphere);
     // The other side of the boundary: the sphere (or the background) as the centre ray sees it.
     let other = select(P.grey.w, P.grey.y, ts > 0.0);

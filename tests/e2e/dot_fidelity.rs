@@ -184,3 +184,31 @@ fn s_path_disc_slivers_match_the_traced_image() {
     assert!(worst <= 20.0, "max {worst}");
     assert!(mean <= 0.3, "mean {mean}");
 }
+
+/// The bead centroids hold on views nobody chose: the course's S-path turned about its sphere's
+/// centre by random angles (up to 30 degrees about x and y; a fresh seed each run, printed, or
+/// `SYNTHCAM_STRESS_SEED`), which moves every bead's silhouette against the curve where it enters
+/// the sphere (the closed forms of `shaders/s_path.wgsl` `bead_rim_agrees`, `bead_beside_rim`).
+/// Same tolerances as the course view.
+#[test]
+fn s_path_bead_blobs_hold_under_random_turns() {
+    use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
+    use rand::{Rng, SeedableRng};
+    let seed = std::env::var("SYNTHCAM_STRESS_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64));
+    eprintln!("SYNTHCAM_STRESS_SEED={seed}");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    for k in 0..8 {
+        let mut scene = parse_scene(include_str!("../../assets/scenes/course_s_path.toml")).expect("scene");
+        let Target::SPath(s) = &scene.target else { panic!("s-path scene") };
+        let c = s.path.sphere_center_m;
+        let (ax, ay) = (rng.random_range(-30.0f64..30.0), rng.random_range(-30.0f64..30.0));
+        let turn = UnitQuaternion::from_euler_angles(ax.to_radians(), ay.to_radians(), 0.0);
+        let about = Isometry3::from_parts(Translation3::from(c.coords), turn)
+            * Isometry3::from_parts(Translation3::from(-Point3::from(c.coords).coords), UnitQuaternion::identity());
+        scene.cam_from_target *= about;
+        check(&format!("beads turned {ax:.1}, {ay:.1} deg (view {k}, seed {seed})"), &scene);
+    }
+}
