@@ -318,7 +318,7 @@ fn s_path_beads_at_full_size_against_the_scanline_reference() {
     for turn in [[0.0, 0.0], [12.0, -15.0]] {
         let mut scene = s_path_scene("bead", turn, -0.1);
         let full = synthcam::scene::file::parse_scene(include_str!("../../assets/scenes/course_s_path.toml")).expect("scene");
-        scene.camera = CameraModel { lens: scene.camera.lens.clone(), ..full.camera };
+        scene.camera = CameraModel { lens: scene.camera.lens, ..full.camera };
         let gpu = renderer().render_linear(&scene).expect("render");
         let reference = render_scanline_reference(&scene, &ScanlineParams::default()).expect("reference");
         let mut d: Vec<f64> =
