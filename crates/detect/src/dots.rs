@@ -38,6 +38,8 @@ use nalgebra::Point2;
 use super::edge_surround::EdgeSurround;
 use super::filters::{extreme_filter, median_by};
 use super::outline::Outline;
+use super::par::map_indexed;
+use super::runs::runs_where;
 use super::{DetectError, ImageF32};
 use blob::{bbox, blob_region, closed_window, components, dark_level, darker_than_rim, edge_weights, is_thin, merge_fragments, paint_level, split_large};
 use centroid::{settle_touching, ties, weighted_centroid, Centroid, Measured};
@@ -122,10 +124,21 @@ pub fn find_dots(img: &ImageF32, params: &DotParams) -> Result<Vec<Dot>, DetectE
     }
     let (cores, keep) = find_cores(img, params);
     let owner = owner_map(&cores, &keep, w, h, params.grow_px);
-    let mut outline: Option<Option<Outline>> = None;
     let paint = paint_level(img, &cores, &keep);
-    let measured: Vec<Measured> = keep.iter().filter_map(|&k| measure(img, params, (&owner, paint), &cores[k], k as u32 + 1, &mut outline)).collect();
-    Ok(settle_touching(measured, w))
+    // Each dot's window (closing, edge fit) in parallel; the whole image's outline is fitted
+    // with the levels of the first window, in the cores' order, that holds an edge, and bridges
+    // that window's edge and those of the windows after it (as measured one by one).
+    let windows = map_indexed(keep.len(), PARALLEL_MIN_DOTS, |i| dot_window(img, params, &owner, &cores[keep[i]]));
+    let first = windows.iter().position(|w| w.as_ref().is_some_and(|w| w.fitted.is_some()));
+    let outline = first.and_then(|f| windows[f].as_ref()?.fitted.as_ref()).map(|e| {
+        let (lo, hi) = e.levels();
+        Outline::fit(img, lo, hi, &|x, y| owner[y * w + x] != 0)
+    });
+    let measured = map_indexed(keep.len(), PARALLEL_MIN_DOTS, |i| {
+        let known = first.is_some_and(|f| i >= f).then_some(outline.as_ref()).flatten();
+        measure(img, params, (&owner, paint), &cores[keep[i]], keep[i] as u32 + 1, (windows[i].as_ref()?, known))
+    });
+    Ok(settle_touching(measured.into_iter().flatten().collect(), w))
 }
 
 /// Steps 1 and 2 (module docs): the cores, and which of them are dots (size, darker than the rim).
@@ -138,13 +151,13 @@ fn find_cores(img: &ImageF32, params: &DotParams) -> (Vec<Vec<(usize, usize)>>, 
     let lo = extreme_filter(&pool(img, false), r4, false);
     let hi = extreme_filter(&pool(img, true), r4, true);
     let pw = lo.width;
-    let mask = image::GrayImage::from_fn(w as u32, h as u32, |x, y| {
-        let i = (y as usize / POOL) * pw + x as usize / POOL;
-        let (l, hh, v) = (lo.data[i], hi.data[i], img.data[y as usize * w + x as usize]);
-        image::Luma([u8::from(hh - l > params.min_contrast && v < l + params.core_fraction * (hh - l))])
+    let core_runs = runs_where(w, h, |x, y| {
+        let i = (y / POOL) * pw + x / POOL;
+        let (l, hh, v) = (lo.data[i], hi.data[i], img.data[y * w + x]);
+        hh - l > params.min_contrast && v < l + params.core_fraction * (hh - l)
     });
     let t1 = t0.elapsed().as_secs_f64() * 1e3;
-    let mut cores = components(&mask, (0, 0));
+    let mut cores = components(&core_runs, (0, 0));
     log::debug!("dots: filters+mask {t1:.1} ms, components {:.1} ms", t0.elapsed().as_secs_f64() * 1e3 - t1);
     // A dot straddling the sphere's outline can join the mid-grey background into one huge core
     // (where the local minimum is the dot's mixed pixels, the background passes the threshold):
@@ -206,26 +219,13 @@ fn measure(
     (owner, paint): (&[u32], Option<f64>),
     core: &[(usize, usize)],
     id: u32,
-    outline: &mut Option<Option<Outline>>,
+    (win, outline): (&DotWindow, Option<&Option<Outline>>),
 ) -> Option<Measured> {
     let (w, h) = (img.width, img.height);
-    let [x0, y0, x1, y1] = bbox(core);
-    let pad = params.grow_px + 1;
-    // A blob cut by the image border has a biased centre: not reported.
-    if x0 < pad || y0 < pad || x1 + pad >= w || y1 + pad >= h {
-        return None;
-    }
-    let (bx0, by0) = (x0.saturating_sub(pad), y0.saturating_sub(pad));
-    let (bx1, by1) = ((x1 + pad).min(w - 1), (y1 + pad).min(h - 1));
-    let d = f64::from(dark_level(img, core).unwrap_or(0.0));
-    // Closing (dilation then erosion) of the dot's neighbourhood: the surround level with the
-    // dot removed, exact on straight (anti-aliased) edges such as the sphere's outline. It
-    // rides on noise peaks; the median lift of the ring is subtracted below.
-    let r = params.window_px;
-    let (closed, [cx0, cy0, cx1, cy1]) = closed_window(img, [bx0, by0, bx1, by1], 2 * r, r);
+    let (d, [bx0, by0, bx1, by1], [cx0, cy0, cx1, cy1]) = (win.dark, win.bbox, win.crect);
     let cw = cx1 - cx0 + 1;
-    let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
-    let edge = window_edge(img, params, owner, [bx0, by0, bx1, by1], (&closed, [cx0, cy0, cx1, cy1]), outline);
+    let closed_at = |x: usize, y: usize| win.closed.data[(y - cy0) * cw + (x - cx0)];
+    let edge = window_edge(win, outline);
     // The free pixels around the grown core.
     let ring: Vec<(usize, usize)> = (by0..=by1).flat_map(|y| (bx0..=bx1).map(move |x| (x, y))).filter(|&(x, y)| owner[y * w + x] == 0).collect();
     // Only thin cores (about two pixels across at most: a sliver seen edge-on) are flooded.
@@ -277,56 +277,68 @@ fn measure(
     Some(Measured { dot: Dot { centre_px, area_px, spread_px, core_px: core.len(), contrast: s_core - d, touching: false }, dark, ties, thin })
 }
 
-/// The two-level edge model of the dot's window, if an edge (the sphere's outline) crosses it:
-/// fitted on the clean lines across the edge (in a larger window when too few), bridged by the
-/// whole image's outline where they agree. `closed`: the window's closing and its rectangle.
-fn window_edge(
-    img: &ImageF32,
-    params: &DotParams,
-    owner: &[u32],
-    [bx0, by0, bx1, by1]: [usize; 4],
-    (closed, [cx0, cy0, cx1, cy1]): (&ImageF32, [usize; 4]),
-    outline: &mut Option<Option<Outline>>,
-) -> Option<EdgeSurround> {
-    let (w, r) = (img.width, params.window_px);
-    let cw = cx1 - cx0 + 1;
-    let closed_at = |x: usize, y: usize| closed.data[(y - cy0) * cw + (x - cx0)];
-    // A two-level edge (the sphere's outline) through the window: modelled, not closed.
+/// Parallel work on the dots pays from this many on.
+const PARALLEL_MIN_DOTS: usize = 8;
+
+/// A dot's window before the whole image's outline is known ([`find_dots`]).
+struct DotWindow {
+    /// The grown core's rectangle.
+    bbox: [usize; 4],
+    /// The dot level (median of the core's darkest half).
+    dark: f64,
+    /// The closing of the neighbourhood, and its rectangle `crect`.
+    closed: ImageF32,
+    crect: [usize; 4],
+    /// The two-level edge (the sphere's outline) fitted on the clean lines across it in the
+    /// window (in a larger window when too few), if one crosses it.
+    fitted: Option<EdgeSurround>,
+    /// Whether the closing shows an edge in the window at all.
+    closed_has_edge: bool,
+}
+
+/// The window of the dot whose core is `core`; `None` for a blob the image border cuts (its
+/// centre would be biased: not reported).
+fn dot_window(img: &ImageF32, params: &DotParams, owner: &[u32], core: &[(usize, usize)]) -> Option<DotWindow> {
+    let (w, h, r) = (img.width, img.height, params.window_px);
+    let [x0, y0, x1, y1] = bbox(core);
+    let pad = params.grow_px + 1;
+    if x0 < pad || y0 < pad || x1 + pad >= w || y1 + pad >= h {
+        return None;
+    }
+    let b = [x0 - pad, y0 - pad, (x1 + pad).min(w - 1), (y1 + pad).min(h - 1)];
+    // Closing (dilation then erosion) of the dot's neighbourhood: the surround level with the
+    // dot removed, exact on straight (anti-aliased) edges such as the sphere's outline. It
+    // rides on noise peaks; the median lift of the ring is subtracted (measure).
+    let (closed, crect) = closed_window(img, b, 2 * r, r);
+    let cw = crect[2] - crect[0] + 1;
     let is_dot = |x: usize, y: usize| owner[y * w + x] != 0;
-    // Whether the closing shows an edge in the window at all.
-    let closed_has_edge = {
-        let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-        cmax - cmin > params.min_contrast
-    };
-    let edge = EdgeSurround::fit(img, [cx0, cy0, cx1, cy1], &closed_at, &is_dot, f64::from(params.min_contrast)).or_else(|| {
-        // Too few clean lines across the edge (neighbouring dots along the outline hide
-        // them): a window half as large again, where the first window holds an edge at all.
-        if !closed_has_edge {
-            return None;
-        }
-        let (big, rect) = closed_window(img, [bx0, by0, bx1, by1], 3 * r, r);
-        let bw = rect[2] - rect[0] + 1;
-        EdgeSurround::fit(img, rect, &|x, y| big.data[(y - rect[1]) * bw + (x - rect[0])], &is_dot, f64::from(params.min_contrast))
-    });
-    // Where the whole-image outline agrees with the window's clean lines, it bridges the
-    // lines the dots hide (fitted once, at the first dot with an edge, with its levels).
-    // Where no window holds enough clean lines, the outline alone, if the closing shows an
-    // edge in the window.
-    match edge {
-        Some(e) => {
-            let whole = outline.get_or_insert_with(|| {
-                let (lo, hi) = e.levels();
-                Outline::fit(img, lo, hi, &is_dot)
-            });
-            match whole {
-                Some(o) => e.along(o, [cx0, cy0, cx1, cy1]).or(Some(e)),
-                None => Some(e),
+    let (cmin, cmax) = closed.data.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+    let closed_has_edge = cmax - cmin > params.min_contrast;
+    // A two-level edge (the sphere's outline) through the window: modelled, not closed.
+    let fitted =
+        EdgeSurround::fit(img, crect, &|x, y| closed.data[(y - crect[1]) * cw + (x - crect[0])], &is_dot, f64::from(params.min_contrast)).or_else(|| {
+            // Too few clean lines across the edge (neighbouring dots along the outline hide
+            // them): a window half as large again, where the first window holds an edge at all.
+            if !closed_has_edge {
+                return None;
             }
-        }
-        None => match outline.as_ref() {
-            Some(Some(o)) if closed_has_edge => EdgeSurround::from_outline(o, [cx0, cy0, cx1, cy1]),
-            _ => None,
-        },
+            let (big, rect) = closed_window(img, b, 3 * r, r);
+            let bw = rect[2] - rect[0] + 1;
+            EdgeSurround::fit(img, rect, &|x, y| big.data[(y - rect[1]) * bw + (x - rect[0])], &is_dot, f64::from(params.min_contrast))
+        });
+    Some(DotWindow { bbox: b, dark: f64::from(dark_level(img, core).unwrap_or(0.0)), closed, crect, fitted, closed_has_edge })
+}
+
+/// The two-level edge model of the dot's window: the edge fitted in it, bridged by the whole
+/// image's outline where they agree; where no window holds enough clean lines, the outline
+/// alone, if the closing shows an edge in the window. `outline`: the whole image's outline once
+/// fitted (`Some(None)`: fitted, none found).
+fn window_edge(win: &DotWindow, outline: Option<&Option<Outline>>) -> Option<EdgeSurround> {
+    match (&win.fitted, outline) {
+        (Some(e), Some(Some(o))) => e.along(o, win.crect).or_else(|| Some(e.clone())),
+        (Some(e), _) => Some(e.clone()),
+        (None, Some(Some(o))) if win.closed_has_edge => EdgeSurround::from_outline(o, win.crect),
+        (None, _) => None,
     }
 }
 

@@ -38,6 +38,7 @@ pub mod outline;
 pub(crate) mod par;
 pub(crate) mod pool;
 pub(crate) mod response;
+mod runs;
 pub mod s_path_fit;
 pub mod s_path_order;
 pub mod saddle_fit;

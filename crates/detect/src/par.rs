@@ -10,3 +10,14 @@ pub const PARALLEL_MIN_PIXELS: usize = 200_000;
 pub fn worth_parallel(work: usize, min_work: usize) -> bool {
     work >= min_work && rayon::current_num_threads() > 1
 }
+
+/// `f(0), f(1), ..., f(n - 1)` in order, over rayon's pool when `n` is at least `min_work`
+/// ([`worth_parallel`]).
+pub fn map_indexed<T: Send>(n: usize, min_work: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+    use rayon::prelude::*;
+    if worth_parallel(n, min_work) {
+        (0..n).into_par_iter().map(f).collect()
+    } else {
+        (0..n).map(f).collect()
+    }
+}

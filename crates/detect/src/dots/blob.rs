@@ -1,7 +1,7 @@
 //! Per-blob helpers of the dot finder: the closing that gives a dot's surround, core splitting
 //! and fragment merging, the rim test, the dark level and the grown region of a blob.
 
-use imageproc::region_labelling::{connected_components, Connectivity};
+use crate::runs::{run_pixels, runs_where, Run};
 
 use super::super::edge_surround::EdgeSurround;
 use super::super::filters::{extreme_filter, median_by};
@@ -95,11 +95,11 @@ pub(super) fn split_large(img: &ImageF32, comp: &[(usize, usize)], params: &DotP
     }
     let t = lo + 0.5 * (m - lo);
     let [x0, y0, x1, y1] = bbox(comp);
-    let mut dark = image::GrayImage::new((x1 - x0 + 1) as u32, (y1 - y0 + 1) as u32);
+    let mut dark = vec![false; (x1 - x0 + 1) * (y1 - y0 + 1)];
     for &(x, y) in comp {
-        dark.put_pixel((x - x0) as u32, (y - y0) as u32, image::Luma([u8::from(img.data[y * w + x] < t)]));
+        dark[(y - y0) * (x1 - x0 + 1) + x - x0] = img.data[y * w + x] < t;
     }
-    components(&dark, (x0, y0))
+    components(&runs_where(x1 - x0 + 1, y1 - y0 + 1, |x, y| dark[y * (x1 - x0 + 1) + x]), (x0, y0))
 }
 
 /// Whether `core`'s darker half lies below most of the pixels bordering it (8-connected) by at
@@ -156,19 +156,8 @@ pub(super) fn dark_level(img: &ImageF32, core: &[(usize, usize)]) -> Option<f32>
 
 /// The 8-connected components of the set pixels of `mask` (whose top-left pixel is `origin` in
 /// the image), as pixel lists in raster order, in label order.
-pub(super) fn components(mask: &image::GrayImage, origin: (usize, usize)) -> Vec<Vec<(usize, usize)>> {
-    let labels = connected_components(mask, Connectivity::Eight, image::Luma([0u8]));
-    let mut out: Vec<Vec<(usize, usize)>> = Vec::new();
-    for (x, y, l) in labels.enumerate_pixels() {
-        let l = l[0] as usize;
-        if l > 0 {
-            if out.len() < l {
-                out.resize(l, Vec::new());
-            }
-            out[l - 1].push((x as usize + origin.0, y as usize + origin.1));
-        }
-    }
-    out
+pub(super) fn components(runs: &[Run], origin: (usize, usize)) -> Vec<Vec<(usize, usize)>> {
+    crate::runs::components(runs, true, |_| true).iter().map(|c| run_pixels(c, origin)).collect()
 }
 
 /// Cores of at most this many pixels are fragment candidates for [`merge_fragments`].

@@ -44,7 +44,6 @@ use super::par::worth_parallel;
 use super::{DetectError, GreyWindow, ImageF32, ImageU8};
 use synthcam_core::target::Dictionary;
 
-mod components;
 pub(crate) mod consistency;
 pub(crate) mod corners;
 pub(crate) mod decode;

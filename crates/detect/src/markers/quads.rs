@@ -20,10 +20,10 @@
 use nalgebra::{Point2, Vector2};
 use rayon::prelude::*;
 
-use super::components::{components, Blob};
-use super::threshold::{dark_runs, erode, Integral, Run};
+use super::threshold::{dark_runs, erode, Integral};
 use super::MarkerParams;
 use crate::par::{worth_parallel, PARALLEL_MIN_PIXELS};
+use crate::runs::{components, Blob, Run};
 use crate::ImageF32;
 use synthcam_core::math::polygon;
 

@@ -15,6 +15,7 @@
 //! Reference: OpenCV `modules/objdetect/src/aruco/aruco_detector.cpp` (`_threshold`); F. C. Crow,
 //! "Summed-area tables for texture mapping", SIGGRAPH 1984.
 
+use crate::runs::Run;
 use crate::ImageF32;
 
 /// Summed-area table of an image, `(w + 1) x (h + 1)`. Its buffer is reused by the next table
@@ -141,17 +142,6 @@ impl Drop for Integral {
             }
         }
     }
-}
-
-/// A horizontal run of dark pixels: row `y`, columns `x0..x1`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct Run {
-    /// Row.
-    pub y: u32,
-    /// First column.
-    pub x0: u32,
-    /// One past the last column.
-    pub x1: u32,
 }
 
 /// The dark runs of `img` (row by row, left to right) into `runs`: pixels below the mean of the
