@@ -37,6 +37,23 @@ pub const CENTROID_LINE_SAMPLES: u32 = 33;
 /// Bisection steps per crossing (2^-21 px).
 pub const CENTROID_BISECTIONS: u32 = 16;
 
+/// How finely [`blob_centroid`] integrates a blob's boundary pixels: scan lines per pixel, samples
+/// per line (ends included) and bisection steps per crossing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CentroidSampling {
+    /// Scan lines per boundary pixel.
+    pub lines: u32,
+    /// Samples per scan line, ends included.
+    pub samples: u32,
+    /// Bisection steps per crossing.
+    pub bisections: u32,
+}
+
+impl CentroidSampling {
+    /// The truth labels' ([`CENTROID_LINES`], [`CENTROID_LINE_SAMPLES`], [`CENTROID_BISECTIONS`]).
+    pub const TRUTH: Self = Self { lines: CENTROID_LINES, samples: CENTROID_LINE_SAMPLES, bisections: CENTROID_BISECTIONS };
+}
+
 /// Pose as written to JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct PoseLabel {
@@ -214,7 +231,7 @@ pub struct Blob {
 
 /// Area and centroids of the rendered blob of dot `id` (see module docs). `candidates` (ascending,
 /// including `id`) are the dots that can cover any of `bbox`'s pixels.
-pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates: &[usize]) -> Option<Blob> {
+pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates: &[usize], sampling: &CentroidSampling) -> Option<Blob> {
     let size = tracer.scene().camera.size;
     let x0 = bbox[0].floor().max(0.0) as i64;
     let y0 = bbox[1].floor().max(0.0) as i64;
@@ -251,7 +268,7 @@ pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates:
             1.0
         } else {
             let inside = |u: f64, v: f64| f64::from(u8::from(sees(u, v)));
-            let [c, mu, mv] = pixel_moments(&inside, xf, yf, CENTROID_LINES, CENTROID_LINE_SAMPLES, CENTROID_BISECTIONS);
+            let [c, mu, mv] = pixel_moments(&inside, xf, yf, sampling.lines, sampling.samples, sampling.bisections);
             su += mu;
             sv += mv;
             c
@@ -275,11 +292,13 @@ pub fn blob_centroid(tracer: &Tracer<'_>, id: usize, bbox: [f64; 4], candidates:
     (area > 0.0).then(|| Blob { area_px: area, centroid_px: [pu / area, pv / area], area_centroid_px: [su / area, sv / area] })
 }
 
-/// Compute the truth labels of `scene`.
-pub fn truth_labels(scene: &Scene) -> TruthLabels {
-    let tracer = Tracer::new(scene);
+/// The rendered blob of every dot of `scene` (per feature; empty for targets without dots), its
+/// boundary pixels integrated as `sampling` says.
+pub fn dot_blobs(scene: &Scene, tracer: &Tracer<'_>, sampling: &CentroidSampling) -> Vec<Option<Blob>> {
+    if scene.target.feature_kind() != FeatureKind::Dot {
+        return Vec::new();
+    }
     let pts = scene.target.feature_points_m();
-    let kind = scene.target.feature_kind();
     let radius = |i: usize| match &scene.target {
         Target::DotGrid(g) => g.dot_radius_m,
         Target::SPath(s) => s.dot_radius(i),
@@ -287,8 +306,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
     };
     // Each blob only needs the dots whose boxes overlap its own (conservative: a dot without a
     // box, partly behind the camera, is always a candidate).
-    let boxes: Vec<Option<[f64; 4]>> =
-        if kind == FeatureKind::Dot { pts.iter().enumerate().map(|(i, p)| dot_bbox_px(scene, p, radius(i), 1.5)).collect() } else { Vec::new() };
+    let boxes: Vec<Option<[f64; 4]>> = pts.iter().enumerate().map(|(i, p)| dot_bbox_px(scene, p, radius(i), 1.5)).collect();
     let overlapping = |id: usize, bb: &[f64; 4]| -> Vec<usize> {
         boxes
             .iter()
@@ -297,6 +315,15 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
             .map(|(j, _)| j)
             .collect()
     };
+    (0..pts.len()).into_par_iter().map(|id| boxes[id].and_then(|bb| blob_centroid(tracer, id, bb, &overlapping(id, &bb), sampling))).collect()
+}
+
+/// Compute the truth labels of `scene`.
+pub fn truth_labels(scene: &Scene) -> TruthLabels {
+    let tracer = Tracer::new(scene);
+    let pts = scene.target.feature_points_m();
+    let kind = scene.target.feature_kind();
+    let blobs = dot_blobs(scene, &tracer, &CentroidSampling::TRUTH);
     let features = pts
         .par_iter()
         .enumerate()
@@ -323,8 +350,7 @@ pub fn truth_labels(scene: &Scene) -> TruthLabels {
                 in_shadow,
             };
             if kind == FeatureKind::Dot {
-                let blob = boxes[id].and_then(|bb| blob_centroid(&tracer, id, bb, &overlapping(id, &bb)));
-                if let Some(b) = blob {
+                if let Some(b) = blobs[id] {
                     label.area_px = Some(b.area_px);
                     label.centroid_px = Some(b.centroid_px);
                     label.area_centroid_px = Some(b.area_centroid_px);

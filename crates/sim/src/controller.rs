@@ -8,7 +8,7 @@
 
 use nalgebra::{DVector, Isometry3, Point2, Point3};
 
-use super::observe::{pose_from_dots, pose_from_dots_cached, CentroidBias, Dots};
+use super::observe::{pose_from_dots, pose_from_dots_cached, BiasRefresh, CentroidBias, Dots};
 use super::sensor::Feature;
 use super::world::{Observation, Sim};
 use super::SimError;
@@ -82,16 +82,16 @@ impl EyeInHand {
     }
 
     /// [`EyeInHand::pose_from`] with the S-path's centroid correction cached across calls and
-    /// recomputed only when the pose moved more than 5 mm or 1 degree
+    /// recomputed only when the pose moved further than `refresh` allows
     /// ([`super::observe::pose_from_dots_cached`]): for loops, where most steps barely move.
     ///
     /// # Errors
     /// Too few or degenerate features.
-    pub fn pose_from_cached(&self, obs: &Observation, cache: &mut Option<CentroidBias>) -> Result<PnpResult, SimError> {
+    pub fn pose_from_cached(&self, obs: &Observation, cache: &mut Option<CentroidBias>, refresh: &BiasRefresh) -> Result<PnpResult, SimError> {
         match (&self.target, obs.image.is_some()) {
             (Target::SPath(_), true) => {
                 let (dots, scene) = self.dots_and_scene(&obs.features);
-                pose_from_dots_cached(&scene, &dots, cache).map_err(|e| SimError::Control(format!("PnP on {} dots: {e}", dots.ids.len())))
+                pose_from_dots_cached(&scene, &dots, cache, refresh).map_err(|e| SimError::Control(format!("PnP on {} dots: {e}", dots.ids.len())))
             }
             _ => self.pose_from(obs),
         }

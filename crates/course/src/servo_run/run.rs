@@ -12,7 +12,7 @@ use super::trace::{ServoStatus, ServoTrace, Source, StepRecord};
 use super::{HandEyeSource, ServoOptions, ServoRunError};
 use crate::controller::{EyeInHand, Law, PoseError};
 use crate::handeye_views::estimate_hand_eye;
-use crate::observe::CentroidBias;
+use crate::observe::{BiasRefresh, CentroidBias};
 use crate::sensor::ObservationKind;
 use crate::{Sim, SimError};
 use synthcam_geometry::servo::{cam_twist_jacobian_of, ibvs_increment, interaction_matrix, joint_image_jacobian, pbvs_error, pbvs_increment, InteractionFrom};
@@ -220,7 +220,10 @@ fn measure(
     let fk = plan.fk(&base_from_tool);
     // The controller's pose estimate: PnP on the features (PBVS), else kinematics + hand-eye.
     let est_cam_from_target = match (options.law, usable) {
-        (Law::Pbvs, true) => plan.cell.pose_from_cached(&obs, bias).map_or(fk, |p| p.cam_from_target),
+        (Law::Pbvs, true) => {
+            let refresh = BiasRefresh { goal: Some(plan.goal), ..BiasRefresh::default() };
+            plan.cell.pose_from_cached(&obs, bias, &refresh).map_or(fk, |p| p.cam_from_target)
+        }
         _ => fk,
     };
     // Features: detected, or predicted from the estimate when the target is lost.
