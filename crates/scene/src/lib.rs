@@ -10,6 +10,7 @@
 
 pub mod area_light;
 pub mod background;
+pub mod blobs;
 pub mod builder;
 pub mod depth;
 pub mod effect_fields;

@@ -4,8 +4,8 @@
 //! Bead centroids are not the projections of the path points (about half of each bead is inside
 //! the sphere: 1.4 px on average at the course's desired pose). [`pose_from_dots`] therefore
 //! corrects them with the model: the expected blob centroid minus the projected centre at the
-//! current pose estimate (computed by [`truth_labels`]) is subtracted from the detections and PnP
-//! is solved again.
+//! current pose estimate (the truth labels' blob centroids, [`dot_blobs`]) is subtracted from the
+//! detections and PnP is solved again.
 
 use std::time::Instant;
 
@@ -16,8 +16,8 @@ use synthcam_detect::target::{detect, Detection, TargetSpec};
 use synthcam_detect::DetectError;
 use synthcam_geometry::pnp::{pnp_general, PnpError, PnpResult};
 use synthcam_render::{GreyImage, RenderError, Renderer};
+use synthcam_scene::blobs::{dot_blobs, CentroidSampling};
 use synthcam_scene::trace::Tracer;
-use synthcam_scene::truth::{dot_blobs, CentroidSampling};
 use synthcam_scene::Scene;
 
 /// Errors of one observation (a failed detection is not an error: see [`Observed::dots`]).
