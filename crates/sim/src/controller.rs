@@ -144,6 +144,9 @@ pub struct Pbvs {
     /// The last `base_from_target` from PnP (kept by the controller for the steps where the
     /// target is lost; start with `None`).
     pub base_from_target: Option<Isometry3<f64>>,
+    /// An S-path's bead-centroid bias, cached across steps ([`EyeInHand::pose_from_cached`];
+    /// start with `None`).
+    pub bias: Option<CentroidBias>,
 }
 
 impl Controller for Pbvs {
@@ -153,7 +156,8 @@ impl Controller for Pbvs {
         // Where the target is in the base frame: from PnP, or, while the target is lost, the
         // last such estimate moved by the encoders (kinematics and the hand-eye estimate, the
         // course's fallback).
-        let seen = self.cell.pose_from(obs).map(|p| base_from_tool * x * p.cam_from_target);
+        let refresh = BiasRefresh { goal: Some(self.goal_cam_from_target), ..BiasRefresh::default() };
+        let seen = self.cell.pose_from_cached(obs, &mut self.bias, &refresh).map(|p| base_from_tool * x * p.cam_from_target);
         let lost = seen.is_err();
         let base_from_target = match (seen, self.base_from_target) {
             (Ok(b), _) => {
@@ -187,6 +191,9 @@ pub struct Ibvs {
     pub params: IbvsParams,
     /// Stop when the RMS pixel error is below this.
     pub stop_px: f64,
+    /// An S-path's bead-centroid bias for the current pose's interaction matrix, cached across
+    /// steps ([`EyeInHand::pose_from_cached`]; start with `None`).
+    pub bias: Option<CentroidBias>,
 }
 
 impl Ibvs {
@@ -225,7 +232,8 @@ impl Controller for Ibvs {
             let pc: Vec<Point3<f64>> = ids.iter().map(|i| cam_from_target * model[*i]).collect();
             interaction_matrix(&self.cell.camera, &pc)
         };
-        let current = || self.cell.pose_from(obs).map(|r| r.cam_from_target);
+        let refresh = BiasRefresh { goal: Some(self.goal_cam_from_target), ..BiasRefresh::default() };
+        let mut current = || self.cell.pose_from_cached(obs, &mut self.bias, &refresh).map(|r| r.cam_from_target);
         let l_cam = match self.params.interaction {
             InteractionFrom::Current => at(&current()?),
             InteractionFrom::Desired => at(&self.goal_cam_from_target),

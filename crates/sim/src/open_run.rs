@@ -65,13 +65,21 @@ pub fn run_open(sim: &mut Sim<'_>, options: &OpenRunOptions) -> Result<OpenRun, 
     let cell = EyeInHand { tool_from_cam, ..truth_cell };
     let goal = sc.goal_cam_from_target;
     let (mut controller, desired): (Box<dyn Controller>, _) = match options.law {
-        Law::Pbvs => {
-            (Box::new(Pbvs { cell, goal_cam_from_target: goal, params: PbvsParams::default(), stop_mm_deg: (0.05, 0.005), base_from_target: None }), None)
-        }
+        Law::Pbvs => (
+            Box::new(Pbvs { cell, goal_cam_from_target: goal, params: PbvsParams::default(), stop_mm_deg: (0.05, 0.005), base_from_target: None, bias: None }),
+            None,
+        ),
         Law::Ibvs => {
             let desired = Ibvs::desired_from(&sim.observe_from(goal)?, sc.target.feature_points_m().len());
             (
-                Box::new(Ibvs { cell, desired_px: desired.clone(), goal_cam_from_target: goal, params: IbvsParams::default(), stop_px: options.stop_px }),
+                Box::new(Ibvs {
+                    cell,
+                    desired_px: desired.clone(),
+                    goal_cam_from_target: goal,
+                    params: IbvsParams::default(),
+                    stop_px: options.stop_px,
+                    bias: None,
+                }),
                 Some(desired),
             )
         }
