@@ -26,7 +26,7 @@ mod shots;
 pub use super::shard::Shard;
 use super::spec::DatasetPlan;
 use super::{encode_image, io::truth_json, write_atomic, write_png_and_json, DatasetError};
-use synthcam_render::{GreyImage, Renderer};
+use synthcam_render::Renderer;
 use synthcam_scene::effects::Encoding;
 use synthcam_scene::truth::truth_labels;
 use synthcam_scene::Scene;
@@ -52,7 +52,8 @@ pub struct GenerateParams {
 pub struct StageTimes {
     /// Pose sampling and the resume check (decoding existing files).
     pub prepare_s: f64,
-    /// GPU render including readback and post-processing.
+    /// GPU render including readback (the render thread), and the image formation after it:
+    /// blur, vignetting, noise or the sensor, quantisation (the encoding threads).
     pub render_s: f64,
     /// Truth labels.
     pub truth_s: f64,
@@ -143,16 +144,19 @@ fn existing_png(dir: &Path, file: &str, size: (u32, u32)) -> Option<Vec<u8>> {
     ((img.width(), img.height()) == size).then_some(png)
 }
 
-/// Encode and write one rendered image.
+/// Form (`synthcam_render::finish`: blur, vignetting, noise or sensor, quantisation), encode and
+/// write one rendered image from its radiance.
 fn finish_image(
     dir: &Path,
     file: String,
     shot: Shot<'_>,
     scene: &Scene,
-    img: &GreyImage,
+    radiance: &[f32],
     extras: [bool; 2],
     times: &Mutex<StageTimes>,
 ) -> Result<Written, DatasetError> {
+    let tf = Instant::now();
+    let img = &synthcam_render::finish(scene, radiance).map_err(|e| DatasetError::Render { k: shot.view.k, reason: e.to_string() })?;
     let t0 = Instant::now();
     let truth = truth_labels(scene);
     let t1 = Instant::now();
@@ -168,6 +172,7 @@ fn finish_image(
     let written = Written { k: shot.view.k, cam: shot.cam, file, sha256: sha256_hex(&png) };
     let t3 = Instant::now();
     if let Ok(mut t) = times.lock() {
+        t.render_s += (t0 - tf).as_secs_f64();
         t.truth_s += (t1 - t0).as_secs_f64();
         t.encode_s += (t2 - t1).as_secs_f64();
         t.write_s += (t3 - t2).as_secs_f64();
@@ -231,8 +236,9 @@ pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams
     Ok(GenerateReport { images: total, kept, rendered, removed_tmp, wall_s: wall.elapsed().as_secs_f64(), times, manifest })
 }
 
-/// Render `todo` on this thread and encode and write the images on `jobs` threads (a bounded
-/// channel between them); `progress` gets the count done, counting from `done_before`. The first
+/// Render `todo` on this thread (the radiance: GPU work and readback) and form, encode and write
+/// the images on `jobs` threads (a bounded channel between them), so that the noise and the
+/// quantisation of one image overlap the next one's render; `progress` gets the count done, counting from `done_before`. The first
 /// failure stops the run and is returned.
 #[allow(clippy::too_many_arguments)] // the run's pieces, each used once; a struct would only rename them
 fn render_all(
@@ -255,7 +261,7 @@ fn render_all(
         }
     };
     let jobs = jobs.max(1);
-    let (tx, rx) = std::sync::mpsc::sync_channel::<(Shot<'_>, Scene, GreyImage)>(2 * jobs);
+    let (tx, rx) = std::sync::mpsc::sync_channel::<(Shot<'_>, Scene, Vec<f32>)>(2 * jobs);
     let rx = Mutex::new(rx);
     std::thread::scope(|s| {
         for _ in 0..jobs {
@@ -285,7 +291,7 @@ fn render_all(
             }
             let scene = shot.scene(plan);
             let t0 = Instant::now();
-            let img = match renderer.render(&scene) {
+            let img = match renderer.render_radiance(&scene) {
                 Ok(img) => img,
                 Err(e) => {
                     fail(DatasetError::Render { k: shot.view.k, reason: e.to_string() });
