@@ -265,9 +265,8 @@ fn ball_silhouette_area(ray: Ray, c: vec3<f32>, r: f32) -> f32 {
 }
 
 // Area of the pixel square inside the image of painted cap b when the centre ray sees the dot
-// exactly where it passes inside the rim (rim_conic); negative otherwise.
-fn cap_area(ray: Ray, b: vec4<f32>) -> f32 {
-    let rim = rim_conic(ray, b);
+// exactly where it passes inside the rim (`rim`: rim_conic of the pixel); negative otherwise.
+fn cap_area(ray: Ray, b: vec4<f32>, rim: vec2<f32>) -> f32 {
     let consistent = (rim.y == 1.0) == dot_covers(ray_d(ray), b);
     return select(-1.0, rim.x, rim.x >= 0.0 && consistent);
 }
@@ -335,17 +334,17 @@ fn bead_rim_agrees(ray: Ray, b: vec4<f32>) -> bool {
     return ok;
 }
 
-// A bead's pixel that the image of its rim (rim_conic) does not reach: inside the silhouette the
-// bead either shows everywhere or nowhere (the rim's visible arc is the only boundary between the
-// bead and the sphere there), so the pixel is the silhouette's closed form or none of it. 1 when a
-// sample point (the centre, then the corners) sees the bead, 0 when it does not; -1 when the rim
-// reaches the pixel (more than 1e-5 of it: 0.003 grey levels) or no sample point answers surely.
+// A bead's pixel that the image of its rim (`rim`: rim_conic of the pixel) does not reach: inside
+// the silhouette the bead either shows everywhere or nowhere (the rim's visible arc is the only
+// boundary between the bead and the sphere there), so the pixel is the silhouette's closed form or
+// none of it. 1 when a sample point (the centre, then the corners) sees the bead, 0 when it does
+// not; -1 when the rim reaches the pixel (more than 1e-5 of it: 0.003 grey levels) or no sample
+// point answers surely.
 // A sure answer: the point lies a twentieth of a pixel or more inside the silhouette (`sil`: its
 // linearised distance; a ray that grazes the bead gives its entry to f32's few digits) and its
 // bead and sphere entries differ by more than 1e-5 of the bead's distance (near the rim they
 // meet, and f32 cannot order them: a sure-looking sample saw a hidden bead, 80 grey levels off).
-fn bead_beside_rim(ray: Ray, b: vec4<f32>, sil: vec3<f32>) -> f32 {
-    let rim = rim_conic(ray, b);
+fn bead_beside_rim(ray: Ray, b: vec4<f32>, sil: vec3<f32>, rim: vec2<f32>) -> f32 {
     let inside = -0.05 * len2(sil.yz);
     let apart = 1e-5 * len3(b.xyz);
     var seen = -1.0;
@@ -407,9 +406,10 @@ fn spath_coarse(ray: Ray, tile: u32) -> Coarse {
     // Exact: a bead's silhouette, a wholly visible cap's rim and the part of that rim a bead shows
     // are ellipses in pixel offsets.
     // Beside the rim: the silhouette's closed form where the bead shows, none of it where not.
-    let beside = select(-1.0, bead_beside_rim(ray, b, lin), !disc && !sil_only);
+    let rim_image = rim_conic(ray, b);
+    let beside = select(-1.0, bead_beside_rim(ray, b, lin, rim_image), !disc && !sil_only);
     let sil = ball_silhouette_area(ray, b.xyz, b.w);
-    let conic = select(select(select(-1.0, sil * beside, beside >= 0.0), cap_area(ray, b), disc || rim), sil, sil_only);
+    let conic = select(select(select(-1.0, sil * beside, beside >= 0.0), cap_area(ray, b, rim_image), disc || rim), sil, sil_only);
     let exact = conic >= 0.0;
     let single = n_touch == 1u && !limb && (sil_only || off_sphere || (disc && (exact || cap_rim_linear(ray, b, lin))) || ((rim || beside >= 0.0) && exact));
     let cov = select(select(dot_coverage(which, ray, b, lin), conic, exact), 0.0, off_sphere);

@@ -156,7 +156,7 @@ impl Controller for Pbvs {
         // Where the target is in the base frame: from PnP, or, while the target is lost, the
         // last such estimate moved by the encoders (kinematics and the hand-eye estimate, the
         // course's fallback).
-        let refresh = BiasRefresh { goal: Some(self.goal_cam_from_target), ..BiasRefresh::default() };
+        let refresh = BiasRefresh::towards(self.goal_cam_from_target);
         let seen = self.cell.pose_from_cached(obs, &mut self.bias, &refresh).map(|p| base_from_tool * x * p.cam_from_target);
         let lost = seen.is_err();
         let base_from_target = match (seen, self.base_from_target) {
@@ -232,7 +232,7 @@ impl Controller for Ibvs {
             let pc: Vec<Point3<f64>> = ids.iter().map(|i| cam_from_target * model[*i]).collect();
             interaction_matrix(&self.cell.camera, &pc)
         };
-        let refresh = BiasRefresh { goal: Some(self.goal_cam_from_target), ..BiasRefresh::default() };
+        let refresh = BiasRefresh::towards(self.goal_cam_from_target);
         let mut current = || self.cell.pose_from_cached(obs, &mut self.bias, &refresh).map(|r| r.cam_from_target);
         let l_cam = match self.params.interaction {
             InteractionFrom::Current => at(&current()?),

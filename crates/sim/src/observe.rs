@@ -194,6 +194,11 @@ impl Default for BiasRefresh {
 }
 
 impl BiasRefresh {
+    /// The default refresh for a loop that drives to `goal` (its `cam_from_target`).
+    pub fn towards(goal: Isometry3<f64>) -> Self {
+        Self { goal: Some(goal), ..Self::default() }
+    }
+
     /// The movement (mm, degrees) from its pose that leaves the bias computed at `at` in use.
     fn tolerance(&self, at: &Isometry3<f64>) -> (f64, f64) {
         let Some(goal) = self.goal else { return (self.mm, self.deg) };

@@ -220,10 +220,7 @@ fn measure(
     let fk = plan.fk(&base_from_tool);
     // The controller's pose estimate: PnP on the features (PBVS), else kinematics + hand-eye.
     let est_cam_from_target = match (options.law, usable) {
-        (Law::Pbvs, true) => {
-            let refresh = BiasRefresh { goal: Some(plan.goal), ..BiasRefresh::default() };
-            plan.cell.pose_from_cached(&obs, bias, &refresh).map_or(fk, |p| p.cam_from_target)
-        }
+        (Law::Pbvs, true) => plan.cell.pose_from_cached(&obs, bias, &BiasRefresh::towards(plan.goal)).map_or(fk, |p| p.cam_from_target),
         _ => fk,
     };
     // Features: detected, or predicted from the estimate when the target is lost.

@@ -2,9 +2,8 @@
 //! the local grid step and kept inside the image.
 
 use nalgebra::{Point2, Vector2};
-use rayon::prelude::*;
 
-use super::super::par::worth_parallel;
+use super::super::par::map_indexed;
 use super::super::saddle_fit::{refine_saddle, SaddleFitParams};
 use super::{ChessboardCorners, ChessboardParams, GreyWindow};
 
@@ -39,8 +38,7 @@ pub(super) fn refine_all(
         }
     };
     let n = rows * cols;
-    let res: Vec<(Point2<f64>, bool, f64, f64)> =
-        if worth_parallel(n, params.parallel_min_corners) { (0..n).into_par_iter().map(job).collect() } else { (0..n).map(job).collect() };
+    let res: Vec<(Point2<f64>, bool, f64, f64)> = map_indexed(n, params.parallel_min_corners, job);
     let nref = res.iter().filter(|r| r.1).count();
     let rms = if nref > 0 { (res.iter().filter(|r| r.1).map(|r| r.2 * r.2).sum::<f64>() / nref as f64).sqrt() } else { 0.0 };
     ChessboardCorners {

@@ -238,8 +238,8 @@ pub fn generate(renderer: &Renderer, plan: &DatasetPlan, params: &GenerateParams
 
 /// Render `todo` on this thread (the radiance: GPU work and readback) and form, encode and write
 /// the images on `jobs` threads (a bounded channel between them), so that the noise and the
-/// quantisation of one image overlap the next one's render; `progress` gets the count done, counting from `done_before`. The first
-/// failure stops the run and is returned.
+/// quantisation of one image overlap the next one's render; `progress` gets the count done,
+/// counting from `done_before`. The first failure stops the run and is returned.
 #[allow(clippy::too_many_arguments)] // the run's pieces, each used once; a struct would only rename them
 fn render_all(
     renderer: &Renderer,
