@@ -126,8 +126,9 @@ fn a_lit_box_shows_lambert_and_the_plates_shadow() {
 
 /// The objects' pixels (the instance mask shrunk by a pixel: the board's own lighting is not the
 /// reference's) against the f64 CPU reference (8 x 8 samples, 32 x 32 where they differ), shadow
-/// edges and the sphere's terminator included: mean |diff| <= 0.1 grey levels and the 99th
-/// percentile <= 2.
+/// edges and the sphere's terminator included: mean |diff| <= 0.1 grey levels, the 99th
+/// percentile <= 2 and the worst pixel <= 4 (measured 3.04: a shadow edge across a face is
+/// sampled 8 x 8 by the fine pass, a step of about 100 grey levels).
 #[test]
 fn lit_objects_match_the_cpu_reference() {
     let s = scene();
@@ -154,6 +155,7 @@ fn lit_objects_match_the_cpu_reference() {
     eprintln!("lit objects vs CPU reference: {} pixels, mean |diff| {mean:.4}, 99th percentile {p99:.3}, max {:.2} grey levels", d.len(), d[d.len() - 1]);
     assert!(d.len() > 5000, "{}", d.len());
     assert!(mean <= 0.1 && p99 <= 2.0, "mean {mean}, p99 {p99}");
+    assert!(d[d.len() - 1] <= 4.0, "worst pixel {}", d[d.len() - 1]);
 }
 
 /// Lit objects under an area light are refused by name (not drawn wrongly).
