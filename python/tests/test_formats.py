@@ -70,7 +70,7 @@ def robot(tmp_path_factory):
     spec.write_text(spec_text("s_path_robot.toml", ROBOT))
     out = root / "ds"
     synthcam("dataset", spec, "-o", out)
-    synthcam("export", out, "--format", "mcap")
+    synthcam("export", out, "--format", "mcap,rosbag2")
     return out
 
 
@@ -210,6 +210,48 @@ def test_servo_bag_reads_with_mcap_ros2(tmp_path):
         assert np.allclose(world_cam[:3, 3], steps[step]["cam_position_m"], atol=1e-9)
         assert ("world", "target") in tf
     print(f"mcap (servo): {counts}")
+
+
+def rosbags_reader(folder):
+    """rosbags' AnyReader on a rosbag2 folder, with ROS 2 Humble's message types."""
+    pytest.importorskip("rosbags", reason="skipped: rosbags is not installed (pip install rosbags)")
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    return AnyReader([folder], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+
+
+def test_rosbag2_folders_open_with_rosbags(robot, tmp_path):
+    """`export --format rosbag2` and `servo --rosbag2`: folders that rosbags' AnyReader opens; the
+    messages are the single-file bag's, the metadata counts them."""
+    folder = robot / "rosbag2"
+    assert sorted(p.name for p in folder.iterdir()) == ["metadata.yaml", "rosbag2_0.mcap"]
+    assert (folder / "rosbag2_0.mcap").read_bytes() == (robot / "ros2.mcap").read_bytes()
+    with rosbags_reader(folder) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        assert counts == {"/cam0/image_raw": 4, "/cam0/camera_info": 4, "/tf": 4}
+        assert (reader.start_time, reader.duration) == (0, 3 * 100_000_000 + 1)
+        cam = truth(robot, 0)["camera"]
+        images = [c for c in reader.connections if c.topic == "/cam0/image_raw"]
+        for k, (conn, stamp, raw) in enumerate(reader.messages(connections=images)):
+            img = reader.deserialize(raw, conn.msgtype)
+            assert (img.width, img.height, img.encoding, stamp) == (cam["width"], cam["height"], "mono8", k * 100_000_000)
+            assert img.data.shape == (img.step * img.height,) and img.data.std() > 10  # a rendered board, not a blank
+        infos = [c for c in reader.connections if c.topic == "/cam0/camera_info"]
+        for conn, _, raw in reader.messages(connections=infos):
+            check_camera_info(reader.deserialize(raw, conn.msgtype), cam)
+    out = tmp_path / "servo"
+    synthcam("servo", "--law", "pbvs", "--steps", "3", "--no-compare", "--no-stop", "--true-handeye", "-o", out, "--rosbag2", out / "bag")
+    with rosbags_reader(out / "bag") as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        assert counts["/cam0/image_raw"] == counts["/tf"] == sum(1 for _ in reader.messages()) // 3 >= 3
+    # a folder that is not a bag is not overwritten
+    (tmp_path / "keep").mkdir()
+    (tmp_path / "keep" / "mine.txt").write_text("x")
+    r = synthcam("export", robot, "--format", "rosbag2", "-o", tmp_path / "keep", check=False)
+    assert r.returncode != 0 and "not a rosbag2 folder" in r.stderr
+    assert sorted(p.name for p in (tmp_path / "keep").iterdir()) == ["mine.txt"]
+    print(f"rosbag2: rosbags AnyReader reads {counts} from the servo folder and the dataset's 4 frames")
 
 
 def test_bad_input_fails_without_output(tiny, tmp_path):

@@ -33,7 +33,7 @@ pub struct DatasetArgs {
     #[arg(long, default_value = "auto")]
     pub backend: String,
     /// Also export the finished dataset (an unsharded run, or `merge`): coco, webdataset, mcap,
-    /// comma-separated (see `synthcam export`).
+    /// rosbag2, comma-separated (see `synthcam export`).
     #[arg(long, value_delimiter = ',')]
     pub format: Vec<String>,
     /// WebDataset shard size, bytes (with `--format webdataset`).

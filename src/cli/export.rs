@@ -1,9 +1,10 @@
-//! `synthcam export DIR --format coco|webdataset|mcap[,...] [-o OUT] [--shard-bytes N]`: a
+//! `synthcam export DIR --format coco|webdataset|mcap|rosbag2[,...] [-o OUT] [--shard-bytes N]`: a
 //! finished dataset folder in other tools' formats (`synthcam::dataset::formats`).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use synthcam::dataset::formats::bag::BagOutput;
 use synthcam::dataset::formats::folder::DatasetFolder;
 use synthcam::dataset::formats::{export_folder, ExportOptions, Format, DEFAULT_SHARD_BYTES};
 
@@ -13,10 +14,12 @@ pub struct ExportArgs {
     /// The dataset folder (spec.toml, manifest.jsonl, images/).
     pub dir: PathBuf,
     /// Formats, comma-separated: coco (coco.json), webdataset (webdataset/shard-NNNNNN.tar),
-    /// mcap (ros2.mcap, robot-mode datasets).
+    /// mcap (ros2.mcap, robot-mode datasets), rosbag2 (the same bag as a folder: rosbag2/ with
+    /// metadata.yaml, for `ros2 bag play`).
     #[arg(long, value_delimiter = ',', required = true)]
     pub format: Vec<String>,
-    /// Output file (coco, mcap) or folder (webdataset) when one format is given; default inside DIR.
+    /// Output file (coco, mcap) or folder (webdataset, rosbag2) when one format is given; default
+    /// inside DIR.
     #[arg(short, long)]
     pub out: Option<PathBuf>,
     /// WebDataset shard size, bytes.
@@ -53,14 +56,20 @@ pub fn export_all(dir: &Path, formats: &[Format], out: Option<&Path>, opts: &Exp
     Ok(())
 }
 
-/// One line for a bag written by `servo --mcap` or `sim --mcap`.
-pub fn print_bag(path: &Path, counts: &synthcam::dataset::formats::mcap::McapCounts, bytes: u64) {
+/// The bags that `--mcap FILE` and `--rosbag2 DIR` ask for.
+pub fn bag_outputs(mcap: Option<&Path>, rosbag2: Option<&Path>) -> Vec<BagOutput> {
+    mcap.map(|p| BagOutput::File(p.to_path_buf())).into_iter().chain(rosbag2.map(|p| BagOutput::Rosbag2(p.to_path_buf()))).collect()
+}
+
+/// One line for a bag written by `servo` or `sim` (`--mcap`, `--rosbag2`).
+pub fn print_bag(out: &BagOutput, counts: &synthcam::dataset::formats::mcap::McapCounts, bytes: u64) {
     println!(
-        "mcap: {} images, {} camera infos, {} tf messages -> {} ({:.1} MB)",
+        "{}: {} images, {} camera infos, {} tf messages -> {} ({:.1} MB)",
+        if matches!(out, BagOutput::File(_)) { "mcap" } else { "rosbag2" },
         counts.images,
         counts.camera_infos,
         counts.tf,
-        path.display(),
+        out.path().display(),
         bytes as f64 / 1e6
     );
 }

@@ -44,7 +44,7 @@ pub enum CliCommand {
     /// Generate a dataset from a spec (sharded, resumable), or merge and verify a sharded one.
     ///
     /// SYNOPSIS: synthcam dataset assets/specs/chessboard_1280.toml -o DIR [--shard I/N] [--jobs J]
-    ///           synthcam dataset merge DIR [--format coco,webdataset,mcap]
+    ///           synthcam dataset merge DIR [--format coco,webdataset,mcap,rosbag2]
     /// Shard I/N renders the images k with k % N == I. `--format` exports the finished dataset
     /// (after an unsharded run, or at `merge`) as `synthcam export` does.
     Dataset(dataset::DatasetArgs),
@@ -59,10 +59,11 @@ pub enum CliCommand {
     Experiment(experiment::Experiment),
     /// Export a finished dataset folder in other tools' formats.
     ///
-    /// SYNOPSIS: synthcam export DIR --format coco[,webdataset,mcap] [-o OUT] [--shard-bytes N]
+    /// SYNOPSIS: synthcam export DIR --format coco[,webdataset,mcap,rosbag2] [-o OUT] [--shard-bytes N]
     /// coco: DIR/coco.json, COCO keypoints (pixel_px unchanged, OpenCV pixel centres; v 2/1/0).
     /// webdataset: DIR/webdataset/shard-000000.tar, ... (NNNNNN.png + NNNNNN.json, ~1 GB each).
     /// mcap: DIR/ros2.mcap, a ROS 2 bag (Image, CameraInfo, /tf) of a robot-mode dataset.
+    /// rosbag2: DIR/rosbag2/ (metadata.yaml + rosbag2_0.mcap), the same bag for `ros2 bag play`.
     Export(export::ExportArgs),
     /// The course's hand-eye experiment (variant A) on rendered and detected pixels.
     ///
@@ -77,11 +78,12 @@ pub enum CliCommand {
     ///
     /// SYNOPSIS: synthcam servo --law ibvs -o out/ibvs --frames
     /// writes trace.csv/json, trace_ideal.csv/json, plots, summary.md (error budget) and report.html;
-    /// `--mcap run.mcap` writes the rendered frames as a ROS 2 bag (Image, CameraInfo, /tf).
+    /// `--mcap run.mcap` writes the rendered frames as a ROS 2 bag (Image, CameraInfo, /tf),
+    /// `--rosbag2 DIR` the same as a rosbag2 folder (`ros2 bag play DIR`).
     Servo(servo::ServoArgs),
     /// An open scenario (any camera, target and robot): hand-eye from rendered views, then PBVS or IBVS.
     ///
-    /// SYNOPSIS: synthcam sim assets/scenarios/ur5e_chessboard.toml --law ibvs --json run.json [--mcap run.mcap]
+    /// SYNOPSIS: synthcam sim assets/scenarios/ur5e_chessboard.toml --law ibvs --json run.json [--mcap run.mcap] [--rosbag2 DIR]
     Sim(sim::SimArgs),
 }
 

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use synthcam::course::servo_run::{run_servo_on, HandEyeSource, ServoOptions, ServoScenario, ServoTrace};
+use synthcam::dataset::formats::bag::BagOutput;
 use synthcam::dataset::{encode_png, write_atomic};
 use synthcam::render::GreyImage;
 use synthcam::report::doc::Document;
@@ -83,6 +84,9 @@ pub struct ServoArgs {
     /// /tf (world -> base -> tool0 -> cam0, world -> target), step s at s x 100 ms.
     #[arg(long, value_name = "PATH")]
     pub mcap: Option<PathBuf>,
+    /// Also write that bag as a rosbag2 folder (metadata.yaml + MCAP), for `ros2 bag play DIR`.
+    #[arg(long, value_name = "DIR")]
+    pub rosbag2: Option<PathBuf>,
 }
 
 fn options(args: &ServoArgs, observation: ObservationKind) -> ServoOptions {
@@ -238,12 +242,14 @@ impl FrameSink {
     }
 }
 
-/// `--mcap`: the rendered run's frames as a ROS 2 bag.
-fn write_bag(path: &Path, spec: &RobotSpec, scenario: &SimScenario, t: &ServoTrace, bag: &[(usize, GreyImage)]) -> anyhow::Result<()> {
+/// `--mcap`, `--rosbag2`: the rendered run's frames as a ROS 2 bag.
+fn write_bags(outs: &[BagOutput], spec: &RobotSpec, scenario: &SimScenario, t: &ServoTrace, bag: &[(usize, GreyImage)]) -> anyhow::Result<()> {
     let robot = spec.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;
-    let (counts, bytes) =
-        synthcam::dataset::formats::series::write_servo_mcap(path, scenario, robot.as_ref(), t, bag).with_context(|| format!("writing {}", path.display()))?;
-    super::export::print_bag(path, &counts, bytes);
+    for out in outs {
+        let (counts, bytes) = synthcam::dataset::formats::series::write_servo_bag(out, scenario, robot.as_ref(), t, bag)
+            .with_context(|| format!("writing {}", out.path().display()))?;
+        super::export::print_bag(out, &counts, bytes);
+    }
     Ok(())
 }
 
@@ -265,7 +271,8 @@ fn load_scenario(args: &ServoArgs) -> anyhow::Result<Loaded> {
 
 /// Run `servo`.
 pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(!(args.ideal && args.mcap.is_some()), "--mcap writes rendered frames: drop --ideal");
+    let bags = super::export::bag_outputs(args.mcap.as_deref(), args.rosbag2.as_deref());
+    anyhow::ensure!(!args.ideal || bags.is_empty(), "--mcap / --rosbag2 write rendered frames: drop --ideal");
     let (scenario, spec, handeye_around) = load_scenario(args)?;
     let size = scenario.camera.size;
     let run = |renderer: Option<&synthcam::render::Renderer>, observation, sink: &mut dyn FnMut(usize, &synthcam::render::GreyImage)| {
@@ -279,7 +286,7 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
     let mut frames = Vec::new();
     if !args.ideal {
         let renderer = super::open_renderer("auto")?;
-        let mut sink = FrameSink { dir: args.frames.then(|| out.join("frames")), bag: args.mcap.as_ref().map(|_| Vec::new()), ..FrameSink::default() };
+        let mut sink = FrameSink { dir: args.frames.then(|| out.join("frames")), bag: (!bags.is_empty()).then(Vec::new), ..FrameSink::default() };
         if let Some(dir) = &sink.dir {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
@@ -291,8 +298,8 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         })
         .context("servo run")?;
         bar.finish_and_clear();
-        if let (Some(path), Some(bag)) = (&args.mcap, &sink.bag) {
-            write_bag(path, &spec, &scenario, &t, bag)?;
+        if let Some(bag) = &sink.bag {
+            write_bags(&bags, &spec, &scenario, &t, bag)?;
         }
         frames = sink.finish(&out)?;
         print_run("rendered + detected", &t);

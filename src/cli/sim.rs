@@ -40,6 +40,9 @@ pub struct SimArgs {
     /// Write the loop's rendered frames as a ROS 2 bag (MCAP: Image, CameraInfo, /tf).
     #[arg(long)]
     pub mcap: Option<PathBuf>,
+    /// Write the same bag as a rosbag2 folder (metadata.yaml + MCAP), for `ros2 bag play DIR`.
+    #[arg(long, value_name = "DIR")]
+    pub rosbag2: Option<PathBuf>,
 }
 
 /// Frames kept by [`Recording`]: (simulator frame, image).
@@ -76,14 +79,15 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let robot = spec.robot.build(&|p| std::fs::read_to_string(base.join(p)).map_err(|e| e.to_string()))?;
     let meshes = synthcam::dataset::MeshLibrary::beside(&args.scenario);
     let scenario = spec.to_scenario_with(&|p: &str| meshes.load(p))?;
-    anyhow::ensure!(!(args.ideal && args.mcap.is_some()), "--mcap records rendered frames: it cannot go with --ideal");
+    let bags = super::export::bag_outputs(args.mcap.as_deref(), args.rosbag2.as_deref());
+    anyhow::ensure!(!args.ideal || bags.is_empty(), "--mcap / --rosbag2 record rendered frames: they cannot go with --ideal");
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
     let sensor: Box<dyn Sensor> = match &renderer {
         Some(r) => Box::new(RenderedSensor { renderer: r }),
         None => Box::new(IdealSensor::new(IDEAL_NOISE_PX, 0)?),
     };
     let frames = Frames::default();
-    let sensor: Box<dyn Sensor> = if args.mcap.is_some() { Box::new(Recording { inner: sensor, frames: frames.clone() }) } else { sensor };
+    let sensor: Box<dyn Sensor> = if !bags.is_empty() { Box::new(Recording { inner: sensor, frames: frames.clone() }) } else { sensor };
     let mut sim = Sim::new(scenario.clone(), robot, sensor)?;
     // Ideal features carry N(0, sigma^2) per coordinate: their RMS distance to the desired ones
     // cannot fall below sigma sqrt(2), so the IBVS stop is raised to 2 sigma there.
@@ -104,10 +108,10 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     if let Some(p) = &args.json {
         write_atomic(p, &serde_json::to_vec_pretty(&run)?)?;
     }
-    if let Some(p) = &args.mcap {
-        let (counts, bytes) = synthcam::dataset::formats::series::write_loop_mcap(p, &scenario, sim.robot(), &run.trace, &frames.borrow())
-            .with_context(|| format!("writing {}", p.display()))?;
-        super::export::print_bag(p, &counts, bytes);
+    for bag in &bags {
+        let (counts, bytes) = synthcam::dataset::formats::series::write_loop_bag(bag, &scenario, sim.robot(), &run.trace, &frames.borrow())
+            .with_context(|| format!("writing {}", bag.path().display()))?;
+        super::export::print_bag(bag, &counts, bytes);
     }
     anyhow::ensure!(run.trace.stopped, "the loop did not converge in {} steps", args.steps);
     Ok(())

@@ -1,5 +1,6 @@
 //! `synthcam sim --mcap`: an open scenario's loop written as a ROS 2 bag, one frame per step of
-//! the run's JSON trace, with the scenario's camera and the arm's transforms at that step.
+//! the run's JSON trace, with the scenario's camera and the arm's transforms at that step;
+//! `--rosbag2`: the same bag in a rosbag2 folder with its `metadata.yaml`.
 
 use std::collections::BTreeMap;
 
@@ -14,12 +15,14 @@ fn sim_loop_bag_holds_every_step_with_its_joints() {
     let dir = std::env::temp_dir().join(format!("synthcam-sim-bag-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let (json, bag) = (dir.join("run.json"), dir.join("run.mcap"));
+    let (json, bag, folder) = (dir.join("run.json"), dir.join("run.mcap"), dir.join("run_bag"));
     let o = std::process::Command::new(bin())
         .args(["sim", "assets/scenarios/ur5e_chessboard.toml", "--law", "ibvs", "--views", "3", "--json"])
         .arg(&json)
         .arg("--mcap")
         .arg(&bag)
+        .arg("--rosbag2")
+        .arg(&folder)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -63,5 +66,21 @@ fn sim_loop_bag_holds_every_step_with_its_joints() {
     let each = steps.len();
     assert!(each > 3);
     assert_eq!(counts.values().copied().collect::<Vec<_>>(), vec![each; 3], "{counts:?}");
-    println!("sim --mcap: {each} steps -> {counts:?}");
+    // The folder holds the same bag, byte for byte, and metadata that counts it.
+    assert_eq!(std::fs::read(folder.join("run_bag_0.mcap")).unwrap(), std::fs::read(&bag).unwrap());
+    let meta = std::fs::read_to_string(folder.join("metadata.yaml")).unwrap();
+    let last = steps[each - 1]["frame"].as_u64().unwrap() * 100_000_000;
+    let first = steps[0]["frame"].as_u64().unwrap() * 100_000_000;
+    for line in [
+        format!("  message_count: {}\n", 3 * each),
+        format!("    nanoseconds: {}\n", last - first),
+        format!("    nanoseconds_since_epoch: {first}\n"),
+        "    - run_bag_0.mcap\n".into(),
+        "        name: /tf\n        type: tf2_msgs/msg/TFMessage\n".into(),
+    ] {
+        assert!(meta.contains(&line), "{line:?} not in\n{meta}");
+    }
+    assert_eq!(meta.matches(&format!("      message_count: {each}\n")).count(), 3, "{meta}");
+    assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 2, "only the bag and its metadata");
+    println!("sim --mcap --rosbag2: {each} steps -> {counts:?}");
 }

@@ -47,6 +47,10 @@ pub struct McapCounts {
     pub camera_infos: u64,
     /// `/tf`.
     pub tf: u64,
+    /// The first message's time stamp, nanoseconds (0 when there is none).
+    pub start_ns: u64,
+    /// The last message's time stamp, nanoseconds.
+    pub end_ns: u64,
 }
 
 /// ROS's `CameraInfo` of a synthcam camera ([`synthcam_core::camera::formats::ros_camera_info`], which
@@ -125,6 +129,8 @@ where
         put(ch.tf, &tf_message_cdr(t, &frame.transforms)).map_err(mcap_err)?;
         put(ch.info, &camera_info_cdr(t, CAMERA_FRAME, camera)).map_err(mcap_err)?;
         put(ch.image, &image_cdr(t, CAMERA_FRAME, &frame.image)).map_err(mcap_err)?;
+        counts.start_ns = if counts.images == 0 { t } else { counts.start_ns.min(t) };
+        counts.end_ns = counts.end_ns.max(t);
         counts.images += 1;
         counts.camera_infos += 1;
         counts.tf += 1;

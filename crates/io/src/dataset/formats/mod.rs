@@ -1,10 +1,11 @@
 //! Dataset formats for other tools: COCO keypoints JSON ([`coco`]), WebDataset tar shards
-//! ([`webdataset`]) and ROS 2 bags in MCAP ([`mcap`]).
+//! ([`webdataset`]) and ROS 2 bags in MCAP ([`mcap`]), as one file or a rosbag2 folder ([`bag`]).
 //!
 //! Each writer is a pure function from in-memory data (truth labels, image bytes) to bytes or a
 //! [`std::io::Write`]; [`export`] reads a finished dataset folder ([`folder`]) and writes a format
 //! atomically (a temporary name, then a rename), so a failed export leaves no half-written file.
 
+pub mod bag;
 pub mod coco;
 pub mod folder;
 pub mod mcap;
@@ -26,11 +27,14 @@ pub enum Format {
     WebDataset,
     /// A ROS 2 bag in MCAP (`ros2.mcap`): robot-mode datasets only.
     Mcap,
+    /// The same bag as a rosbag2 folder (`rosbag2/`: `metadata.yaml`, `rosbag2_0.mcap`), which
+    /// `ros2 bag play DIR` opens.
+    Rosbag2,
 }
 
 impl Format {
     /// Every format, in the order of the docs.
-    pub const ALL: [Format; 3] = [Format::Coco, Format::WebDataset, Format::Mcap];
+    pub const ALL: [Format; 4] = [Format::Coco, Format::WebDataset, Format::Mcap, Format::Rosbag2];
 
     /// The name on the command line.
     pub fn name(self) -> &'static str {
@@ -38,6 +42,7 @@ impl Format {
             Format::Coco => "coco",
             Format::WebDataset => "webdataset",
             Format::Mcap => "mcap",
+            Format::Rosbag2 => "rosbag2",
         }
     }
 
@@ -47,6 +52,7 @@ impl Format {
             Format::Coco => dir.join("coco.json"),
             Format::WebDataset => dir.join("webdataset"),
             Format::Mcap => dir.join("ros2.mcap"),
+            Format::Rosbag2 => dir.join("rosbag2"),
         }
     }
 }
@@ -63,7 +69,7 @@ impl std::str::FromStr for Format {
 #[non_exhaustive]
 pub enum FormatError {
     /// A format name that is not one of [`Format::ALL`].
-    #[error("unknown format `{0}` (coco, webdataset, mcap)")]
+    #[error("unknown format `{0}` (coco, webdataset, mcap, rosbag2)")]
     UnknownFormat(String),
     /// The dataset folder could not be read, or a file could not be written.
     #[error(transparent)]
@@ -177,9 +183,9 @@ pub fn export_folder(
             (1, json.len() as u64)
         }
         Format::WebDataset => webdataset::write_folder(folder, &output, opts.shard_bytes, tick)?,
-        Format::Mcap => {
-            let bytes = series::write_dataset_mcap(folder, &output, opts.frame_period_ns, tick)?;
-            (1, bytes)
+        Format::Mcap | Format::Rosbag2 => {
+            let bag = if format == Format::Mcap { bag::BagOutput::File(output.clone()) } else { bag::BagOutput::Rosbag2(output.clone()) };
+            (1, series::write_dataset_bag(folder, &bag, opts.frame_period_ns, tick)?)
         }
     };
     Ok(ExportReport { format, output, images: folder.entries.len() as u64, files, bytes })
@@ -193,6 +199,37 @@ pub(crate) fn write_err(path: &Path, source: std::io::Error) -> FormatError {
 pub(crate) fn tmp_path(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp{}", std::process::id()))
+}
+
+/// Write the folder `out` through `fill` on a temporary folder beside it, then put it in place of
+/// `out` (an earlier output there, which `is_ours` recognises, is replaced). The temporary folder is
+/// removed on any failure.
+///
+/// # Errors
+/// `fill`'s error, [`FormatError::Write`], or `out` exists and `is_ours` does not accept it (`what`
+/// names what it should be).
+pub fn write_folder_atomic<T, F>(out: &Path, what: &str, is_ours: impl Fn(&Path) -> bool, fill: F) -> Result<T, FormatError>
+where
+    F: FnOnce(&Path) -> Result<T, FormatError>,
+{
+    if out.exists() && (!out.is_dir() || !is_ours(out)) {
+        return Err(write_err(out, std::io::Error::new(std::io::ErrorKind::AlreadyExists, format!("exists and is not {what}"))));
+    }
+    let tmp = tmp_path(out);
+    let _ = std::fs::remove_dir_all(&tmp);
+    let result = (|| {
+        std::fs::create_dir_all(&tmp).map_err(|e| write_err(&tmp, e))?;
+        let value = fill(&tmp)?;
+        if out.exists() {
+            std::fs::remove_dir_all(out).map_err(|e| write_err(out, e))?;
+        }
+        std::fs::rename(&tmp, out).map_err(|e| write_err(out, e))?;
+        Ok(value)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+    result
 }
 
 /// Write `path` through `fill` on a temporary file beside it, then rename; the temporary file is

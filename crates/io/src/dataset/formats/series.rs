@@ -6,14 +6,13 @@
 //! `cam_from_target`; for servo runs `world` -> `target` from the scenario (the target does not
 //! move). Each transform is `parent_from_child`.
 
-use std::path::Path;
-
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
+use super::bag::{write_bag, BagOutput};
 use super::folder::DatasetFolder;
-use super::mcap::{camera_info, decode_raw_image, raw_image, write_series, McapCounts, SeriesFrame};
+use super::mcap::{decode_raw_image, raw_image, McapCounts, SeriesFrame};
 use super::ros2_msgs::FrameTransform;
-use super::{write_atomic_with, FormatError};
+use super::FormatError;
 use crate::dataset::spec::PoseMode;
 use synthcam_core::robot::{base_from_tool, Joints, Robot};
 use synthcam_course::servo_run::ServoTrace;
@@ -37,30 +36,12 @@ pub fn pose_of_label(p: &PoseLabel) -> Isometry3<f64> {
     Isometry3::from_parts(Translation3::from(Vector3::from(p.t_m)), q)
 }
 
-/// Write `frames` as a bag to `path` atomically. Returns the counts and the file's bytes.
-///
-/// # Errors
-/// [`super::mcap::camera_info`]'s, the frames' or the writer's errors (nothing is left at `path`).
-pub fn write_mcap_file<I>(path: &Path, camera: &CameraSpec, frames: I) -> Result<(McapCounts, u64), FormatError>
-where
-    I: IntoIterator<Item = Result<SeriesFrame, FormatError>>,
-{
-    let info = camera_info(camera)?;
-    let mcap_err = |source| FormatError::Mcap { path: path.display().to_string(), source };
-    let mut counts = McapCounts::default();
-    let bytes = write_atomic_with(path, |w| {
-        counts = write_series(w, &info, frames, &mcap_err)?;
-        Ok(())
-    })?;
-    Ok((counts, bytes))
-}
-
-/// Write a robot-mode dataset as a bag to `path`; returns the file's bytes.
+/// Write a robot-mode dataset as a bag at `out`; returns the bytes written.
 ///
 /// # Errors
 /// [`FormatError::Unsupported`] for a dataset whose poses are not a robot's, a read, decode or
 /// write error.
-pub fn write_dataset_mcap(folder: &DatasetFolder, path: &Path, frame_period_ns: u64, tick: super::Tick<'_>) -> Result<u64, FormatError> {
+pub fn write_dataset_bag(folder: &DatasetFolder, out: &BagOutput, frame_period_ns: u64, tick: super::Tick<'_>) -> Result<u64, FormatError> {
     let plan = folder.plan()?;
     let PoseMode::Robot(cell) = &plan.mode else {
         return Err(FormatError::Unsupported {
@@ -89,7 +70,7 @@ pub fn write_dataset_mcap(folder: &DatasetFolder, path: &Path, frame_period_ns: 
         let image = decode_raw_image(&folder.read_image(e)?, &e.file)?;
         Ok(SeriesFrame { stamp_ns: e.k.saturating_mul(frame_period_ns), image, transforms })
     });
-    Ok(write_mcap_file(path, &CameraSpec::from_model(&plan.camera), frames)?.1)
+    Ok(write_bag(out, &CameraSpec::from_model(&plan.camera), frames)?.1)
 }
 
 /// The frames of a run on a robot: `images` are (index, rendered frame), each stamped at index x
@@ -137,14 +118,14 @@ pub fn servo_frames(
     robot_frames(scenario, robot, images, |step| trace.steps.iter().find(|r| r.step == step).map(|r| r.q_rad.as_slice()), frame_period_ns)
 }
 
-/// Write an open-scenario run (`synthcam sim`) as a bag to `path`: `images` are (simulator frame,
+/// Write an open-scenario run (`synthcam sim`) as a bag at `out`: `images` are (simulator frame,
 /// rendered frame) of every observation; those of the loop's steps are written, stamped at frame x
 /// 100 ms (the hand-eye views before the loop leave a gap). Returns the counts and bytes.
 ///
 /// # Errors
-/// As [`write_servo_mcap`].
-pub fn write_loop_mcap(
-    path: &Path,
+/// As [`write_servo_bag`].
+pub fn write_loop_bag(
+    out: &BagOutput,
     scenario: &SimScenario,
     robot: &dyn Robot,
     trace: &LoopTrace,
@@ -152,20 +133,20 @@ pub fn write_loop_mcap(
 ) -> Result<(McapCounts, u64), FormatError> {
     let q_at = |frame: usize| trace.steps.iter().find(|s| s.frame == frame as u64).map(|s| s.q_rad.as_slice());
     let frames = robot_frames(scenario, robot, images, q_at, DEFAULT_FRAME_PERIOD_NS)?;
-    write_mcap_file(path, &CameraSpec::from_model(&scenario.camera), frames.into_iter().map(Ok))
+    write_bag(out, &CameraSpec::from_model(&scenario.camera), frames.into_iter().map(Ok))
 }
 
-/// Write a servo run as a bag to `path` ([`servo_frames`]). Returns the counts and bytes.
+/// Write a servo run as a bag at `out` ([`servo_frames`]). Returns the counts and bytes.
 ///
 /// # Errors
-/// As [`servo_frames`] and [`write_mcap_file`].
-pub fn write_servo_mcap(
-    path: &Path,
+/// As [`servo_frames`] and [`write_bag`].
+pub fn write_servo_bag(
+    out: &BagOutput,
     scenario: &SimScenario,
     robot: &dyn Robot,
     trace: &ServoTrace,
     images: &[(usize, GreyImage)],
 ) -> Result<(McapCounts, u64), FormatError> {
     let frames = servo_frames(scenario, robot, trace, images, DEFAULT_FRAME_PERIOD_NS)?;
-    write_mcap_file(path, &CameraSpec::from_model(&scenario.camera), frames.into_iter().map(Ok))
+    write_bag(out, &CameraSpec::from_model(&scenario.camera), frames.into_iter().map(Ok))
 }

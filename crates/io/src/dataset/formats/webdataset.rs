@@ -91,14 +91,8 @@ fn sample_files(folder: &DatasetFolder, e: &crate::dataset::manifest::ManifestEn
 /// A read, corrupt-file or write error (the temporary folder is removed), or an `out` that
 /// exists and holds other files.
 pub fn write_folder(folder: &DatasetFolder, out: &Path, shard_bytes: u64, tick: super::Tick<'_>) -> Result<(u64, u64), FormatError> {
-    let keep_out = |p: &Path| std::fs::read_dir(p).is_ok_and(|d| d.flatten().any(|e| !e.file_name().to_string_lossy().starts_with("shard-")));
-    if out.exists() && (!out.is_dir() || keep_out(out)) {
-        return Err(write_err(out, std::io::Error::new(std::io::ErrorKind::AlreadyExists, "exists and is not a folder of WebDataset shards")));
-    }
-    let tmp = super::tmp_path(out);
-    let _ = std::fs::remove_dir_all(&tmp);
-    let result = (|| {
-        std::fs::create_dir_all(&tmp).map_err(|e| write_err(&tmp, e))?;
+    let only_shards = |p: &Path| std::fs::read_dir(p).is_ok_and(|d| d.flatten().all(|e| e.file_name().to_string_lossy().starts_with("shard-")));
+    super::write_folder_atomic(out, "a folder of WebDataset shards", only_shards, |tmp| {
         let (mut bytes, ticked) = (0, std::cell::Cell::new(0));
         let shards = write_shards(
             folder.entries.len(),
@@ -116,16 +110,8 @@ pub fn write_folder(folder: &DatasetFolder, out: &Path, shard_bytes: u64, tick: 
                 Ok(())
             },
         )?;
-        if out.exists() {
-            std::fs::remove_dir_all(out).map_err(|e| write_err(out, e))?;
-        }
-        std::fs::rename(&tmp, out).map_err(|e| write_err(out, e))?;
         Ok((shards as u64, bytes))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_dir_all(&tmp);
-    }
-    result
+    })
 }
 
 #[cfg(test)]
