@@ -7,6 +7,14 @@
 //! target, a robot and a controller of the user's run the same way.
 //!
 //! Users reach it through the `synthcam` facade (`synthcam::course`).
+//!
+//! ```
+//! // The course's cell in the open scenario format, readable by any user of the step API.
+//! let spec = synthcam_sim::ScenarioSpec::parse(synthcam_course::SCENARIO)?;
+//! let scenario = spec.to_scenario()?;
+//! assert_eq!(scenario.q_start_rad.len(), 6); // the IRB 1200's joints
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 #![deny(missing_docs)]
 
@@ -26,7 +34,7 @@ pub use presets::{calibration_pose, camera, handeye_linear, ibvs_params};
 
 /// The course's servoing cell in the open format: IRB 1200, hand-eye variant A, the S-path of
 /// beads, the course camera, the course's start and goal (`assets/scenarios/course_sim.toml`).
-pub const SCENARIO: &str = include_str!("../../../assets/scenarios/course_sim.toml");
+pub const SCENARIO: &str = include_str!("../assets/scenarios/course_sim.toml");
 
 /// The course's world as a [`SimScenario`]: the course camera ([`camera`]), the S-path of beads (defined in
 /// the world frame, so `world_from_target` is the identity), render noise 1 grey level with

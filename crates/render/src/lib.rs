@@ -5,6 +5,24 @@
 //! which inverts the lens distortion per pixel, casts rays at the exact target geometry and
 //! box-filters each pixel (analytic coverage or supersampling). `post` applies blur, noise and
 //! quantisation on the CPU, deterministically.
+//!
+//! ```
+//! use synthcam_core::{camera::CameraModel, target::Target};
+//! use synthcam_render::Renderer;
+//! use synthcam_scene::{Facing, Scene};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let camera = CameraModel::pinhole(320, 240, 250.0).with_distortion([-0.3, 0.1, 0.0, 0.0, 0.0]);
+//! let scene = Scene::builder()
+//!     .camera(camera)
+//!     .target(Target::chessboard(8, 6, 0.03))
+//!     .facing(Facing { distance_m: 0.5, tilt_x_deg: 20.0, tilt_y_deg: 0.0, roll_deg: 0.0 })
+//!     .build()?;
+//! let renderer = Renderer::headless()?; // Vulkan (lavapipe without a GPU), else GL
+//! let (image, truth) = renderer.render_with_truth(&scene)?;
+//! assert_eq!((image.dimensions(), truth.features.len()), ((320, 240), 35));
+//! # Ok(())
+//! # }
+//! ```
 
 #![deny(missing_docs)]
 

@@ -362,7 +362,7 @@ t_m = [-0.05, -0.04, 0.3]
 
     #[test]
     fn a_fisheye_beyond_180_degrees_sees_a_board_behind_its_camera_plane() {
-        let text = include_str!("../../../assets/scenes/fisheye_wide_chessboard.toml");
+        let text = include_str!("../assets/scenes/fisheye_wide_chessboard.toml");
         let s = parse_scene(text).expect("wide fisheye scene");
         let centre = s.cam_from_target * nalgebra::Point3::new(0.27, 0.21, 0.0);
         assert!(centre.z < 0.0, "{centre}");

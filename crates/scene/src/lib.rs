@@ -5,6 +5,21 @@
 //! brute-force supersampling CPU renderer used to check the GPU, [`exact`] the exact (polygon-clipped)
 //! box filter of planar targets, [`scanline`] a converged scan-line box filter of any target, and [`truth`] the labels written next
 //! to every image.
+//!
+//! ```
+//! use synthcam_core::{camera::CameraModel, target::Target};
+//! use synthcam_scene::{truth_labels, Facing, Scene};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let scene = Scene::builder()
+//!     .camera(CameraModel::pinhole(640, 480, 500.0))
+//!     .target(Target::chessboard(8, 6, 0.03))
+//!     .facing(Facing { distance_m: 0.5, tilt_x_deg: 20.0, tilt_y_deg: 0.0, roll_deg: 0.0 })
+//!     .build()?;
+//! let truth = truth_labels(&scene); // every inner corner's exact pixel and visibility
+//! assert_eq!(truth.features.len(), 35);
+//! # Ok(())
+//! # }
+//! ```
 
 #![deny(missing_docs)]
 

@@ -42,7 +42,7 @@ pub use world::{Observation, Sim};
 
 /// The worked non-course scenario: a UR5e, a 9 x 7-square chessboard, a 1920 x 1200 camera with
 /// f = 1100 px and k1 = -0.2 (`assets/scenarios/ur5e_chessboard.toml`).
-pub const UR5E_CHESSBOARD: &str = include_str!("../../../assets/scenarios/ur5e_chessboard.toml");
+pub const UR5E_CHESSBOARD: &str = include_str!("../assets/scenarios/ur5e_chessboard.toml");
 
 /// Errors of the simulator and its controllers.
 #[derive(Debug, thiserror::Error)]

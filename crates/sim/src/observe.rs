@@ -241,7 +241,7 @@ mod tests {
     /// staleness the 5 mm refresh allows (the bias changes by about 1e-3 px per mm).
     #[test]
     fn the_loop_bias_matches_the_truths() {
-        let scene = synthcam_scene::file::parse_scene(include_str!("../../../assets/scenes/course_s_path.toml")).expect("scene");
+        let scene = synthcam_scene::file::parse_scene(include_str!("../assets/scenes/course_s_path.toml")).expect("scene");
         let (light, truth) = (CentroidBias::sampled(&scene, &LOOP_SAMPLING), CentroidBias::at(&scene));
         assert_eq!(light.bias_px.iter().filter(|b| b.is_some()).count(), truth.bias_px.iter().filter(|b| b.is_some()).count());
         let worst = light.bias_px.iter().zip(&truth.bias_px).filter_map(|(a, b)| Some((a.as_ref()? - b.as_ref()?).norm())).fold(0.0, f64::max);

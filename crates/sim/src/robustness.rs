@@ -59,7 +59,7 @@ use score::{detect_and_score, strength};
 pub use score::{jpeg_round_trip, match_errors, rms, truth_points};
 
 /// The default scene (`assets/scenes/chessboard_k1.toml`).
-pub const CHESSBOARD_K1: &str = include_str!("../../../assets/scenes/chessboard_k1.toml");
+pub const CHESSBOARD_K1: &str = include_str!("../assets/scenes/chessboard_k1.toml");
 
 /// A camera effect studied alone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -53,9 +53,9 @@ pub struct SerialChain {
 }
 
 /// The IRB 1200-5/0.9 URDF shipped in `assets/robots/`.
-pub const IRB1200_URDF: &str = include_str!("../../../../assets/robots/irb1200_5_90.urdf");
+pub const IRB1200_URDF: &str = include_str!("../../assets/robots/irb1200_5_90.urdf");
 /// The UR5e URDF shipped in `assets/robots/`.
-pub const UR5E_URDF: &str = include_str!("../../../../assets/robots/ur5e.urdf");
+pub const UR5E_URDF: &str = include_str!("../../assets/robots/ur5e.urdf");
 
 fn pose(p: &urdf_rs::Pose) -> Isometry3<f64> {
     let [r, pi, y] = p.rpy.0;

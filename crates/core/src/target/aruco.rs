@@ -22,16 +22,16 @@ struct Table {
     data: &'static [u8],
 }
 
-const T4X4: Table = Table { bits: 4, count: 1000, data: include_bytes!("../../../../assets/aruco/DICT_4X4_1000.bits") };
-const T5X5: Table = Table { bits: 5, count: 1000, data: include_bytes!("../../../../assets/aruco/DICT_5X5_1000.bits") };
-const T6X6: Table = Table { bits: 6, count: 1000, data: include_bytes!("../../../../assets/aruco/DICT_6X6_1000.bits") };
-const T7X7: Table = Table { bits: 7, count: 1000, data: include_bytes!("../../../../assets/aruco/DICT_7X7_1000.bits") };
-const ORIGINAL: Table = Table { bits: 5, count: 1024, data: include_bytes!("../../../../assets/aruco/DICT_ARUCO_ORIGINAL.bits") };
-const TAG16H5: Table = Table { bits: 4, count: 30, data: include_bytes!("../../../../assets/aruco/DICT_APRILTAG_16h5.bits") };
-const TAG25H9: Table = Table { bits: 5, count: 35, data: include_bytes!("../../../../assets/aruco/DICT_APRILTAG_25h9.bits") };
-const TAG36H10: Table = Table { bits: 6, count: 2320, data: include_bytes!("../../../../assets/aruco/DICT_APRILTAG_36h10.bits") };
-const TAG36H11: Table = Table { bits: 6, count: 587, data: include_bytes!("../../../../assets/aruco/DICT_APRILTAG_36h11.bits") };
-const MIP36H12: Table = Table { bits: 6, count: 250, data: include_bytes!("../../../../assets/aruco/DICT_ARUCO_MIP_36h12.bits") };
+const T4X4: Table = Table { bits: 4, count: 1000, data: include_bytes!("../../assets/aruco/DICT_4X4_1000.bits") };
+const T5X5: Table = Table { bits: 5, count: 1000, data: include_bytes!("../../assets/aruco/DICT_5X5_1000.bits") };
+const T6X6: Table = Table { bits: 6, count: 1000, data: include_bytes!("../../assets/aruco/DICT_6X6_1000.bits") };
+const T7X7: Table = Table { bits: 7, count: 1000, data: include_bytes!("../../assets/aruco/DICT_7X7_1000.bits") };
+const ORIGINAL: Table = Table { bits: 5, count: 1024, data: include_bytes!("../../assets/aruco/DICT_ARUCO_ORIGINAL.bits") };
+const TAG16H5: Table = Table { bits: 4, count: 30, data: include_bytes!("../../assets/aruco/DICT_APRILTAG_16h5.bits") };
+const TAG25H9: Table = Table { bits: 5, count: 35, data: include_bytes!("../../assets/aruco/DICT_APRILTAG_25h9.bits") };
+const TAG36H10: Table = Table { bits: 6, count: 2320, data: include_bytes!("../../assets/aruco/DICT_APRILTAG_36h10.bits") };
+const TAG36H11: Table = Table { bits: 6, count: 587, data: include_bytes!("../../assets/aruco/DICT_APRILTAG_36h11.bits") };
+const MIP36H12: Table = Table { bits: 6, count: 250, data: include_bytes!("../../assets/aruco/DICT_ARUCO_MIP_36h12.bits") };
 
 /// A predefined marker dictionary (OpenCV's `cv::aruco::PredefinedDictionaryType`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -43,7 +43,7 @@ pub const SPHERE_RADIUS_M: f64 = 0.5;
 pub const PLANAR_CENTER: [f64; 2] = [1.869430, -0.017589];
 
 /// The planar S as embedded at compile time (`x,y` header, one point a row).
-pub const PLANAR_S_CSV: &str = include_str!("../../../../assets/s_path/planar_s.csv");
+pub const PLANAR_S_CSV: &str = include_str!("../../assets/s_path/planar_s.csv");
 
 /// Errors from parsing planar data or building an S path.
 #[derive(Debug, thiserror::Error)]

@@ -224,7 +224,7 @@ mod tests {
     use super::*;
     use crate::dataset::spec::parse_dataset_spec;
 
-    const TINY: &str = include_str!("../../../../assets/specs/tiny.toml");
+    const TINY: &str = include_str!("../../assets/specs/tiny.toml");
 
     #[test]
     fn view_k_depends_only_on_seed_and_k() {
@@ -262,7 +262,7 @@ mod tests {
         // The fisheye spec out to the field's edge: centres up to 80 degrees off-axis, each
         // board's normal within its tilt range of the line of sight (measured from the axis it
         // would be up to 125 degrees).
-        let plan = parse_dataset_spec(include_str!("../../../../assets/specs/fisheye_edge_1280.toml")).unwrap();
+        let plan = parse_dataset_spec(include_str!("../../assets/specs/fisheye_edge_1280.toml")).unwrap();
         let PoseMode::Board(b) = plan.mode else { panic!("board") };
         assert_eq!(b.tilt_from, TiltFrom::Sight);
         let centre = target_centre(&plan);
@@ -277,7 +277,7 @@ mod tests {
         }
         assert!(widest > 70.0, "{widest}");
         // Anything else is an error naming the choices.
-        let bad = include_str!("../../../../assets/specs/fisheye_edge_1280.toml").replace("tilt_from = \"sight\"", "tilt_from = \"normal\"");
+        let bad = include_str!("../../assets/specs/fisheye_edge_1280.toml").replace("tilt_from = \"sight\"", "tilt_from = \"normal\"");
         let e = parse_dataset_spec(&bad).unwrap_err().to_string();
         assert!(e.contains("unknown variant `normal`, expected `axis` or `sight`"), "{e}");
     }

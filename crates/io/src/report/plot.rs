@@ -14,7 +14,7 @@ use plotters::prelude::*;
 use super::ReportError;
 
 /// The embedded font.
-const DEJAVU_SANS: &[u8] = include_bytes!("../../../../assets/fonts/DejaVuSans.ttf");
+const DEJAVU_SANS: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 /// The font family every plot uses (the embedded DejaVu Sans).
 pub const FONT: &str = "sans-serif";

@@ -64,7 +64,7 @@ mod tests {
     use super::super::parse_spec;
     use crate::SceneError;
 
-    const RIG: &str = include_str!("../../../../assets/scenes/stereo_rig.toml");
+    const RIG: &str = include_str!("../../assets/scenes/stereo_rig.toml");
 
     #[test]
     fn each_camera_sees_the_target_through_its_rig_pose() {

@@ -3,21 +3,21 @@
 use super::*;
 
 const EXAMPLES: [(&str, &str); 15] = [
-    ("tiny", include_str!("../../../../../assets/specs/tiny.toml")),
-    ("chessboard_1280", include_str!("../../../../../assets/specs/chessboard_1280.toml")),
-    ("course_calibration", include_str!("../../../../../assets/specs/course_calibration.toml")),
-    ("s_path_robot", include_str!("../../../../../assets/specs/s_path_robot.toml")),
-    ("fisheye_1280", include_str!("../../../../../assets/specs/fisheye_1280.toml")),
-    ("fisheye_edge_1280", include_str!("../../../../../assets/specs/fisheye_edge_1280.toml")),
-    ("fisheye_wide_1280", include_str!("../../../../../assets/specs/fisheye_wide_1280.toml")),
-    ("charuco_full_1280", include_str!("../../../../../assets/specs/charuco_full_1280.toml")),
-    ("charuco_partial_1280", include_str!("../../../../../assets/specs/charuco_partial_1280.toml")),
-    ("aprilgrid_full_1280", include_str!("../../../../../assets/specs/aprilgrid_full_1280.toml")),
-    ("aprilgrid_partial_1280", include_str!("../../../../../assets/specs/aprilgrid_partial_1280.toml")),
-    ("stereo_rig_1280", include_str!("../../../../../assets/specs/stereo_rig_1280.toml")),
-    ("lit_chessboard_1280", include_str!("../../../../../assets/specs/lit_chessboard_1280.toml")),
-    ("lamp_chessboard_1280", include_str!("../../../../../assets/specs/lamp_chessboard_1280.toml")),
-    ("glare_chessboard_1280", include_str!("../../../../../assets/specs/glare_chessboard_1280.toml")),
+    ("tiny", include_str!("../../../assets/specs/tiny.toml")),
+    ("chessboard_1280", include_str!("../../../assets/specs/chessboard_1280.toml")),
+    ("course_calibration", include_str!("../../../assets/specs/course_calibration.toml")),
+    ("s_path_robot", include_str!("../../../assets/specs/s_path_robot.toml")),
+    ("fisheye_1280", include_str!("../../../assets/specs/fisheye_1280.toml")),
+    ("fisheye_edge_1280", include_str!("../../../assets/specs/fisheye_edge_1280.toml")),
+    ("fisheye_wide_1280", include_str!("../../../assets/specs/fisheye_wide_1280.toml")),
+    ("charuco_full_1280", include_str!("../../../assets/specs/charuco_full_1280.toml")),
+    ("charuco_partial_1280", include_str!("../../../assets/specs/charuco_partial_1280.toml")),
+    ("aprilgrid_full_1280", include_str!("../../../assets/specs/aprilgrid_full_1280.toml")),
+    ("aprilgrid_partial_1280", include_str!("../../../assets/specs/aprilgrid_partial_1280.toml")),
+    ("stereo_rig_1280", include_str!("../../../assets/specs/stereo_rig_1280.toml")),
+    ("lit_chessboard_1280", include_str!("../../../assets/specs/lit_chessboard_1280.toml")),
+    ("lamp_chessboard_1280", include_str!("../../../assets/specs/lamp_chessboard_1280.toml")),
+    ("glare_chessboard_1280", include_str!("../../../assets/specs/glare_chessboard_1280.toml")),
 ];
 
 #[test]
