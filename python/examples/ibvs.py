@@ -2,7 +2,8 @@
 
 The law is the simplest IBVS one (Chaumette & Hutchinson 2006, eq. 3), qdot = -gain J^+ (s - s*),
 with the image Jacobian d(pixel)/d(q) taken by central differences of the simulator's model
-(`Sim.project`) and a damped pseudo-inverse, all in NumPy. The desired features are taught by
+(`Sim.project`) and a damped pseudo-inverse, all in NumPy (`synthcam.servo`, the same law that
+`synthcam.gym.IbvsPolicy` runs as a Gymnasium policy). The desired features are taught by
 showing the camera the goal view. Exits non-zero unless the loop ends below 0.5 px RMS.
 
     python python/examples/ibvs.py
@@ -13,6 +14,7 @@ import sys
 import numpy as np
 
 import synthcam
+from synthcam.servo import ibvs_velocity, rms_px
 
 
 def rms_error(obs, desired):
@@ -20,19 +22,7 @@ def rms_error(obs, desired):
     rows = [(i, p - desired[i]) for i, p in zip(obs["ids"], obs["pixels_px"]) if i in desired]
     ids = [i for i, _ in rows]
     e = np.concatenate([d for _, d in rows]) if rows else np.zeros(0)
-    return (np.sqrt(np.mean(e.reshape(-1, 2) ** 2) * 2) if rows else np.inf), ids, e
-
-
-def image_jacobian(sim, q, ids, eps=1e-6):
-    """d(pixel)/d(q) of the features `ids` at joints `q`, central differences of the model."""
-    jac = np.zeros((2 * len(ids), len(q)))
-    for k in range(len(q)):
-        qp, qm = np.array(q, float), np.array(q, float)
-        qp[k] += eps
-        qm[k] -= eps
-        d = (sim.project(qp.tolist())[ids] - sim.project(qm.tolist())[ids]) / (2 * eps)
-        jac[:, k] = d.reshape(-1)
-    return jac
+    return rms_px(e), ids, e
 
 
 def servo(sim, steps=200, gain=0.3, damping=100.0, dt_s=0.1, stop_px=0.05):
@@ -46,9 +36,9 @@ def servo(sim, steps=200, gain=0.3, damping=100.0, dt_s=0.1, stop_px=0.05):
         history.append(rms)
         if rms < stop_px or not ids:
             break
-        jac = image_jacobian(sim, obs["q_rad"], ids)
-        dq = np.linalg.solve(jac.T @ jac + damping * np.eye(sim.dof), jac.T @ e)
-        sim.command((-gain * dq / dt_s).tolist(), dt_s)
+        # image Jacobian by central differences of sim.project, damped least squares, gain
+        qdot = ibvs_velocity(sim.project, obs["q_rad"], ids, e, gain=gain, damping=damping, dt_s=dt_s)
+        sim.command(qdot.tolist(), dt_s)
     return history
 
 

@@ -22,6 +22,7 @@ enum Request {
     ObserveGoal,
     Command { qdot: Vec<f64>, dt_s: f64 },
     SetJoints(Vec<f64>),
+    Restart { q: Vec<f64>, seed: Option<u64> },
     Project(Vec<f64>),
 }
 
@@ -102,6 +103,7 @@ fn handle(sim: &mut LibSim<'_>, request: Request) -> Result<Reply, String> {
         }
         Request::Command { qdot, dt_s } => sim.command_joint_velocities(&qdot, dt_s).map(|()| Reply::Done).map_err(e),
         Request::SetJoints(q) => sim.set_joints(&q).map(|()| Reply::Done).map_err(e),
+        Request::Restart { q, seed } => sim.restart(&q, seed).map(|()| Reply::Done).map_err(e),
         Request::Project(q) => sim.projected_px_at(&q).map(Reply::Pixels).map_err(e),
     }
 }
@@ -194,6 +196,15 @@ impl PySim {
     /// Move the robot to joints `q` (rad) at once.
     fn set_joints(&self, py: Python<'_>, q: Vec<f64>) -> PyResult<()> {
         self.call(py, Request::SetJoints(q)).map(|_| ())
+    }
+
+    /// Start an episode again: the joints at `q` (default: the scenario's start), time and frame
+    /// counter at 0; with `seed`, the image noise of every following frame is drawn from it, so
+    /// the same `q` and `seed` replay the same observations.
+    #[pyo3(signature = (q=None, seed=None))]
+    fn reset(&self, py: Python<'_>, q: Option<Vec<f64>>, seed: Option<u64>) -> PyResult<()> {
+        let q = q.unwrap_or_else(|| self.info.q_start_rad.clone());
+        self.call(py, Request::Restart { q, seed }).map(|_| ())
     }
 
     /// The model's prediction: every feature's pixel with the robot at joints `q` ((N, 2), NaN

@@ -12,6 +12,8 @@ detector, calibration and the closed-loop simulator run on the rendered pixels.
     rig = synthcam.calibrate_rig([{"name": "left", "image_size": (1280, 1024), "detections": [...]}, ...], "chessboard:8x6", 0.03)
     for image, truth in synthcam.Dataset("out/dataset"): ...
     sim = synthcam.Sim("ur5e_chessboard"); obs = sim.observe(); sim.command(qdot, 0.1)
+    qdot = synthcam.servo.ibvs_velocity(sim.project, obs.q_rad, ids, error_px)  # the IBVS law, NumPy
+    import synthcam.gym; env = gymnasium.make("synthcam/ServoIBVS-v0")  # pip install 'synthcam[gym]'
 
 Pixels follow OpenCV's convention: the centre of the top-left pixel is (0, 0). Scenes, targets
 and scenarios are the CLI's files (TOML or JSON text, or the same as dicts); see the repository's
@@ -24,7 +26,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _synthcam
+from . import _synthcam, servo
 from ._synthcam import (
     SynthcamError,
     __version__,
@@ -62,6 +64,12 @@ class Sim:
 
     def set_joints(self, q: Sequence[float]) -> None:
         self._sim.set_joints(q)
+
+    def reset(self, q: Optional[Sequence[float]] = None, seed: Optional[int] = None) -> None:
+        """Start an episode again: joints ``q`` (default the scenario's start), time and frame 0;
+        with ``seed`` the following frames' noise is drawn from it (same ``q`` and ``seed``, same
+        observations)."""
+        self._sim.reset(None if q is None else list(q), seed)
 
     def project(self, q: Sequence[float]) -> np.ndarray:
         """The model's pixels of every feature at joints ``q`` (NaN where not seen)."""
@@ -155,4 +163,5 @@ __all__ = [
     "render",
     "render_depth_mask",
     "rotation_from_rvec",
+    "servo",
 ]

@@ -45,6 +45,10 @@ pub trait Sensor {
     /// # Errors
     /// A renderer or detector failure; a target that is not found is a capture without features.
     fn capture(&mut self, scene: &Scene) -> Result<Capture, SimError>;
+
+    /// Restart the sensor's own random stream from `seed` (a rendered sensor has none: its
+    /// noise follows the scene's seed).
+    fn reseed(&mut self, _seed: u64) {}
 }
 
 /// The GPU renderer and synthcam's detector.
@@ -102,6 +106,10 @@ impl Sensor for IdealSensor {
             }
         }
         Ok(Capture { image: None, features, note: None, render_ms: 0.0, detect_ms: 0.0 })
+    }
+
+    fn reseed(&mut self, seed: u64) {
+        self.rng = ChaCha8Rng::seed_from_u64(seed);
     }
 }
 

@@ -134,6 +134,24 @@ impl<'s> Sim<'s> {
         Ok(())
     }
 
+    /// Start an episode again: the joints at `q`, time and frame counter at 0, and with `seed`
+    /// the image noise (every frame's render seed and an ideal sensor's stream) drawn afresh
+    /// from it, so two restarts with the same `q` and `seed` observe the same frames
+    /// (Gymnasium's `reset(seed=)`).
+    ///
+    /// # Errors
+    /// Wrong length, non-finite or out of limits (nothing changes then).
+    pub fn restart(&mut self, q: &[f64], seed: Option<u64>) -> Result<(), SimError> {
+        self.set_joints(q)?;
+        self.time_s = 0.0;
+        self.frame = 0;
+        if let Some(seed) = seed {
+            self.scenario.render.seed = seed;
+            self.sensor.reseed(seed);
+        }
+        Ok(())
+    }
+
     /// The camera's body twist `[wx, wy, wz, vx, vy, vz]` (its own frame, rad/s and m/s) while
     /// the joints move at the last applied velocities: `cam(q)_from_cam(q + qdot h) / h` for
     /// h = 1 us (the twist's first-order error is ~1e-6 relative).
@@ -319,6 +337,40 @@ fn resolve_ids(target: &Target, features: Vec<Feature>, predicted: &[Option<Poin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn ideal_ur5e() -> Sim<'static> {
+        let spec = crate::ScenarioSpec::parse(crate::UR5E_CHESSBOARD).expect("built-in scenario");
+        let robot = spec.robot.build(&|p| Err(format!("no file {p}"))).expect("built-in robot");
+        let sensor = crate::sensor::IdealSensor::new(0.1, 7).expect("sensor");
+        Sim::new(spec.to_scenario().expect("valid"), robot, Box::new(sensor)).expect("sim")
+    }
+
+    #[test]
+    fn restart_with_a_seed_replays_the_episode() {
+        let mut sim = ideal_ur5e();
+        let q0 = sim.joints().to_vec();
+        let episode = |sim: &mut Sim<'_>| -> Vec<Vec<Feature>> {
+            (0..3)
+                .map(|_| {
+                    let o = sim.observe().expect("observe");
+                    sim.command_joint_velocities(&[0.01, -0.01, 0.0, 0.02, 0.0, 0.01], 0.1).expect("command");
+                    o.features
+                })
+                .collect()
+        };
+        sim.restart(&q0, Some(11)).expect("restart");
+        let a = episode(&mut sim);
+        sim.restart(&q0, Some(11)).expect("restart");
+        assert_eq!((sim.time_s(), sim.observe().expect("observe").frame), (0.0, 0));
+        sim.restart(&q0, Some(11)).expect("restart");
+        assert_eq!(episode(&mut sim), a);
+        sim.restart(&q0, Some(12)).expect("restart");
+        assert_ne!(episode(&mut sim), a, "another seed draws other noise");
+        // a refused restart changes nothing
+        let q = sim.joints().to_vec();
+        assert!(sim.restart(&[0.0; 2], Some(1)).is_err());
+        assert_eq!(sim.joints(), q.as_slice());
+    }
 
     #[test]
     fn grid_orderings_are_permutations() {
