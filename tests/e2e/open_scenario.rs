@@ -46,8 +46,14 @@ fn ur5e_chessboard_hand_eye_pbvs_and_ibvs_on_rendered_corners() {
     // PBVS with the estimated hand-eye.
     let goal = sc.goal_cam_from_target;
     let cell = EyeInHand { tool_from_cam: he.tool_from_cam, ..truth_cell };
-    let mut pbvs =
-        Pbvs { cell: cell.clone(), goal_cam_from_target: goal, params: Default::default(), stop_mm_deg: (0.05, 0.005), base_from_target: None, bias: None };
+    let mut pbvs = Pbvs {
+        cell: cell.clone(),
+        goal_cam_from_target: goal,
+        params: Default::default(),
+        stop_mm_deg: (0.05, 0.005),
+        base_from_target: None,
+        bias: Default::default(),
+    };
     let tr = run_loop(&mut sim, &mut pbvs, &goal, 1.0, 100).expect("PBVS loop");
     let (mm, deg) = tr.steps.last().expect("steps").goal_error_mm_deg;
     eprintln!("PBVS: {} steps, true error {mm:.4} mm {deg:.5} deg", tr.steps.len());
@@ -57,7 +63,7 @@ fn ur5e_chessboard_hand_eye_pbvs_and_ibvs_on_rendered_corners() {
     // IBVS on the corners, desired features taught by showing.
     sim.set_joints(&sc.q_start_rad).expect("restart");
     let desired = Ibvs::desired_from(&sim.observe_from(goal).expect("goal view"), 48);
-    let mut ibvs = Ibvs { cell, desired_px: desired.clone(), goal_cam_from_target: goal, params: Default::default(), stop_px: 0.05, bias: None };
+    let mut ibvs = Ibvs { cell, desired_px: desired.clone(), goal_cam_from_target: goal, params: Default::default(), stop_px: 0.05, bias: Default::default() };
     let tr = run_loop(&mut sim, &mut ibvs, &goal, 1.0, 300).expect("IBVS loop");
     let rms = pixel_rms(&sim.observe().expect("observe").features, &desired).expect("matched");
     eprintln!("IBVS: {} steps, pixel RMS {rms:.4} px, true error {:?}", tr.steps.len(), tr.steps.last().map(|s| s.goal_error_mm_deg));

@@ -8,7 +8,7 @@
 
 use nalgebra::{DVector, Isometry3, Point2, Point3};
 
-use super::observe::{pose_from_dots, pose_from_dots_cached, BiasRefresh, CentroidBias, Dots};
+use super::observe::{pose_from_dots, pose_from_dots_cached, BiasCache, BiasRefresh, Dots};
 use super::sensor::Feature;
 use super::world::{Observation, Sim};
 use super::SimError;
@@ -87,7 +87,7 @@ impl EyeInHand {
     ///
     /// # Errors
     /// Too few or degenerate features.
-    pub fn pose_from_cached(&self, obs: &Observation, cache: &mut Option<CentroidBias>, refresh: &BiasRefresh) -> Result<PnpResult, SimError> {
+    pub fn pose_from_cached(&self, obs: &Observation, cache: &mut BiasCache, refresh: &BiasRefresh) -> Result<PnpResult, SimError> {
         match (&self.target, obs.image.is_some()) {
             (Target::SPath(_), true) => {
                 let (dots, scene) = self.dots_and_scene(&obs.features);
@@ -145,8 +145,8 @@ pub struct Pbvs {
     /// target is lost; start with `None`).
     pub base_from_target: Option<Isometry3<f64>>,
     /// An S-path's bead-centroid bias, cached across steps ([`EyeInHand::pose_from_cached`];
-    /// start with `None`).
-    pub bias: Option<CentroidBias>,
+    /// start with `BiasCache::default()`).
+    pub bias: BiasCache,
 }
 
 impl Controller for Pbvs {
@@ -192,8 +192,8 @@ pub struct Ibvs {
     /// Stop when the RMS pixel error is below this.
     pub stop_px: f64,
     /// An S-path's bead-centroid bias for the current pose's interaction matrix, cached across
-    /// steps ([`EyeInHand::pose_from_cached`]; start with `None`).
-    pub bias: Option<CentroidBias>,
+    /// steps ([`EyeInHand::pose_from_cached`]; start with `BiasCache::default()`).
+    pub bias: BiasCache,
 }
 
 impl Ibvs {

@@ -20,6 +20,8 @@ use synthcam_scene::blobs::{dot_blobs, CentroidSampling};
 use synthcam_scene::trace::Tracer;
 use synthcam_scene::Scene;
 
+pub use crate::loop_bias::{pose_from_dots_cached, BiasCache, BiasRefresh};
+
 /// Errors of one observation (a failed detection is not an error: see [`Observed::dots`]).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -168,66 +170,7 @@ pub fn pose_from_dots(scene: &Scene, dots: &Dots, rounds: usize) -> Result<(PnpR
     Ok((est, used))
 }
 
-/// When a loop recomputes its cached centroid bias ([`pose_from_dots_cached`]): once the plain
-/// PnP pose has moved more than `mm` and `deg` from where it was computed, or, with a `goal`,
-/// more than `share` of the pose's distance and angle to the goal where that is more. The bias
-/// changes by about 1e-3 px per mm at the course's distances: far from the goal a bias that many
-/// millimetres stale is a small share of the error the law corrects, and near it the bias is
-/// fresh to `mm` and `deg`, as the final pose needs.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BiasRefresh {
-    /// Movement that always recomputes, millimetres.
-    pub mm: f64,
-    /// Turn that always recomputes, degrees.
-    pub deg: f64,
-    /// The pose the loop drives to, if it has one.
-    pub goal: Option<Isometry3<f64>>,
-    /// Share of the distance to the goal the pose may move before the bias is recomputed.
-    pub share: f64,
-}
-
-impl Default for BiasRefresh {
-    /// 5 mm, 1 degree, no goal, a fifth of the way to it.
-    fn default() -> Self {
-        Self { mm: 5.0, deg: 1.0, goal: None, share: 0.2 }
-    }
-}
-
-impl BiasRefresh {
-    /// The default refresh for a loop that drives to `goal` (its `cam_from_target`).
-    pub fn towards(goal: Isometry3<f64>) -> Self {
-        Self { goal: Some(goal), ..Self::default() }
-    }
-
-    /// The movement (mm, degrees) from its pose that leaves the bias computed at `at` in use.
-    fn tolerance(&self, at: &Isometry3<f64>) -> (f64, f64) {
-        let Some(goal) = self.goal else { return (self.mm, self.deg) };
-        let d = goal.inverse() * at;
-        (self.mm.max(self.share * d.translation.vector.norm() * 1e3), self.deg.max(self.share * d.rotation.angle().to_degrees()))
-    }
-}
-
-/// PnP on detected dots corrected by a cached bias, recomputed only when the plain PnP pose has
-/// moved further than `refresh` allows from where the cache was computed. For loops, where most
-/// steps barely move.
-///
-/// # Errors
-/// PnP failed.
-pub fn pose_from_dots_cached(scene: &Scene, dots: &Dots, cache: &mut Option<CentroidBias>, refresh: &BiasRefresh) -> Result<PnpResult, PnpError> {
-    let points = dot_points(scene, dots);
-    let plain = pnp_general(&scene.camera, &points, &dots.pixels_px)?;
-    let stale = cache.as_ref().is_none_or(|c| {
-        let (mm, deg) = refresh.tolerance(&c.at);
-        !c.is_near(&plain.cam_from_target, mm, deg)
-    });
-    if stale {
-        *cache = Some(CentroidBias::sampled(&Scene { cam_from_target: plain.cam_from_target, ..scene.clone() }, &LOOP_SAMPLING));
-    }
-    let corrected = cache.as_ref().map_or_else(|| dots.pixels_px.clone(), |c| c.correct(dots));
-    pnp_general(&scene.camera, &points, &corrected)
-}
-
-fn dot_points(scene: &Scene, dots: &Dots) -> Vec<nalgebra::Point3<f64>> {
+pub(crate) fn dot_points(scene: &Scene, dots: &Dots) -> Vec<nalgebra::Point3<f64>> {
     let all = scene.target.feature_points_m();
     dots.ids.iter().map(|i| all[*i]).collect()
 }

@@ -66,7 +66,14 @@ pub fn run_open(sim: &mut Sim<'_>, options: &OpenRunOptions) -> Result<OpenRun, 
     let goal = sc.goal_cam_from_target;
     let (mut controller, desired): (Box<dyn Controller>, _) = match options.law {
         Law::Pbvs => (
-            Box::new(Pbvs { cell, goal_cam_from_target: goal, params: PbvsParams::default(), stop_mm_deg: (0.05, 0.005), base_from_target: None, bias: None }),
+            Box::new(Pbvs {
+                cell,
+                goal_cam_from_target: goal,
+                params: PbvsParams::default(),
+                stop_mm_deg: (0.05, 0.005),
+                base_from_target: None,
+                bias: Default::default(),
+            }),
             None,
         ),
         Law::Ibvs => {
@@ -78,7 +85,7 @@ pub fn run_open(sim: &mut Sim<'_>, options: &OpenRunOptions) -> Result<OpenRun, 
                     goal_cam_from_target: goal,
                     params: IbvsParams::default(),
                     stop_px: options.stop_px,
-                    bias: None,
+                    bias: Default::default(),
                 }),
                 Some(desired),
             )

@@ -12,7 +12,7 @@ use super::trace::{ServoStatus, ServoTrace, Source, StepRecord};
 use super::{HandEyeSource, ServoOptions, ServoRunError};
 use crate::controller::{EyeInHand, Law, PoseError};
 use crate::handeye_views::estimate_hand_eye;
-use crate::observe::{BiasRefresh, CentroidBias};
+use crate::observe::{BiasCache, BiasRefresh};
 use crate::sensor::ObservationKind;
 use crate::{Sim, SimError};
 use synthcam_geometry::servo::{cam_twist_jacobian_of, ibvs_increment, interaction_matrix, joint_image_jacobian, pbvs_error, pbvs_increment, InteractionFrom};
@@ -165,7 +165,7 @@ fn servo(
     // features cannot fall below sigma sqrt(2); the IBVS stop is raised to 2 sigma there.
     let pixel_floor = if options.observation == ObservationKind::Ideal { 2.0 * options.ideal_noise_px } else { 0.0 };
     let t_loop = Instant::now();
-    let mut bias = None;
+    let mut bias = BiasCache::default();
     for step in 0..=options.max_steps {
         let mut s = measure(sim, plan, options, frame, step, &mut bias)?;
         let t_law = Instant::now();
@@ -202,7 +202,7 @@ fn measure(
     options: &ServoOptions,
     frame: &mut dyn FnMut(usize, &GreyImage),
     step: usize,
-    bias: &mut Option<CentroidBias>,
+    bias: &mut BiasCache,
 ) -> Result<Step, ServoRunError> {
     let q = sim.joints().to_vec();
     let obs = sim.observe()?;

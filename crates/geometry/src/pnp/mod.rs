@@ -1,15 +1,16 @@
 //! Camera pose from 3-D points and their pixels (`cam_from_target`).
 //!
 //! - [`pnp_general`]: non-coplanar points; the course's linear method (course-scenario 1.6:
-//!   unknowns R (9), p (3) and one depth per point, null vector of a 3N x (12 + N) system on the
-//!   undistorted normalised rays, R projected onto SO(3)), then Levenberg-Marquardt on the pixel
-//!   reprojection error through the full camera model (distortion included).
+//!   unknowns R (9), p (3) and one depth per point on the undistorted normalised rays; the depths
+//!   eliminated by each ray's orthogonal projector, so the null vector of a 12 x 12 system; R
+//!   projected onto SO(3)), then Levenberg-Marquardt on the pixel reprojection error through the
+//!   full camera model (distortion included).
 //! - [`pnp_planar`]: points on z = 0; pose from the homography, then the same refinement.
 //!
 //! Reference: course pnp_general (RPI Robotics I); Hartley & Zisserman 7.1 (DLT pose); Zhang
 //! 2000 (pose from a homography); Marquardt 1963.
 
-use nalgebra::{DMatrix, Isometry3, Matrix3, Matrix6, Point2, Point3, Translation3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Point2, Point3, SMatrix, Translation3, UnitQuaternion, Vector3, Vector6};
 
 use crate::calib::refine::drotated_drvec;
 use synthcam_core::camera::CameraModel;
@@ -144,23 +145,30 @@ pub fn pnp_general(camera: &CameraModel, points: &[Point3<f64>], pixels: &[Point
         return Err(PnpError::Degenerate { reason: "the points are coplanar: use pnp_planar".into() });
     }
     let ys = rays(camera, pixels)?;
-    let n = points.len();
-    // Unknowns: R row-wise (9), p (3), z_i (n): R P_i + p + z_i y_i = 0 (course-scenario 1.6).
-    let mut a = DMatrix::<f64>::zeros((3 * n).max(12 + n), 12 + n);
-    for (i, (p, y)) in points.iter().zip(&ys).enumerate() {
+    // The course's system R P_i + p + z_i y_i = 0 with the depths z_i eliminated: each ray's
+    // orthogonal projector Q_i = I - u_i u_i^T (u_i = y_i / |y_i|) gives Q_i (R P_i + p) = 0, so
+    // [vec R, p] is the null vector of the 12 x 12 sum of G_i^T Q_i G_i (G_i x = R P_i + p). Same
+    // null space as the 3N x (12 + N) system in exact data, O(N) instead of an SVD of that system
+    // (2.5 ms for 101 points). The points are centred (c) for conditioning: p' = p + R c.
+    let c = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / points.len() as f64;
+    let mut m = SMatrix::<f64, 12, 12>::zeros();
+    for (p, y) in points.iter().zip(&ys) {
+        let u = y.normalize();
+        let q = Matrix3::identity() - u * u.transpose();
+        let d = p.coords - c;
+        let mut g = SMatrix::<f64, 3, 12>::zeros();
         for r in 0..3 {
-            for c in 0..3 {
-                a[(3 * i + r, 3 * r + c)] = p[c];
+            for k in 0..3 {
+                g[(r, 3 * r + k)] = d[k];
             }
-            a[(3 * i + r, 9 + r)] = 1.0;
-            a[(3 * i + r, 12 + i)] = y[r];
+            g[(r, 9 + r)] = 1.0;
         }
+        m += g.transpose() * q * g;
     }
-    let svd = a.svd(false, true);
-    let vt = svd.v_t.ok_or_else(|| PnpError::Degenerate { reason: "SVD failed".into() })?;
+    let eig = m.symmetric_eigen();
     let (imin, _) =
-        svd.singular_values.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).ok_or_else(|| PnpError::Degenerate { reason: "empty system".into() })?;
-    let v = vt.row(imin);
+        eig.eigenvalues.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)).ok_or_else(|| PnpError::Degenerate { reason: "empty system".into() })?;
+    let v = eig.eigenvectors.column(imin).into_owned();
     let rt = Matrix3::new(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8]);
     let mut r = project_to_so3(&rt).into_inner();
     let mut sign = 1.0;
@@ -172,7 +180,7 @@ pub fn pnp_general(camera: &CameraModel, points: &[Point3<f64>], pixels: &[Point
     let num: f64 = (0..9).map(|k| r[(k / 3, k % 3)] * sign * v[k]).sum();
     let den: f64 = (0..9).map(|k| (sign * v[k]).powi(2)).sum();
     let scale = num / den.max(1e-300);
-    let p = Vector3::new(v[9], v[10], v[11]) * sign * scale;
+    let p = Vector3::new(v[9], v[10], v[11]) * sign * scale - r * c;
     let init = Isometry3::from_parts(Translation3::from(p), UnitQuaternion::from_matrix(&r));
     if points.iter().any(|x| (init * x).z <= 0.0) {
         return Err(PnpError::Degenerate { reason: "points behind the camera".into() });
@@ -206,6 +214,7 @@ pub fn pnp_planar(camera: &CameraModel, points: &[Point3<f64>], pixels: &[Point2
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector2;
     use synthcam_core::target::spherical_s;
 
     fn desired_pose() -> Isometry3<f64> {
@@ -224,6 +233,34 @@ mod tests {
         let dt = (r.cam_from_target.translation.vector - truth.translation.vector).norm();
         let da = (r.cam_from_target.rotation * truth.rotation.inverse()).angle();
         assert!(dt < 1e-9 && da < 1e-9, "{dt} m, {da} rad");
+    }
+
+    /// The linear start lands in the basin of the global optimum: on 200 random poses of random
+    /// point clouds (depth 0.3-3 m, spread 5-50 cm, k1 -0.2, 0.5 px noise) `pnp_general` ends at
+    /// the cost that Levenberg-Marquardt reaches from the true pose.
+    #[test]
+    fn noisy_random_poses_reach_the_optimum_from_the_linear_start() {
+        use rand::{Rng, SeedableRng};
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(43);
+        let cam = CameraModel::sxga_1500px().with_distortion([-0.2, 0.05, 0.0, 0.0, 0.0]);
+        let noise = Normal::new(0.0, 0.5).unwrap();
+        let mut solved = 0;
+        for trial in 0..200 {
+            let (depth, spread) = (rng.random_range(0.3..3.0), rng.random_range(0.05..0.5));
+            let n = rng.random_range(8..120);
+            let pts: Vec<Point3<f64>> = (0..n).map(|_| Point3::from(Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)) * spread)).collect();
+            let axis = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+            let truth = Isometry3::new(Vector3::new(rng.random_range(-0.1..0.1), rng.random_range(-0.1..0.1), depth), axis * rng.random_range(0.0..1.0));
+            let px: Vec<Point2<f64>> =
+                pts.iter().map(|p| cam.project_unchecked(&(truth * p)) + Vector2::new(noise.sample(&mut rng), noise.sample(&mut rng))).collect();
+            let Ok(found) = pnp_general(&cam, &pts, &px) else { continue };
+            let best = refine_pose(&cam, &pts, &px, &truth);
+            assert!(found.rms_px <= best.rms_px * (1.0 + 1e-9) + 1e-12, "trial {trial}: {} px vs {} px from the truth", found.rms_px, best.rms_px);
+            solved += 1;
+        }
+        // refused only where points fall behind the camera (a cloud wider than its distance)
+        assert!(solved >= 190, "{solved} of 200 solved");
     }
 
     #[test]
