@@ -2,8 +2,6 @@
 //! renderer's speed goals are stated in (first frames excluded: lavapipe compiles the shader then).
 
 use anyhow::Context;
-use synthcam::dataset::encode_png;
-use synthcam::render::finish;
 use synthcam::scene::file::parse_scene_with;
 
 /// Arguments of `bench`.
@@ -23,52 +21,61 @@ pub struct BenchArgs {
     /// speed goal: <= 100 ms on lavapipe).
     #[arg(long)]
     pub mesh: bool,
+    /// The table of issue 42 instead: frames/s of the chessboard, ChArUco, S-path, fisheye, mesh
+    /// and effects scenes at 1280 x 1024 and 3840 x 3072, dataset images/s and servo steps/s, with
+    /// the adapter's name (`benches/gpu.sh` runs it on lavapipe and on the GPU and compares).
+    #[arg(long)]
+    pub report: bool,
+    /// With --report: keep every scene's image and report.json in this folder.
+    #[arg(long, value_name = "DIR", requires = "report")]
+    pub out: Option<std::path::PathBuf>,
+    /// With --report: compare the images with another run's --out folder (max difference, pixels).
+    #[arg(long, value_name = "DIR", requires = "report")]
+    pub compare: Option<std::path::PathBuf>,
     /// Scene files to time instead of the embedded scenes.
     pub scenes: Vec<std::path::PathBuf>,
 }
 
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
-}
-
 /// Time `frames` renders of `scene` (after 3 untimed) and print the medians.
 fn time_scene(renderer: &synthcam::render::Renderer, name: &str, scene: &synthcam::scene::Scene, frames: usize) -> anyhow::Result<()> {
-    for _ in 0..3 {
-        renderer.render_radiance(scene)?;
-    }
-    let mut render_ms = Vec::new();
-    let mut post_ms = Vec::new();
-    for _ in 0..frames.max(1) {
-        let t0 = std::time::Instant::now();
-        let linear = renderer.render_radiance(scene)?;
-        let t1 = std::time::Instant::now();
-        let img = finish(scene, &linear)?;
-        let _png = encode_png(&img)?;
-        let t2 = std::time::Instant::now();
-        render_ms.push((t1 - t0).as_secs_f64() * 1e3);
-        post_ms.push((t2 - t1).as_secs_f64() * 1e3);
-    }
-    render_ms.sort_by(f64::total_cmp);
-    post_ms.sort_by(f64::total_cmp);
+    let (render_ms, post_ms, _) = super::bench_report::median_render_ms(renderer, scene, frames)?;
     println!(
-        "{name:>14} {}x{}: render+readback median {:.1} ms (p10 {:.1}, p90 {:.1}); quantise+PNG median {:.1} ms; {} frames",
+        "{name:>14} {}x{}: render+readback median {render_ms:.1} ms; quantise+PNG median {post_ms:.1} ms; {} frames",
         scene.camera.size.width,
         scene.camera.size.height,
-        percentile(&render_ms, 0.5),
-        percentile(&render_ms, 0.1),
-        percentile(&render_ms, 0.9),
-        percentile(&post_ms, 0.5),
-        render_ms.len()
+        frames.max(1)
     );
     Ok(())
+}
+
+/// The course's IBVS loop from its start for `steps` steps (no early stop, true hand-eye).
+///
+/// # Errors
+/// The loop's.
+pub fn ibvs_loop(renderer: &synthcam::render::Renderer, steps: usize) -> anyhow::Result<synthcam::course::servo_run::ServoTrace> {
+    use synthcam::course::servo_run::{run_servo, HandEyeSource, ServoOptions, ServoScenario};
+    use synthcam::sim::controller::Law;
+    let mut o = ServoOptions::new(Law::Ibvs);
+    o.max_steps = steps;
+    o.stop = None;
+    o.handeye = HandEyeSource::Truth;
+    run_servo(Some(renderer), &ServoScenario::default(), &o, &mut |_, _| {}).context("IBVS loop")
 }
 
 /// Run the benchmark.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let renderer = super::open_renderer(&args.backend)?;
+    if args.report {
+        anyhow::ensure!(args.scenes.is_empty() && !args.mesh, "--report times its own scenes (the mesh scene included): drop the scene files and --mesh");
+        let opts = super::bench_report::ReportOptions {
+            frames: args.frames,
+            dataset_images: 40,
+            servo_steps: args.servo_steps.unwrap_or(50),
+            out: args.out.clone(),
+            compare: args.compare.clone(),
+        };
+        return super::bench_report::run(&renderer, &opts);
+    }
     println!("threads: LP_NUM_THREADS={}", std::env::var("LP_NUM_THREADS").unwrap_or_else(|_| "(default)".into()));
     let mut list: Vec<(String, String)> = Vec::new();
     let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("."));
@@ -94,13 +101,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         time_scene(&renderer, name, scene, args.frames)?;
     }
     if let Some(steps) = args.servo_steps {
-        use synthcam::course::servo_run::{run_servo, HandEyeSource, ServoOptions, ServoScenario};
-        use synthcam::sim::controller::Law;
-        let mut o = ServoOptions::new(Law::Ibvs);
-        o.max_steps = steps;
-        o.stop = None;
-        o.handeye = HandEyeSource::Truth;
-        let t = run_servo(Some(&renderer), &ServoScenario::default(), &o, &mut |_, _| {}).context("IBVS loop")?;
+        let t = ibvs_loop(&renderer, steps)?;
         let (r, d, l) = t.time_split_ms();
         let n = t.steps.len().max(1) as f64;
         println!(

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod bench_report;
 mod calibrate;
 mod dataset;
 mod demo;

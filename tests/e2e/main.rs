@@ -7,6 +7,7 @@ mod area_light;
 mod background;
 mod bad_input;
 mod batch;
+mod bench_report;
 mod calibrate_cli;
 mod calibrate_outliers;
 mod calibration;

@@ -212,6 +212,27 @@ impl CameraModel {
     pub fn distortion(&self) -> Distortion {
         self.lens.opencv().copied().unwrap_or_default()
     }
+
+    /// The same view on a sensor with `factor` times the pixels along each axis (the image of
+    /// every ray scaled about the image's corner): focal lengths and skew times `factor`, the
+    /// principal point `factor (c + 0.5) - 0.5` (OpenCV's pixel centres), the lens unchanged.
+    ///
+    /// # Errors
+    /// [`CameraError::NonFinite`] for a factor that is not finite and positive, or sizes that
+    /// would not be whole pixels or exceed `u32`.
+    pub fn scaled(&self, factor: f64) -> Result<Self, CameraError> {
+        let side = |n: u32| {
+            let v = f64::from(n) * factor;
+            (factor.is_finite() && factor > 0.0 && v.fract() == 0.0 && v >= 1.0 && v <= f64::from(u32::MAX)).then_some(v as u32)
+        };
+        let (Some(width), Some(height)) = (side(self.size.width), side(self.size.height)) else {
+            return Err(CameraError::NonFinite { what: "scale factor (positive, giving whole pixels)" });
+        };
+        let k = &self.intrinsics;
+        let intrinsics =
+            Intrinsics { fx: k.fx * factor, fy: k.fy * factor, cx: factor * (k.cx + 0.5) - 0.5, cy: factor * (k.cy + 0.5) - 0.5, skew: k.skew * factor };
+        Ok(Self { size: ImageSize { width, height }, intrinsics, lens: self.lens })
+    }
 }
 
 #[cfg(test)]
@@ -227,6 +248,23 @@ mod tests {
         assert!(!s.contains_px(&Point2::new(3.5001, 1.0)));
         assert!(!s.contains_px(&Point2::new(1.0, 2.5001)));
         assert!(!s.contains_px(&Point2::new(f64::NAN, 1.0)));
+    }
+
+    /// A scaled camera puts every ray at `factor (q + 0.5) - 0.5` of the original pixel `q`.
+    #[test]
+    fn scaling_maps_pixel_corners_onto_pixel_corners() {
+        use nalgebra::Point3;
+        let cam = CameraModel::sxga_1500px().with_distortion([-0.25, 0.1, 0.001, -0.002, 0.0]);
+        let big = cam.scaled(3.0).unwrap();
+        assert_eq!((big.size.width, big.size.height), (3840, 3072));
+        for p in [Point3::new(0.1, -0.05, 0.6), Point3::new(-0.3, 0.2, 0.9), Point3::new(0.0, 0.0, 1.0)] {
+            let (q, r) = (cam.project(&p).pixel_px, big.project(&p).pixel_px);
+            assert!((r.x - (3.0 * (q.x + 0.5) - 0.5)).abs() < 1e-9 && (r.y - (3.0 * (q.y + 0.5) - 0.5)).abs() < 1e-9, "{q} -> {r}");
+        }
+        // the image's corners stay its corners
+        assert_eq!(big.intrinsics.cx, 3.0 * (cam.intrinsics.cx + 0.5) - 0.5);
+        assert!(cam.scaled(0.0).is_err() && cam.scaled(f64::NAN).is_err() && cam.scaled(1.0001).is_err());
+        assert_eq!(cam.scaled(0.5).unwrap().size.width, 640);
     }
 
     #[test]
