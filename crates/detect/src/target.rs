@@ -254,11 +254,15 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
             })
         }
         TargetSpec::SPath { points } => {
+            let t0 = std::time::Instant::now();
             let dots = find_dots(img, &DotParams::default())?;
             let Some(path) = spherical_path(points) else {
                 return Err(DetectError::BadParams { reason: "the S-path needs at least 2 points" });
             };
-            match index_s_path(&dots, &path, &SPathFitParams::default()) {
+            let t1 = std::time::Instant::now();
+            let indexed = index_s_path(&dots, &path, &SPathFitParams::default());
+            log::debug!("s-path: {} dots found in {:.1} ms, indexed in {:.1} ms", dots.len(), (t1 - t0).as_secs_f64() * 1e3, t1.elapsed().as_secs_f64() * 1e3);
+            match indexed {
                 Ok(ordered) => {
                     let (ordered, unmeasured) = unmeasured(ordered, &dots);
                     Ok(Detection {

@@ -47,6 +47,8 @@ pub(super) struct Gate {
     inv: Matrix2<f64>,
     /// Pixels per metre along the outward normal.
     up: Vector2<f64>,
+    /// `|jac|` (Frobenius): the ellipse of radius `r` lies within `r |jac|` of its centre.
+    reach_per_m: f64,
 }
 
 impl Gate {
@@ -62,7 +64,14 @@ impl Gate {
         let d = Matrix2x3::from_rows(&[(m.row(0) - q.x * m.row(2)) / y[2], (m.row(1) - q.y * m.row(2)) / y[2]]);
         let a = normal.cross(&Vector3::z()).try_normalize(1e-6).unwrap_or_else(|| normal.cross(&Vector3::x()).normalize());
         let jac = d * Matrix3x2::from_columns(&[a, normal.cross(&a)]);
-        Some(Self { q, jac, inv: jac.try_inverse()?, up: d * normal })
+        Some(Self { q, jac, inv: jac.try_inverse()?, up: d * normal, reach_per_m: jac.norm() })
+    }
+
+    /// Whether `u` may lie within `reach` px of the ellipse of [`Gate::distance`]: false only
+    /// where it cannot (its distance to the centre exceeds `reach` plus the ellipse's extent, a
+    /// bound), so a test before the distance changes no result.
+    fn may_reach(&self, u: &Point2<f64>, r: f64, h: f64, reach: f64) -> bool {
+        (u - (self.q + self.up * h)).norm() <= reach + r * self.reach_per_m + 1e-9 * (1.0 + reach)
     }
 
     /// Image distance from `u` to the ellipse of radius `r` metres (0 inside) around the point
@@ -97,7 +106,7 @@ fn candidates(dots: &[Dot], gates: &[Option<Gate>], r: f64, height: f64, reach: 
     let mut out = Vec::new();
     for (j, d) in dots.iter().enumerate() {
         for (i, g) in gates.iter().enumerate() {
-            let Some(g) = g else { continue };
+            let Some(g) = g.as_ref().filter(|g| g.may_reach(&d.centre_px, r, height, reach)) else { continue };
             let (e, t) = g.distance(&d.centre_px, r, height);
             if e <= reach {
                 out.push((j, i, e, t));
