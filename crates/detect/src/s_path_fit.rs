@@ -56,6 +56,7 @@ mod anchor;
 mod assign;
 mod checks;
 mod dlt;
+mod gate;
 mod hungarian;
 mod label;
 mod residuals;
