@@ -50,7 +50,7 @@ struct Params {
     sphere: vec4<f32>,   // s-path: sphere centre (camera frame), radius
     lat: vec4<f32>,      // coded boards: lattice period, origin, first sub-interval, cell
     lat2: vec4<f32>,     // coded boards: board end x, end y, narrowest cell, 0
-    vw: vec4<u32>,       // planar targets: views per pixel, one set per row (1) or one for all (0), the views' spread (px, f32 bits), 0
+    vw: vec4<u32>,       // planar targets: views per pixel, one set per row (1) or one for all (0), 0, 0
     obj: vec4<u32>,      // objects: instances, first instance row in objs, fine samples per axis, 0 (objects.wgsl)
     plane: vec4<f32>,    // planar targets: the plane n . x = c in the camera frame (n, c)
     sheet: vec4<f32>,    // planar targets: the printed sheet in the plane, x0, y0, x1, y1 (metres)

@@ -42,20 +42,35 @@ fn view_line_area(ray: Ray, y: u32, s: u32, axis: u32, v: f32) -> f32 {
     return select(0.0, halfplane_area(n, -ld), w > 0.0);
 }
 
-// Boards of cells with views. Every view's footprint lies within the first view's, grown by the
-// views' spread (P.vw.z, pixels; crates/scene/src/views.rs) through the board Jacobian, plus 10 %. No
-// line in that region: every view sees one cell. One line: the mean over the views of each
-// view's exact half-plane coverage of it (the two cells beside it are the same for every view).
-// Otherwise each view's own coarse value (cells_coarse), hard when any view's is. The loops run
-// only for the lanes that need them (llvmpipe leaves a loop when no lane is active).
+// How far (board units, per axis) the views of row y put the board point of ray d from the first
+// view's `pc`: exact at the pixel's centre; 1e30 where a view does not see the plane.
+fn views_spread(d: vec3<f32>, y: u32, pc: vec3<f32>) -> vec2<f32> {
+    var m = vec2<f32>(0.0);
+    for (var s = 1u; s < P.vw.x; s = s + 1u) {
+        let k = view_index(y, s);
+        let w = h_dot(views[k + 2u].xyz, d);
+        let b = vec2<f32>(h_dot(views[k].xyz, d), h_dot(views[k + 1u].xyz, d)) / w;
+        m = select(vec2<f32>(1e30), max(m, abs(b - pc.xy)), w > 0.0 && m.x < 1e29);
+    }
+    return m;
+}
+
+// Boards of cells with views. Every view's footprint lies within the first view's grown by the
+// views' spread at this pixel (views_spread, x 1.25, plus half a pixel through the board
+// Jacobian for its change across the footprint), plus 10 %. No line in that region: every view
+// sees one cell. One line: the mean over the views of each view's exact half-plane coverage of it
+// (the two cells beside it are the same for every view). Otherwise each view's own coarse value
+// (cells_coarse), hard when any view's is. The loops run only for the lanes that need them
+// (llvmpipe leaves a loop when no lane is active).
 fn cells_coarse_views(ray: Ray, y: u32, coded: bool) -> Coarse {
     set_view(y, 0u);
     let pc = plane_point(ray_d(ray));
     let a = board_jacobian(pc, ray);
-    let spread = bitcast<f32>(P.vw.z);
     let per_px = vec2<f32>(abs(a[0].x) + abs(a[1].x), abs(a[0].y) + abs(a[1].y));
+    let m = views_spread(ray_d(ray), y, pc);
+    let spread = max(m.x, m.y);
     let own = footprint_extent(a);
-    let ext = 1.1 * (own + spread * per_px);
+    let ext = 1.1 * (own + 1.25 * m + 0.5 * per_px);
     let lx = board_lines(pc.x - ext.x, pc.x + ext.x, 0u, coded);
     let ly = board_lines(pc.y - ext.y, pc.y + ext.y, 1u, coded);
     let nlines = lx.count + ly.count;

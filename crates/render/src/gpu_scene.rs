@@ -174,7 +174,7 @@ pub fn gpu_scene(scene: &Scene, grid: &TileCornerRays) -> Result<GpuScene, Rende
             if let [h0, h1, h2, ..] = views[..] {
                 (p.h0, p.h1, p.h2) = (h0, h1, h2);
             }
-            p.vw = [view_set.samples, u32::from(view_set.per_row), (view_set.spread_px.min(1e30) as f32).to_bits(), 0];
+            p.vw = [view_set.samples, u32::from(view_set.per_row), 0, 0];
             if let Some(sharp) = view_set.views.first() {
                 warp_params(&mut p, scene, sharp)?;
             }

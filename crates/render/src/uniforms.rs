@@ -45,8 +45,8 @@ pub struct Params {
     pub lat: [f32; 4],
     /// Coded boards: the board's end along x and y, the narrowest cell (metres), 0.
     pub lat2: [f32; 4],
-    /// Planar targets: views per pixel, one set of views per row (1) or one for all rows (0),
-    /// the views' spread in pixels as f32 bits (`scene::views::ViewSet::spread_px`), 0.
+    /// Planar targets: views per pixel, one set of views per row (1) or one for all rows (0), 0,
+    /// 0 (the shader finds the views' spread per pixel: `shaders/entries.wgsl` `views_spread`).
     pub vw: [u32; 4],
     /// Objects (`shaders/objects.wgsl`): instances, the first instance row in the objects
     /// buffer, fine-pass samples per axis, 0.

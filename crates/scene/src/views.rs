@@ -63,9 +63,6 @@ pub struct ViewSet {
     pub per_row: bool,
     /// `samples` views per row (or one set), row-major.
     pub views: Vec<ExposureView>,
-    /// A bound on how far, in pixels, any view of a row images a target point from where the
-    /// row's first view images it (`spread_px` in this module); the shader grows a pixel's footprint by it.
-    pub spread_px: f64,
 }
 
 impl ViewSet {
@@ -140,42 +137,7 @@ pub fn view_set(scene: &Scene) -> ViewSet {
             views.push(ExposureView { cam_from_target, aperture_m, focus_m: lens.map(|l| l.focus_distance_m) });
         }
     }
-    let mut set = ViewSet { samples: n, per_row, views, spread_px: 0.0 };
-    set.spread_px = spread_px(scene, &set);
-    set
-}
-
-/// How far (pixels) a view images a target point from the first view of its row, over the
-/// target's feature points and the corners of their bounding box grown by 30 % (the board's
-/// outline and margin) and over every 32nd row, times 1.25 plus 0.5 px: the displacement is
-/// smooth in the point and the row, so the sampled maximum with that slack bounds it.
-/// Infinite when a view cannot image a sample point (the shader then marks the pixel hard).
-fn spread_px(scene: &Scene, set: &ViewSet) -> f64 {
-    if set.is_single() {
-        return 0.0;
-    }
-    let mut pts = scene.target.feature_points_m();
-    let (lo, hi) = pts.iter().fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), p| {
-        ([lo[0].min(p.x), lo[1].min(p.y), lo[2].min(p.z)], [hi[0].max(p.x), hi[1].max(p.y), hi[2].max(p.z)])
-    });
-    let grow = |a: f64, b: f64, t: f64| a + (b - a) * t;
-    for (tx, ty) in [(-0.15, -0.15), (1.15, -0.15), (1.15, 1.15), (-0.15, 1.15), (0.5, 0.5)] {
-        pts.push(nalgebra::Point3::new(grow(lo[0], hi[0], tx), grow(lo[1], hi[1], ty), 0.5 * (lo[2] + hi[2])));
-    }
-    let h = scene.camera.size.height;
-    let rows: Vec<u32> = if set.per_row { (0..h).step_by(32).chain([h - 1]).collect() } else { vec![0] };
-    let mut worst: f64 = 0.0;
-    for y in rows {
-        let views = set.row(y);
-        let Some(first) = views.first() else { continue };
-        for p in &pts {
-            let Some(q0) = first.image_of(&scene.camera, p) else { continue };
-            for v in &views[1..] {
-                worst = worst.max(v.image_of(&scene.camera, p).map_or(f64::INFINITY, |q| (q - q0).norm()));
-            }
-        }
-    }
-    1.25 * worst + 0.5
+    ViewSet { samples: n, per_row, views }
 }
 
 fn gcd(a: u32, b: u32) -> u32 {
