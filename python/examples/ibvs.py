@@ -11,33 +11,22 @@ showing the camera the goal view. Exits non-zero unless the loop ends below 0.5 
 
 import sys
 
-import numpy as np
-
 import synthcam
-from synthcam.servo import ibvs_velocity, rms_px
-
-
-def rms_error(obs, desired):
-    """RMS distance (px) of the detected features to their desired pixels, and the stacked error."""
-    rows = [(i, p - desired[i]) for i, p in zip(obs["ids"], obs["pixels_px"]) if i in desired]
-    ids = [i for i, _ in rows]
-    e = np.concatenate([d for _, d in rows]) if rows else np.zeros(0)
-    return rms_px(e), ids, e
+from synthcam.servo import desired_pixels, ibvs_velocity, matched_error, rms_px
 
 
 def servo(sim, steps=200, gain=0.3, damping=100.0, dt_s=0.1, stop_px=0.05):
     """Run the loop; returns the list of RMS errors, one per step."""
-    goal = sim.observe_goal()
-    desired = dict(zip(goal["ids"], goal["pixels_px"]))
+    desired = desired_pixels(sim.observe_goal())
     history = []
     for _ in range(steps):
         obs = sim.observe()
-        rms, ids, e = rms_error(obs, desired)
-        history.append(rms)
-        if rms < stop_px or not ids:
+        ids, e = matched_error(obs, desired)
+        history.append(rms_px(e))
+        if history[-1] < stop_px or not ids:
             break
         # image Jacobian by central differences of sim.project, damped least squares, gain
-        qdot = ibvs_velocity(sim.project, obs["q_rad"], ids, e, gain=gain, damping=damping, dt_s=dt_s)
+        qdot = ibvs_velocity(sim.project, obs.q_rad, ids, e, gain=gain, damping=damping, dt_s=dt_s)
         sim.command(qdot.tolist(), dt_s)
     return history
 

@@ -64,7 +64,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import Observation, Sim, SynthcamError
-from .servo import ibvs_velocity, rms_px
+from .servo import desired_pixels, ibvs_velocity, matched_error, rms_px
 
 _PathLike = Union[str, "os.PathLike[str]"]
 Desired = Union[Observation, Mapping[int, Sequence[float]]]
@@ -85,23 +85,6 @@ def _import_rerun() -> Any:
         version = getattr(rr, "__version__", "?")
         raise ImportError(f"synthcam.rerun_log needs rerun-sdk >= 0.23 (rr.Scalars, set_time), found {version}: {_INSTALL_HINT}")
     return rr
-
-
-def _desired_map(desired: Desired) -> Dict[int, npt.NDArray[np.float64]]:
-    if isinstance(desired, Observation):
-        return {int(i): np.asarray(p, dtype=float) for i, p in zip(desired.ids, desired.pixels_px)}
-    return {int(i): np.asarray(p, dtype=float).reshape(2) for i, p in desired.items()}
-
-
-def match(obs: Observation, desired: Mapping[int, npt.NDArray[np.float64]]) -> Tuple[List[int], npt.NDArray[np.float64]]:
-    """The ids detected in ``obs`` that have a desired pixel, and their stacked error
-    ``(u - u*, v - v*, ...)`` (px), in ``obs.ids``'s order."""
-    ids = [int(i) for i in obs.ids if int(i) in desired]
-    if not ids:
-        return [], np.zeros(0)
-    where = {int(i): k for k, i in enumerate(obs.ids)}
-    e = np.concatenate([obs.pixels_px[where[i]] - desired[i] for i in ids])
-    return ids, e
 
 
 class Recorder:
@@ -270,7 +253,7 @@ class Recorder:
         and, for an ``Observation`` (``Sim.observe_goal()``), the goal camera's pose and frustum
         (``world/goal_camera``, static)."""
         self._check_open()
-        self._desired = _desired_map(goal)
+        self._desired = desired_pixels(goal)
         if isinstance(goal, Observation):
             m = goal.world_from_cam.matrix()
             self._rec.log("world/goal_camera", self._rr.Transform3D(translation=m[:3, 3], mat3x3=m[:3, :3]), static=True)
@@ -286,7 +269,7 @@ class Recorder:
         self._check_open()
         rr, rec = self._rr, self._rec
         if desired is not None:
-            self._desired = _desired_map(desired)
+            self._desired = desired_pixels(desired)
         rec.set_time("step", sequence=int(step))
         rec.set_time("sim_time", duration=float(obs.time_s))
         self.steps.append(int(step))
@@ -313,7 +296,7 @@ class Recorder:
 
         for i, q in enumerate(np.asarray(obs.q_rad, dtype=float)):
             rec.log(f"joints/q{i}", rr.Scalars(float(q)))
-        common, err = match(obs, self._desired)
+        common, err = matched_error(obs, self._desired)
         pixel_rms = rms_px(err) if common else math.nan
         if common:
             rec.log("error/pixel_rms_px", rr.Scalars(pixel_rms))
@@ -549,7 +532,7 @@ def record_servo(
         goal = sim.observe_goal()
         if len(goal.ids) == 0:
             raise ValueError(f"the goal view of {sim!r} shows no feature of the target")
-        desired = _desired_map(goal)
+        desired = desired_pixels(goal)
         history: List[float] = []
         frames = 0
         with Recorder(path, sim.info, jpeg_quality=jpeg_quality) as rec:
@@ -558,7 +541,7 @@ def record_servo(
                 obs = sim.observe(image=image)
                 rec.log(k, obs)
                 frames += obs.image is not None
-                ids, err = match(obs, desired)
+                ids, err = matched_error(obs, desired)
                 history.append(rms_px(err))
                 if progress is not None:
                     progress(k + 1, int(steps), history[-1])
@@ -629,7 +612,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     return 0
 
 
-__all__ = ["Desired", "RecordedRun", "Recorder", "match", "record_servo"]
+__all__ = ["Desired", "RecordedRun", "Recorder", "record_servo"]
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -12,7 +12,7 @@ pseudo-inverse. ``python/examples/ibvs.py`` closes the loop on ``Sim`` with thes
     sim.command(qdot, 0.1)
 """
 
-from typing import Callable, Sequence, Union
+from typing import Any, Callable, Dict, List, Mapping, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -115,6 +115,25 @@ def ibvs_velocity(
     return -gain * damped_step(jac, error, damping) / dt_s
 
 
+def desired_pixels(goal: Any) -> Dict[int, npt.NDArray[np.float64]]:
+    """The desired pixel of each feature id: from an observation of the goal view (anything with
+    ``ids`` and ``pixels_px``, such as ``Sim.observe_goal()``) or a ``{id: (u, v)}`` mapping (px,
+    OpenCV's convention)."""
+    if isinstance(goal, Mapping):
+        return {int(i): np.asarray(p, dtype=float).reshape(2) for i, p in goal.items()}
+    return {int(i): np.asarray(p, dtype=float) for i, p in zip(goal.ids, goal.pixels_px)}
+
+
+def matched_error(obs: Any, desired: Mapping[int, npt.NDArray[np.float64]]) -> Tuple[List[int], npt.NDArray[np.float64]]:
+    """The ids detected in ``obs`` (anything with ``ids`` and ``pixels_px``) that have a desired
+    pixel, and their stacked error ``(u - u*, v - v*, ...)`` (px), in ``obs.ids``'s order."""
+    ids = [int(i) for i in obs.ids if int(i) in desired]
+    if not ids:
+        return [], np.zeros(0)
+    where = {int(i): k for k, i in enumerate(obs.ids)}
+    return ids, np.concatenate([obs.pixels_px[where[i]] - desired[i] for i in ids])
+
+
 def rms_px(error: npt.ArrayLike) -> float:
     """RMS distance (px) of stacked pixel errors (u0, v0, u1, v1, ...): ``sqrt(mean_i |e_i|^2)``;
     ``inf`` for no feature."""
@@ -122,4 +141,4 @@ def rms_px(error: npt.ArrayLike) -> float:
     return float(np.sqrt((e**2).sum(axis=1).mean())) if len(e) else float("inf")
 
 
-__all__ = ["Project", "damped_step", "ibvs_velocity", "image_jacobian", "rms_px"]
+__all__ = ["Project", "damped_step", "desired_pixels", "ibvs_velocity", "image_jacobian", "matched_error", "rms_px"]
