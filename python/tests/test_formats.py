@@ -251,6 +251,15 @@ def test_rosbag2_folders_open_with_rosbags(robot, tmp_path):
     r = synthcam("export", robot, "--format", "rosbag2", "-o", tmp_path / "keep", check=False)
     assert r.returncode != 0 and "not a rosbag2 folder" in r.stderr
     assert sorted(p.name for p in (tmp_path / "keep").iterdir()) == ["mine.txt"]
+    # nor one that has a metadata.yaml beside other files
+    (tmp_path / "keep" / "metadata.yaml").write_text("x")
+    r = synthcam("export", robot, "--format", "rosbag2", "-o", tmp_path / "keep", check=False)
+    assert r.returncode != 0 and "not a rosbag2 folder" in r.stderr
+    assert sorted(p.name for p in (tmp_path / "keep").iterdir()) == ["metadata.yaml", "mine.txt"]
+    # an earlier export there is replaced
+    synthcam("export", robot, "--format", "rosbag2", "-o", tmp_path / "again")
+    synthcam("export", robot, "--format", "rosbag2", "-o", tmp_path / "again")
+    assert sorted(p.name for p in (tmp_path / "again").iterdir()) == ["again_0.mcap", "metadata.yaml"]
     print(f"rosbag2: rosbags AnyReader reads {counts} from the servo folder and the dataset's 4 frames")
 
 

@@ -92,7 +92,13 @@ where
     match out {
         BagOutput::File(path) => write_mcap(path),
         BagOutput::Rosbag2(dir) => {
-            let is_bag = |p: &Path| p.join("metadata.yaml").is_file();
+            // Ours to replace: a folder of a metadata.yaml and MCAP files only (as the WebDataset
+            // export replaces only a folder of its shards), never one that holds anything else.
+            let is_bag = |p: &Path| {
+                p.join("metadata.yaml").is_file()
+                    && std::fs::read_dir(p)
+                        .is_ok_and(|d| d.flatten().all(|e| e.file_name() == "metadata.yaml" || e.path().extension().is_some_and(|x| x == "mcap")))
+            };
             write_folder_atomic(dir, "a rosbag2 folder", is_bag, |tmp| {
                 let name = rosbag2_file_name(dir);
                 let (counts, bytes) = write_mcap(&tmp.join(&name))?;
