@@ -38,12 +38,17 @@ pub struct BenchArgs {
 
 /// Time `frames` renders of `scene` (after 3 untimed) and print the medians.
 fn time_scene(renderer: &synthcam::render::Renderer, name: &str, scene: &synthcam::scene::Scene, frames: usize) -> anyhow::Result<()> {
-    let (render_ms, post_ms, _) = super::bench_report::median_render_ms(renderer, scene, frames)?;
+    use super::bench_report::{percentile, time_frames};
+    let (render_ms, post_ms, _) = time_frames(renderer, scene, frames)?;
     println!(
-        "{name:>14} {}x{}: render+readback median {render_ms:.1} ms; quantise+PNG median {post_ms:.1} ms; {} frames",
+        "{name:>14} {}x{}: render+readback median {:.1} ms (p10 {:.1}, p90 {:.1}); quantise+PNG median {:.1} ms; {} frames",
         scene.camera.size.width,
         scene.camera.size.height,
-        frames.max(1)
+        percentile(&render_ms, 0.5),
+        percentile(&render_ms, 0.1),
+        percentile(&render_ms, 0.9),
+        percentile(&post_ms, 0.5),
+        render_ms.len()
     );
     Ok(())
 }

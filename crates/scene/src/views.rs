@@ -26,21 +26,6 @@ pub struct ExposureView {
 }
 
 impl ExposureView {
-    /// The pixel where this view images the camera-frame point `p` (the pinhole pixel of the
-    /// point of the focus plane that its ray through `p` passes), or `None` behind the camera.
-    pub fn image_of(&self, camera: &synthcam_core::camera::CameraModel, p_target: &nalgebra::Point3<f64>) -> Option<nalgebra::Point2<f64>> {
-        let x = self.cam_from_target * p_target;
-        let at = match self.focus_m {
-            None => x,
-            Some(f) => {
-                let a = nalgebra::Point3::from(self.aperture());
-                a + (x - a) * (f / x.z)
-            }
-        };
-        let q = camera.project(&at);
-        (q.in_front && x.z > 0.0 && q.pixel_px.x.is_finite() && q.pixel_px.y.is_finite()).then_some(q.pixel_px)
-    }
-
     /// The aperture point: the origin of this view's rays (camera frame at the view's time).
     pub fn aperture(&self) -> Vector3<f64> {
         Vector3::new(self.aperture_m[0], self.aperture_m[1], 0.0)
@@ -71,11 +56,6 @@ impl ViewSet {
         let n = self.samples as usize;
         let start = if self.per_row { y as usize * n } else { 0 };
         self.views.get(start..start + n).unwrap_or(&[])
-    }
-
-    /// Whether the set is the scene's single pinhole view.
-    pub fn is_single(&self) -> bool {
-        self.views.len() == 1
     }
 }
 
