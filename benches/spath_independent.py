@@ -422,9 +422,22 @@ def render_set(args, cam, poses, folder, dev_mm):
     return recs
 
 
+def camera_file(args, cam):
+    """The camera an image was rendered with, as OpenCV's YAML (for ``detect --camera``)."""
+    c, path = CAMERAS[cam], args.out / f"camera_{cam}.yml"
+    k1, k2, k3 = c["k"]
+    path.write_text(f"%YAML:1.0\n---\nimage_width: {c['w']}\nimage_height: {c['h']}\n"
+                    f"camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                    f"   data: [ {c['f']!r}, 0., {c['cx']!r}, 0., {c['f']!r}, {c['cy']!r}, 0., 0., 1. ]\n"
+                    f"distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n"
+                    f"   data: [ {k1!r}, {k2!r}, 0., 0., {k3!r} ]\n")
+    return path
+
+
 def detect(args, png):
-    out = png.with_suffix(".det.json")
-    subprocess.run([str(args.binary), "detect", str(png), "--target", "s-path", "--json", str(out)], check=True,
+    out = png.with_suffix(".det_camera.json" if args.calibrated else ".det.json")
+    camera = ["--camera", str(camera_file(args, png.name.split("_")[0]))] if args.calibrated else []
+    subprocess.run([str(args.binary), "detect", str(png), "--target", "s-path", "--json", str(out)] + camera, check=True,
                    stdout=subprocess.DEVNULL, env=dict(os.environ, RAYON_NUM_THREADS="1"), timeout=300)
     return json.loads(out.read_text())["images"][0]
 
@@ -503,6 +516,8 @@ def main():
     ap.add_argument("--validate", action="store_true", help="run the validation only")
     ap.add_argument("--no-detect", action="store_true", help="render only")
     ap.add_argument("--force", action="store_true", help="re-render views that exist")
+    ap.add_argument("--calibrated", action="store_true", help="detect with `--camera` (the camera the views were rendered "
+                    "with, as OpenCV YAML): dots placed by the camera's pose instead of a projective camera")
     args = ap.parse_args()
     if args.seed is None:
         args.seed = int.from_bytes(os.urandom(4), "little") % 1_000_000
@@ -529,11 +544,12 @@ def main():
     results = [(label, {c.name: score(truth[(folder, c.name)], [detect(args, args.out / folder / r["file"]) for r in truth[(folder, c.name)]],
                                       c.name) for c in cams}) for label, folder, _ in sets]
     md = (f"Independent caps check: `benches/spath_independent.py --views {args.views} --seed {args.seed} --deviate-mm {args.deviate_mm:g} "
-          f"--cameras {args.cameras}{' --narrow' if args.narrow else ''}`, binary {args.binary} ({stamp}); camera A f 1500 no distortion, B f 1200 k1 -0.1; noise sigma 1 "
+          f"--cameras {args.cameras}{' --narrow' if args.narrow else ''}{' --calibrated' if args.calibrated else ''}`, binary {args.binary} ({stamp}); camera A f 1500 no distortion, B f 1200 k1 -0.1; noise sigma 1 "
           f"grey.\n\n" + table(results))
     print(md)
-    (args.out / "results.md").write_text(md)
-    (args.out / f"results_{stamp.split()[1].rstrip(',')}.md").write_text(md)
+    suffix = "_calibrated" if args.calibrated else ""
+    (args.out / f"results{suffix}.md").write_text(md)
+    (args.out / f"results_{stamp.split()[1].rstrip(',')}{suffix}.md").write_text(md)
 
 
 if __name__ == "__main__":

@@ -1,9 +1,10 @@
-//! `detect(image, target)`.
+//! `detect(image, target, camera=None)`.
 
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
-use synthcam::detect::target::{detect_u8, TargetSpec};
-use synthcam::scene::file::parse_scene;
+use synthcam::camera::CameraModel;
+use synthcam::detect::target::{detect_u8_with_camera, TargetSpec};
+use synthcam::scene::file::{parse_scene, CameraSpec};
 
 use crate::convert::{chain, err, image_from_py, points_to_py, text_or_json};
 
@@ -25,12 +26,26 @@ pub fn target_spec(target: &Bound<'_, PyAny>) -> PyResult<TargetSpec> {
     Ok(TargetSpec::for_target(&scene.target))
 }
 
+/// A camera given as a camera file's text (OpenCV, ROS, Kalibr or mrcal, as `calibrate` writes
+/// them) or as the scene-file camera (a dict, e.g. `calibrate(...)["camera"]`, or its JSON text).
+pub fn camera_from_py(value: &Bound<'_, PyAny>) -> PyResult<CameraModel> {
+    let text = text_or_json(value, "camera")?;
+    if let Ok(camera) = synthcam::camera::formats::read(&text) {
+        return Ok(camera);
+    }
+    let spec: CameraSpec = serde_json::from_str(&text).map_err(|e| err(format!("camera: neither a camera file nor a scene-file camera ({e})")))?;
+    spec.to_model().map_err(|e| err(format!("camera: {}", chain(&e))))
+}
+
 /// Detect a target's points in a grey image.
 ///
 /// `image`: a (H, W) NumPy array, uint8 (uint16 is divided by 257, floats are rounded).
 /// `target`: a description such as "chessboard:9x6" (inner corners), "dot-grid:3x3", "s-path",
 /// "charuco:11x8:DICT_5X5_100:0.733", "aprilgrid:6x6:tag36h11:0.3", or a scene (TOML/JSON text or
 /// dict) whose target is meant.
+/// `camera` (optional): the camera that took the image, as [`camera_from_py`] reads it. The
+/// S-path's dots are then placed by the camera's pose, which tells apart shifts of the path
+/// along itself where dots stray from their nominal points; other targets do not use it.
 ///
 /// Returns a dict: `found` (bool), `points_px` ((N, 2) float64, OpenCV's pixel convention: the
 /// centre of the top-left pixel is (0, 0)), `ids` (coded boards: each point's id, else None),
@@ -41,10 +56,12 @@ pub fn target_spec(target: &Bound<'_, PyAny>) -> PyResult<TargetSpec> {
 /// nothing was found). The GIL
 /// is released while detecting.
 #[pyfunction]
-pub fn detect<'py>(py: Python<'py>, image: &Bound<'py, PyAny>, target: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
+#[pyo3(signature = (image, target, camera=None))]
+pub fn detect<'py>(py: Python<'py>, image: &Bound<'py, PyAny>, target: &Bound<'py, PyAny>, camera: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
     let spec = target_spec(target)?;
     let img = image_from_py(image)?;
-    let det = py.detach(move || detect_u8(&img, &spec)).map_err(|e| err(format!("detecting: {}", chain(&e))))?;
+    let camera = camera.map(camera_from_py).transpose()?;
+    let det = py.detach(move || detect_u8_with_camera(&img, &spec, camera.as_ref())).map_err(|e| err(format!("detecting: {}", chain(&e))))?;
     let out = PyDict::new(py);
     out.set_item("found", det.found)?;
     out.set_item("points_px", points_to_py(py, det.points_px.iter().map(|p| [p.x, p.y]))?)?;

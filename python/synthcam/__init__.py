@@ -97,10 +97,12 @@ def render(scene: _Text, base_dir: Optional[Union[str, "PathLike[str]"]] = None)
     return image, Truth.from_dict(truth)
 
 
-def detect(image: np.ndarray, target: _Text) -> Detection:
+def detect(image: np.ndarray, target: _Text, camera: Optional[_Text] = None) -> Detection:
     """Detect a target ("chessboard:9x6", "charuco:...", "aprilgrid:...", "dot-grid:3x3",
-    "s-path", or a scene's target) in a (H, W) uint8/uint16 or float image."""
-    return Detection.from_dict(_synthcam.detect(image, target))
+    "s-path", or a scene's target) in a (H, W) uint8/uint16 or float image. ``camera``: the
+    camera that took it (a camera file's text, or ``calibrate(...)["camera"]``); the S-path's
+    dots are then placed by its pose (other targets do not use it)."""
+    return Detection.from_dict(_synthcam.detect(image, target, camera))
 
 
 def calibrate(

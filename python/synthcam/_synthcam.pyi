@@ -51,7 +51,7 @@ def adapter() -> str:
 def load_image(path: Union[str, PathLike[str]]) -> np.ndarray:
     """Read a PNG or JPEG as stored: (H, W) uint8/uint16, or (H, W, 3)."""
 
-def detect(image: np.ndarray, target: _Text) -> _Detection:
+def detect(image: np.ndarray, target: _Text, camera: Optional[_Text] = None) -> _Detection:
     """Detect a target ("chessboard:9x6", "charuco:...", "aprilgrid:...", "dot-grid:3x3", "s-path", or a scene)."""
 
 def calibrate(

@@ -111,3 +111,22 @@ def test_a_background_image_behind_the_board(board_scene_text, tmp_path):
     assert found["found"] and float(corner_errors(found, truth).max()) <= 0.05
     depth, mask = synthcam.render_depth_mask(text, base_dir=str(tmp_path))
     assert mask[0, 0] == 65535 and abs(float(depth[0, 0]) - 3.0) < 1e-4
+
+
+def test_a_known_camera_places_the_s_path(root):
+    """``detect(..., camera=)``: the scene's camera as a scene-file dict or as a camera file's text."""
+    text = (root / "assets" / "scenes" / "course_s_path.toml").read_text()
+    image, _ = synthcam.render(text)
+    plain = synthcam.detect(image, "s-path")
+    camera = {"width": 1280, "height": 1024, "fx": 1500.0, "fy": 1500.0, "cx": 640.0, "cy": 512.0}
+    opencv = ("%YAML:1.0\n---\nimage_width: 1280\nimage_height: 1024\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n"
+              "   dt: d\n   data: [ 1500., 0., 640., 0., 1500., 512., 0., 0., 1. ]\ndistortion_coefficients: !!opencv-matrix\n"
+              "   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n")
+    for cam in (camera, opencv):
+        known = synthcam.detect(image, "s-path", camera=cam)
+        assert list(known["indices"]) == list(range(101)) == list(plain["indices"])
+        np.testing.assert_array_equal(known["points_px"], plain["points_px"])
+    with pytest.raises(synthcam.SynthcamError, match="image size"):
+        synthcam.detect(image, "s-path", camera=dict(camera, width=640, height=480))
+    with pytest.raises(synthcam.SynthcamError, match="camera"):
+        synthcam.detect(image, "s-path", camera="not a camera")

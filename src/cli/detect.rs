@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use serde::Serialize;
 use synthcam::dataset::{load_grey_u8, write_atomic};
-use synthcam::detect::target::{detect_u8, Detection, TargetSpec};
+use synthcam::detect::target::{detect_u8_with_camera, Detection, TargetSpec};
 use synthcam::report::overlay::draw_points;
 
 /// Arguments of `detect`.
@@ -26,6 +26,11 @@ pub struct DetectArgs {
     /// Write each image with its points and their order drawn into this folder.
     #[arg(long)]
     pub draw: Option<PathBuf>,
+    /// The camera that took the images (any camera file `calibrate` writes: OpenCV, ROS,
+    /// Kalibr, mrcal). S-path only: its dots are then placed by the camera's pose, which tells
+    /// apart shifts along the path that dots strayed from their nominal points make ambiguous.
+    #[arg(long)]
+    pub camera: Option<PathBuf>,
     /// Accepted for old scripts and ignored: `detect` takes every image on its own, whatever its
     /// size (only `calibrate` needs one size, and skips the others).
     #[arg(long, hide = true)]
@@ -160,6 +165,16 @@ fn write_overlay(dir: &Path, file: &Path, img: &synthcam::detect::ImageU8, point
     Ok(write_atomic(&dir.join(format!("{stem}.png")), &png)?)
 }
 
+/// The camera of `--camera`, refused for targets that do not use it.
+fn read_camera(args: &DetectArgs) -> anyhow::Result<Option<synthcam::camera::CameraModel>> {
+    let Some(path) = &args.camera else { return Ok(None) };
+    if !matches!(args.target, TargetSpec::SPath { .. }) {
+        anyhow::bail!("--camera is used by --target s-path only");
+    }
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading camera file {}", path.display()))?;
+    Ok(Some(synthcam::camera::formats::read(&text).with_context(|| format!("reading camera file {}", path.display()))?))
+}
+
 /// Run `detect`.
 pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
     let files = expand_images(&args.images)?;
@@ -169,6 +184,7 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.draw {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
+    let camera = read_camera(args)?;
     let mut results = Vec::new();
     let mut errors = 0;
     for f in &files {
@@ -185,7 +201,7 @@ pub fn run(args: &DetectArgs) -> anyhow::Result<()> {
         // time_ms: detection on the decoded 8-bit image (as OpenCV's call on a uint8 array); any
         // conversion to f32 the detector needs is included
         let t0 = std::time::Instant::now();
-        let det = detect_u8(&img, &args.target).with_context(|| format!("detecting in {}", f.display()))?;
+        let det = detect_u8_with_camera(&img, &args.target, camera.as_ref()).with_context(|| format!("detecting in {}", f.display()))?;
         let time_ms = t0.elapsed().as_secs_f64() * 1e3;
         if args.json.is_none() {
             println!(

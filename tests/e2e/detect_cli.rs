@@ -108,3 +108,47 @@ fn images_of_different_sizes_are_each_detected() {
     assert_eq!(images[1]["width"], 1281);
     assert!(v.get("skipped").is_none());
 }
+
+/// The course camera as OpenCV's YAML, at `width` x `height`.
+fn course_camera_yaml(width: u32, height: u32) -> String {
+    format!(
+        "%YAML:1.0\n---\nimage_width: {width}\nimage_height: {height}\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1500., 0., 640., 0., 1500., 512., 0., 0., 1. ]\ndistortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n"
+    )
+}
+
+#[test]
+fn a_known_camera_places_the_s_path_and_bad_cameras_are_refused() {
+    let dir = tmp("camera");
+    let png = dir.join("spath.png");
+    let o = Command::new(bin())
+        .args(["render", concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/course_s_path.toml"), "-o"])
+        .arg(&png)
+        .output()
+        .expect("render");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let detect = |camera: &str, target: &str| {
+        let cam = dir.join("cam.yml");
+        std::fs::write(&cam, camera).expect("write");
+        let json = dir.join("det.json");
+        let _ = std::fs::remove_file(&json);
+        let o = Command::new(bin()).arg("detect").arg(&png).args(["--target", target, "--json"]).arg(&json).arg("--camera").arg(&cam).output().expect("detect");
+        (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned(), std::fs::read(&json).ok())
+    };
+    let (ok, stderr, json) = detect(&course_camera_yaml(1280, 1024), "s-path");
+    assert!(ok, "{stderr}");
+    let v: serde_json::Value = serde_json::from_slice(&json.expect("json")).expect("parse");
+    let idx: Vec<u64> = v["images"][0]["indices"].as_array().expect("indices").iter().filter_map(|x| x.as_u64()).collect();
+    assert_eq!(idx, (0..101).collect::<Vec<u64>>());
+    // Nonsense: a camera for a target that does not use it, a camera of another image size, a
+    // file that is no camera. Each a clear error and a non-zero exit, no JSON written.
+    for (camera, target, says) in [
+        (course_camera_yaml(1280, 1024), "chessboard:9x6", "s-path only"),
+        (course_camera_yaml(640, 480), "s-path", "image size"),
+        ("not a camera".to_string(), "s-path", "camera file"),
+    ] {
+        let (ok, stderr, json) = detect(&camera, target);
+        assert!(!ok && stderr.contains(says) && !stderr.contains("panicked"), "{target}: {stderr}");
+        assert!(json.is_none(), "{target}: JSON written");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

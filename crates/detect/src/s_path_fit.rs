@@ -38,7 +38,18 @@
 //!    close, and a start dot it contradicts rules it out (`assign`). Blobs that are no
 //!    measurement ([`unmeasured()`]) are left to the caller.
 //!
-//! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera.
+//! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera. But its 11
+//! degrees of freedom absorb much of a shift of the path along itself: where dots stray from
+//! their nominal points (7 mm of the 25.7 mm spacing), a placement one index off, or the S run
+//! backwards (it is nearly point-symmetric), fits a projective camera about as well as the right
+//! one, and views showing only part of the path are refused. Where the camera is known
+//! ([`SPathFitParams::camera`], `detect --camera`), the dots are undistorted and every fit is a
+//! pose behind the known intrinsics (6 degrees of freedom, [`pose`]: SQPnP, then
+//! Levenberg-Marquardt), which tells those placements apart; there, in addition, a seed's matches
+//! are grown under the wider matching radius before the tight assignment, the best assignment is
+//! challenged by its reversals too, and where the usual seeds fall short, every placement of
+//! windows of consecutive chain dots is verified against all the dots (hypothesise and verify)
+//! and the best become seeds ([`seeds::verified_windows`]).
 //!
 //! Reference: Hartley and Zisserman, *Multiple View Geometry*, 2nd ed., section 7.1 (normalised
 //! DLT for camera resectioning).
@@ -59,6 +70,7 @@ mod dlt;
 mod gate;
 mod hungarian;
 mod label;
+mod pose;
 mod residuals;
 mod resolve;
 mod seeds;
@@ -68,6 +80,7 @@ mod unmeasured;
 use checks::{drop_merged, drop_outliers};
 use label::{label_chain, labellings};
 use resolve::{chain_labels, resolve_steps, Head};
+use synthcam_core::camera::{CameraModel, Intrinsics};
 use synthcam_core::target::SPath;
 
 /// Parameters of [`index_s_path`].
@@ -97,6 +110,9 @@ pub struct SPathFitParams {
     /// How far the fitted camera (a DLT: lens distortion included) may miss a point's image, pixels: a dot up to
     /// this far outside its disc's image is still placed, if no other is nearly as near.
     pub model_error_px: f64,
+    /// The camera, where known (calibrated): dots are then placed by its pose (6 degrees of
+    /// freedom) behind its intrinsics and lens, not by a projective camera (11).
+    pub camera: Option<CameraModel>,
 }
 
 impl Default for SPathFitParams {
@@ -111,12 +127,23 @@ impl Default for SPathFitParams {
             max_deviation_m: 0.0075,
             max_height_m: 0.006,
             model_error_px: 2.0,
+            camera: None,
         }
     }
 }
 
 /// (path index, dot index) pairs.
 type Labels = Vec<(usize, usize)>;
+
+/// The intrinsics of the dots' (undistorted) pixels, where the camera is known.
+type Pinhole<'a> = Option<&'a Intrinsics>;
+
+impl SPathFitParams {
+    /// The camera's intrinsics, where it is known.
+    fn pinhole(&self) -> Pinhole<'_> {
+        self.camera.as_ref().map(|c| &c.intrinsics)
+    }
+}
 
 /// The path points and dot centres of labelled pairs.
 fn correspondences(labels: &[(usize, usize)], dots: &[Dot], path: &SPath) -> (Vec<Point3<f64>>, Vec<Point2<f64>>) {
@@ -140,12 +167,12 @@ fn search_windows(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SPath, para
     for chain in chains.iter().take(CHAINS_SEARCHED) {
         let starts = (0..chain.len().saturating_sub(WINDOW - 1)).step_by(WINDOW / 2);
         for s in starts {
-            for (rms, labels) in labellings(&chain[s..s + WINDOW], dots, path).into_iter().take(TOP_PER_WINDOW) {
+            for (rms, labels) in labellings(&chain[s..s + WINDOW], dots, path, params.pinhole()).into_iter().take(TOP_PER_WINDOW) {
                 if rms > params.max_seed_rms_px {
                     continue;
                 }
                 let g = extend_locally(dots, path, grow(dots, path, labels, params), params);
-                if let Some(r) = fit_rms(dots, path, &g) {
+                if let Some(r) = fit_rms(dots, path, &g, params.pinhole()) {
                     grown.push((g.len(), r, g));
                 }
             }
@@ -176,9 +203,9 @@ fn mostly_agree(best: &[(usize, usize)], other: &[(usize, usize)]) -> bool {
 }
 
 /// Reprojection RMS of the DLT fitted to labelled dots.
-fn fit_rms(dots: &[Dot], path: &SPath, labels: &[(usize, usize)]) -> Option<f64> {
+fn fit_rms(dots: &[Dot], path: &SPath, labels: &[(usize, usize)], pinhole: Pinhole) -> Option<f64> {
     let (world, image) = correspondences(labels, dots, path);
-    Dlt::fit(&world, &image).map(|d| d.rms(&world, &image))
+    Dlt::fit(&world, &image, pinhole).map(|d| d.rms(&world, &image))
 }
 
 /// Match projected path points to dots: (path index, dot) pairs, nearest first, one each.
@@ -228,7 +255,7 @@ const TRIM_KEEP: f64 = 0.8;
 fn grow(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
     for _ in 0..6 {
         let (world, image) = correspondences(&labels, dots, path);
-        let Some(dlt) = Dlt::fit_trimmed(&world, &image) else { break };
+        let Some(dlt) = Dlt::fit_trimmed(&world, &image, params.pinhole()) else { break };
         let next = match_projection(&dlt, dots, path, params.match_fraction);
         if next.len() < labels.len() || next == labels {
             break;
@@ -247,19 +274,19 @@ const LOCAL_REACH: usize = 3;
 /// nearest to it along the path, and the matching radius there: `fraction` of the projected
 /// spacing, at most `fraction` of 1.5 times the image distance of the nearest labelled pair of
 /// path neighbours. `None` when the point faces away from the camera or the fit fails.
-fn predict_locally(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, i: usize, fraction: f64) -> Option<(Point2<f64>, f64)> {
+fn predict_locally(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, i: usize, params: &SPathFitParams) -> Option<(Point2<f64>, f64)> {
     let mut near: Vec<(usize, usize)> = labels.to_vec();
     near.sort_by_key(|&(k, _)| k.abs_diff(i));
     near.truncate(LOCAL_FIT);
     let (world, image) = correspondences(&near, dots, path);
-    let dlt = Dlt::fit(&world, &image)?;
+    let dlt = Dlt::fit(&world, &image, params.pinhole())?;
     // No visibility test here: a short stretch of the sphere is nearly planar, and its DLT's
     // camera centre is poorly determined.
     let q = dlt.project(&path.points_m[i])?;
     let projected = dlt.spacing_at(path, i, &q);
     let observed =
         near.iter().filter_map(|&(k, j)| near.iter().find(|&&(k2, _)| k2 == k + 1).map(|&(_, j2)| (dots[j2].centre_px - dots[j].centre_px).norm())).next()?;
-    Some((q, fraction * projected.min(1.5 * observed)))
+    Some((q, params.match_fraction * projected.min(1.5 * observed)))
 }
 
 /// Fill in path points next to the labelled ones (up to [`LOCAL_REACH`] steps beyond) by local
@@ -283,7 +310,7 @@ fn extend_locally(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, p
         let mut added = Vec::new();
         for i in frontier {
             tried[i] = true;
-            let Some((q, tol)) = predict_locally(&labels, dots, path, i, params.match_fraction) else { continue };
+            let Some((q, tol)) = predict_locally(&labels, dots, path, i, params) else { continue };
             let best = dots.iter().enumerate().filter(|(j, _)| !dot_used[*j]).map(|(j, d)| (j, (d.centre_px - q).norm())).min_by(|a, b| a.1.total_cmp(&b.1));
             if let Some((j, _)) = best.filter(|b| b.1 <= tol) {
                 point_used[i] = true;
@@ -313,7 +340,7 @@ const RELAXED_START: f64 = 0.8;
 fn relaxed_start_seed(dots: &[Dot], path: &SPath, order: &SPathOrderParams, params: &SPathFitParams) -> Option<Labels> {
     let relaxed = SPathOrderParams { start_area_ratio: RELAXED_START * order.start_area_ratio, ..*order };
     let chain = start_dot_chain(dots, &relaxed).ok().filter(|c| c.len() >= params.min_seed)?;
-    let chain = if order.growth == ChainGrowth::Strays { resolve_steps(dots, path, chain, &[], Head::StartDot) } else { chain };
+    let chain = if order.growth == ChainGrowth::Strays { resolve_steps(dots, path, chain, &[], Head::StartDot, params.pinhole()) } else { chain };
     log::debug!("s-path relaxed start chain: {} dots", chain.len());
     Some(chain_labels(&chain))
 }
@@ -343,19 +370,43 @@ fn without_gaps(labels: &[(usize, usize)]) -> bool {
 /// [`DetectError::NotFound`] when no stretch of dots can be labelled unambiguously, or the result
 /// holds too few of the detected dots.
 pub fn index_s_path(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Vec<IndexedDot>, DetectError> {
+    let Some(camera) = params.camera else { return place_all(dots, path, params).map(|l| indexed(dots, &l)) };
+    // Undistorted pixels of the camera's pinhole; dots the lens cannot invert are left out.
+    let (ideal, index): (Vec<Dot>, Vec<usize>) = dots
+        .iter()
+        .enumerate()
+        .filter_map(|(j, d)| {
+            let ray = camera.unproject(&d.centre_px).ok()?;
+            Some((Dot { centre_px: camera.intrinsics.normalized_to_pixel(&ray.xy()), ..*d }, j))
+        })
+        .unzip();
+    let labels: Labels = place_all(&ideal, path, params)?.iter().map(|&(i, j)| (i, index[j])).collect();
+    Ok(indexed(dots, &labels))
+}
+
+fn place_all(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Labels, DetectError> {
     let order = SPathOrderParams { points: path.len(), ..params.order };
     let need = order.needed(dots.len());
-    let (chained, seeds) = seeds::seeds(dots, path, params, &order);
-    let Some(labels) = assign::best_assignment(dots, path, &seeds, params, seeds::start_dot(dots, &order))
-        .map(|(l, placed)| assign::join_chained(l, chained.as_deref().unwrap_or_default(), &placed))
-        .map(|l| drop_merged(dots, l, order.start_area_ratio))
-    else {
+    let (chained, mut seeds) = seeds::seeds(dots, path, params, &order);
+    let start = seeds::start_dot(dots, &order);
+    let assigned = |seeds: &[Labels]| {
+        assign::best_assignment(dots, path, seeds, params, start)
+            .map(|(l, placed)| assign::join_chained(l, chained.as_deref().unwrap_or_default(), &placed))
+            .map(|l| drop_merged(dots, l, order.start_area_ratio))
+    };
+    let mut labels = assigned(&seeds);
+    if labels.as_ref().is_none_or(|l| l.len() < need) && params.camera.is_some() {
+        // The windows' placements verified against all the dots: costlier, only where needed.
+        seeds.extend(seeds::verified_windows(dots, path, params, &order));
+        labels = assigned(&seeds);
+    }
+    let Some(labels) = labels else {
         return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
     };
     if labels.len() < need {
         return Err(DetectError::NotFound { reason: format!("{} of {} dots placed on the S-path (at least {need} needed)", labels.len(), dots.len()) });
     }
-    Ok(indexed(dots, &labels))
+    Ok(labels)
 }
 
 /// The labelling of [`index_s_path`] with chains grown as `order.growth` says; `None` where no
@@ -365,7 +416,7 @@ fn place_labels(dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPa
     let strays = order.growth == ChainGrowth::Strays;
     let place = |seed: Labels| {
         let grown = extend_locally(dots, path, grow(dots, path, seed, params), params);
-        drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params.max_local_deviation_px)
+        drop_outliers(dots, path, drop_merged(dots, grown, order.start_area_ratio), params)
     };
     // Chain indices from the start dot are 0 and up.
     let label_start = |c: Vec<(i64, usize)>| if strays { strays::label_start_chain(&c, dots, path, params, need) } else { chain_labels(&c) };

@@ -10,10 +10,12 @@ use super::charuco::{find_charuco, find_charuco_u8, CharucoDetection, CharucoPar
 use super::chessboard::{find_chessboard, find_chessboard_u8, ChessboardCorners, ChessboardParams};
 use super::dots::{find_dots, DotParams};
 use super::grid_order::order_grid;
-use super::s_path_fit::{index_s_path, path_residuals, unmeasured, PathResidual, SPathFitParams};
+use super::s_path_fit::PathResidual;
 use super::{DetectError, ImageF32, ImageU8};
-use synthcam_core::target::s_path::{build_s_path, planar_s};
-use synthcam_core::target::{spherical_s, AprilGrid, Charuco, Dictionary, SPath};
+
+mod s_path;
+use synthcam_core::camera::CameraModel;
+use synthcam_core::target::{AprilGrid, Charuco, Dictionary};
 
 /// What to look for.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -244,6 +246,23 @@ pub struct Detection {
 /// # Errors
 /// Bad image buffers; "not found" is `Ok` with `found: false`.
 pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectError> {
+    detect_with_camera(img, spec, None)
+}
+
+/// Detect `spec` in `img` taken by `camera`, where it is known (calibrated). Only the S-path uses
+/// it: its dots are then placed by the camera's pose behind its intrinsics and lens (6 degrees of
+/// freedom) instead of a projective camera (11), which tells apart placements of the path shifted
+/// along itself that a projective camera fits equally where the dots stray from their nominal
+/// points ([`SPathFitParams::camera`]).
+///
+/// # Errors
+/// As [`detect`]; [`DetectError::BadParams`] for a camera of another image size than `img`.
+pub fn detect_with_camera(img: &ImageF32, spec: &TargetSpec, camera: Option<&CameraModel>) -> Result<Detection, DetectError> {
+    if let Some(c) = camera {
+        if (c.size.width as usize, c.size.height as usize) != (img.width, img.height) {
+            return Err(DetectError::BadParams { reason: "the camera's image size is not the image's" });
+        }
+    }
     match *spec {
         TargetSpec::Chessboard { cols, rows } => Ok(board_detection(find_chessboard(img, &ChessboardParams::new(cols, rows))?)),
         TargetSpec::DotGrid { n } => {
@@ -253,31 +272,7 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
                 None => Detection { note: Some(format!("{} dots found, no {n}x{n} grid among them", dots.len())), ..Default::default() },
             })
         }
-        TargetSpec::SPath { points } => {
-            let t0 = std::time::Instant::now();
-            let dots = find_dots(img, &DotParams::default())?;
-            let Some(path) = spherical_path(points) else {
-                return Err(DetectError::BadParams { reason: "the S-path needs at least 2 points" });
-            };
-            let t1 = std::time::Instant::now();
-            let indexed = index_s_path(&dots, &path, &SPathFitParams::default());
-            log::debug!("s-path: {} dots found in {:.1} ms, indexed in {:.1} ms", dots.len(), (t1 - t0).as_secs_f64() * 1e3, t1.elapsed().as_secs_f64() * 1e3);
-            match indexed {
-                Ok(ordered) => {
-                    let (ordered, unmeasured) = unmeasured(ordered, &dots);
-                    Ok(Detection {
-                        found: true,
-                        points_px: ordered.iter().map(|d| d.centre_px).collect(),
-                        indices: Some(ordered.iter().map(|d| d.index).collect()),
-                        path_residuals: path_residuals(&ordered, &path),
-                        unmeasured: Some(unmeasured),
-                        ..Default::default()
-                    })
-                }
-                Err(DetectError::NotFound { reason }) => Ok(Detection { note: Some(reason), ..Default::default() }),
-                Err(e) => Err(e),
-            }
-        }
+        TargetSpec::SPath { points } => s_path::detect_s_path(img, points, camera),
         TargetSpec::Charuco { .. } => Ok(charuco_detection(find_charuco(img, &charuco_board(spec)?, &CharucoParams::default())?)),
         TargetSpec::Aprilgrid { .. } => {
             let Some(grid) = spec.aprilgrid(1.0) else { return Err(DetectError::BadParams { reason: "not an AprilGrid target" }) };
@@ -288,18 +283,6 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
     }
 }
 
-/// The S on its sphere ([`spherical_s`]), resampled to `points` points (cached for its own 101).
-fn spherical_path(points: usize) -> Option<std::borrow::Cow<'static, SPath>> {
-    static PATH: std::sync::OnceLock<SPath> = std::sync::OnceLock::new();
-    let path = PATH.get_or_init(spherical_s);
-    if points == path.len() {
-        return Some(std::borrow::Cow::Borrowed(path));
-    }
-    let planar = planar_s().ok()?;
-    let points_m = build_s_path(&planar, points).ok()?;
-    Some(std::borrow::Cow::Owned(SPath { points_m, ..path.clone() }))
-}
-
 /// [`detect`] on 8-bit samples, with identical results: the chessboard detector works on them
 /// directly ([`find_chessboard_u8`]), the ChArUco detector halves them for its marker search
 /// ([`find_charuco_u8`]), the other detectors work on the image converted to f32.
@@ -307,10 +290,19 @@ fn spherical_path(points: usize) -> Option<std::borrow::Cow<'static, SPath>> {
 /// # Errors
 /// As [`detect`].
 pub fn detect_u8(img: &ImageU8, spec: &TargetSpec) -> Result<Detection, DetectError> {
+    detect_u8_with_camera(img, spec, None)
+}
+
+/// [`detect_with_camera`] on an 8-bit image (the chessboard's and ChArUco's fast paths as
+/// [`detect_u8`]).
+///
+/// # Errors
+/// As [`detect_with_camera`].
+pub fn detect_u8_with_camera(img: &ImageU8, spec: &TargetSpec, camera: Option<&CameraModel>) -> Result<Detection, DetectError> {
     match *spec {
         TargetSpec::Chessboard { cols, rows } => Ok(board_detection(find_chessboard_u8(img, &ChessboardParams::new(cols, rows))?)),
         TargetSpec::Charuco { .. } => Ok(charuco_detection(find_charuco_u8(img, &charuco_board(spec)?, &CharucoParams::default())?)),
-        _ => detect(&img.to_f32(), spec),
+        _ => detect_with_camera(&img.to_f32(), spec, camera),
     }
 }
 

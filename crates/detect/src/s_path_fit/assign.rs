@@ -177,8 +177,12 @@ fn fit_height(dots: &[Dot], gates: &[Option<Gate>], labels: &[(usize, usize)], m
 /// A seed labelling's assignment, refitted until stable: the one of least [`Assignment::cost`]
 /// over the rounds ([`ROUNDS`]); `None` where the seed fits no camera.
 pub(super) fn assign(dots: &[Dot], path: &SPath, seed: &[(usize, usize)], params: &SPathFitParams) -> Option<Assignment> {
-    let (world, image) = correspondences(seed, dots, path);
-    let mut dlt = Dlt::fit_trimmed(&world, &image)?;
+    // A known camera's gates are tight: a seed's camera grows its matches first under the wider
+    // matching radius (see seeds::consensus), so that a camera fitted to part of the view
+    // reaches the rest.
+    let grown = params.camera.and_then(|_| super::seeds::consensus(dots, path, seed, params)).filter(|g| g.len() > seed.len());
+    let (world, image) = correspondences(grown.as_deref().unwrap_or(seed), dots, path);
+    let mut dlt = Dlt::fit_trimmed(&world, &image, params.pinhole())?;
     let mut best: Option<Assignment> = None;
     let mut height = 0.0;
     for _ in 0..ROUNDS {
@@ -194,7 +198,7 @@ pub(super) fn assign(dots: &[Dot], path: &SPath, seed: &[(usize, usize)], params
             break;
         }
         let (world, image) = correspondences(&now.labels, dots, path);
-        let Some(next) = Dlt::fit(&world, &image) else { break };
+        let Some(next) = Dlt::fit(&world, &image, params.pinhole()) else { break };
         dlt = next;
     }
     best
@@ -251,6 +255,35 @@ fn shifted_rivals(labels: &[(usize, usize)], len: usize, splits: bool) -> Vec<La
     out
 }
 
+/// Offsets of the reversed labelling tried by [`reversed_rivals`], either way from the exact
+/// reversal.
+const REVERSAL_REACH: i64 = 8;
+
+/// Reversed placements kept as rivals by [`reversed_rivals`].
+const REVERSALS: usize = 2;
+
+/// The S is nearly point-symmetric: turned half a turn about its middle it lies close to itself
+/// run backwards, so a labelling's reversal (index `i` to `n - 1 - i`, moved by up to
+/// [`REVERSAL_REACH`] indices) explains the dots nearly as well where they stray. The
+/// [`REVERSALS`] reversals whose camera fits them best are the labelling's rivals where the
+/// camera is known: where a seed placed the path backwards (the verified windows of
+/// [`super::seeds::verified_windows`] offer such placements), its reversal is the right one.
+/// A projective camera absorbs much of the reversal, and there its rivalry cost recall on renders
+/// without changing a label (`benches/spath_independent.py`, seed 34805, 7 mm: 53.1 -> 45.5 %).
+fn reversed_rivals(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Vec<Labels> {
+    if params.camera.is_none() {
+        return Vec::new();
+    }
+    let n = path.len() as i64;
+    let mut fits: Vec<(f64, Labels)> = (-REVERSAL_REACH..=REVERSAL_REACH)
+        .map(|k| labels.iter().filter_map(|&(i, j)| usize::try_from(n - 1 - i as i64 + k).ok().filter(|&m| m < path.len()).map(|m| (m, j))).collect::<Labels>())
+        .filter(|l| l.len() >= 6)
+        .filter_map(|l| Some((super::fit_rms(dots, path, &l, params.pinhole())?, l)))
+        .collect();
+    fits.sort_by(|a, b| a.0.total_cmp(&b.0));
+    fits.into_iter().take(REVERSALS).map(|(_, l)| l).collect()
+}
+
 /// What a labelling says about the start dot (the dot recognised as it by its area, `start`):
 /// `Some(false)` where it places that dot at another index or another dot at index 0 (the S
 /// placed shifted along itself), `Some(true)` where it places it at 0, `None` where there is no
@@ -288,7 +321,7 @@ pub(super) fn best_assignment(dots: &[Dot], path: &SPath, seeds: &[Labels], para
         if challenged.contains(&best) {
             break;
         }
-        results.extend(shifted_rivals(&best, path.len(), splits).iter().filter_map(scored));
+        results.extend(shifted_rivals(&best, path.len(), splits).iter().chain(&reversed_rivals(&best, dots, path, params)).filter_map(scored));
         challenged.push(best);
     }
     results.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -300,6 +333,7 @@ pub(super) fn best_assignment(dots: &[Dot], path: &SPath, seeds: &[Labels], para
     }
     let best = contenders.first()?;
     if !challenged.contains(&best.labels) {
+        log::debug!("s-path assignment: the best of {} seeds ({} dots at cost {cost:.2}) kept changing", seeds.len(), best.labels.len());
         return None;
     }
     // Dot -> index of every contender.

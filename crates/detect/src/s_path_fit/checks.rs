@@ -1,7 +1,7 @@
 //! The last checks on placed S-path dots: merged blobs and residuals that jump.
 
-use super::correspondences;
 use super::dlt::Dlt;
+use super::{correspondences, SPathFitParams};
 use crate::dots::Dot;
 use crate::filters::median_by;
 use synthcam_core::target::SPath;
@@ -21,9 +21,10 @@ const JUMP_SIGMAS: f64 = 4.0;
 /// along the outline) jumps. On a target whose dots stray from the nominal path (painted or
 /// glued by hand) every residual jumps: the bound widens to [`JUMP_SIGMAS`] robust standard
 /// deviations (1.4826 median absolute jumps) of all the jumps.
-pub(super) fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, max_px: f64) -> Vec<(usize, usize)> {
+pub(super) fn drop_outliers(dots: &[Dot], path: &SPath, labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
+    let max_px = params.max_local_deviation_px;
     let (world, image) = correspondences(&labels, dots, path);
-    let Some(dlt) = Dlt::fit(&world, &image) else { return labels };
+    let Some(dlt) = Dlt::fit(&world, &image, params.pinhole()) else { return labels };
     let residual: Vec<Option<nalgebra::Vector2<f64>>> = world.iter().zip(&image).map(|(x, u)| dlt.project(x).map(|q| u - q)).collect();
     // Each residual's jump against its path neighbours' median (None: behind the camera; 0 with
     // fewer than two neighbours, which are always kept).

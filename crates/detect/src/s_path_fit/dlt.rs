@@ -3,18 +3,29 @@
 
 use nalgebra::{Matrix3x4, Matrix4, Point2, Point3, SMatrix, SymmetricEigen, Vector3, Vector4};
 
-use super::TRIM_KEEP;
+use super::{Pinhole, TRIM_KEEP};
 use synthcam_core::target::SPath;
 
-/// A projective camera fitted by the DLT.
+/// A camera matrix `P` (3 x 4, pixels): projective, fitted by the DLT, or `K [R | t]` where the
+/// intrinsics `K` are known ([`super::pose`]).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Dlt {
     pub(super) p: Matrix3x4<f64>,
 }
 
 impl Dlt {
+    /// The camera of the correspondences: projective (11 degrees of freedom), or a pose (6)
+    /// behind the intrinsics `pinhole` where they are known (image points then undistorted).
+    pub(super) fn fit(world: &[Point3<f64>], image: &[Point2<f64>], pinhole: Pinhole) -> Option<Self> {
+        let dlt = Self::fit_projective(world, image);
+        match pinhole {
+            None => dlt,
+            Some(k) => super::pose::fit_pose(k, world, image, dlt.as_ref().map(|d| &d.p)).map(|p| Self { p }),
+        }
+    }
+
     /// Normalised DLT from at least 6 correspondences; `None` when they are degenerate.
-    pub(super) fn fit(world: &[Point3<f64>], image: &[Point2<f64>]) -> Option<Self> {
+    fn fit_projective(world: &[Point3<f64>], image: &[Point2<f64>]) -> Option<Self> {
         let n = world.len();
         if n < 6 || image.len() != n {
             return None;
@@ -65,8 +76,8 @@ impl Dlt {
     /// Fit, then refit to the [`TRIM_KEEP`] share of the pairs it fits best: a few mislabelled
     /// dots (a skip miscounted where dots stray from the nominal curve) then cannot drag the
     /// camera, and the matching that follows relabels them.
-    pub(super) fn fit_trimmed(world: &[Point3<f64>], image: &[Point2<f64>]) -> Option<Self> {
-        let dlt = Self::fit(world, image)?;
+    pub(super) fn fit_trimmed(world: &[Point3<f64>], image: &[Point2<f64>], pinhole: Pinhole) -> Option<Self> {
+        let dlt = Self::fit(world, image, pinhole)?;
         let keep = ((TRIM_KEEP * world.len() as f64).ceil() as usize).max(12);
         if keep >= world.len() {
             return Some(dlt);
@@ -75,7 +86,7 @@ impl Dlt {
             world.iter().zip(image).enumerate().map(|(k, (x, u))| (dlt.project(x).map_or(f64::INFINITY, |q| (q - u).norm()), k)).collect();
         err.sort_by(|a, b| a.0.total_cmp(&b.0));
         let (w, i): (Vec<Point3<f64>>, Vec<Point2<f64>>) = err[..keep].iter().map(|&(_, k)| (world[k], image[k])).unzip();
-        Self::fit(&w, &i).or(Some(dlt))
+        Self::fit(&w, &i, pinhole).or(Some(dlt))
     }
 
     pub(super) fn project(&self, x: &Point3<f64>) -> Option<Point2<f64>> {

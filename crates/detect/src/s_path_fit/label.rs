@@ -5,13 +5,13 @@ use nalgebra::{Point2, Point3};
 use super::anchor::{agreeing_prefix, median_step_px, with_anchor, STRAY_RMS_STEPS};
 use super::dlt::Dlt;
 use super::resolve::{resolve_labels, Head};
-use super::{fit_rms, Labels, SPathFitParams};
+use super::{fit_rms, Labels, Pinhole, SPathFitParams};
 use crate::dots::Dot;
 use synthcam_core::target::SPath;
 
 /// Every labelling of an unlabelled chain ((relative index, dot) pairs), at every index offset
 /// and in both directions, with its DLT reprojection RMS (px): best first.
-pub(super) fn labellings(chain: &[(i64, usize)], dots: &[Dot], path: &SPath) -> Vec<(f64, Labels)> {
+pub(super) fn labellings(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, pinhole: Pinhole) -> Vec<(f64, Labels)> {
     let n = path.len() as i64;
     let image: Vec<Point2<f64>> = chain.iter().map(|&(_, j)| dots[j].centre_px).collect();
     let (lo, hi) = chain.iter().fold((i64::MAX, i64::MIN), |(a, b), &(i, _)| (a.min(i), b.max(i)));
@@ -22,7 +22,7 @@ pub(super) fn labellings(chain: &[(i64, usize)], dots: &[Dot], path: &SPath) -> 
         for offset in omin..=omax {
             let labels: Labels = chain.iter().map(|&(i, j)| ((offset + dir * i) as usize, j)).collect();
             let world: Vec<Point3<f64>> = labels.iter().map(|&(i, _)| path.points_m[i]).collect();
-            if let Some(dlt) = Dlt::fit(&world, &image) {
+            if let Some(dlt) = Dlt::fit(&world, &image, pinhole) {
                 fits.push((dlt.rms(&world, &image), labels));
             }
         }
@@ -56,7 +56,7 @@ pub(super) fn ranked_labellings(
 ) -> Vec<(f64, Labels)> {
     let first_steps = anchor.len().min(params.min_seed);
     let anchored = |l: &Labels| agreeing_prefix(anchor.to_vec(), l);
-    let fits = labellings(chain, dots, path).into_iter().filter(|f| anchored(&f.1).len() >= first_steps);
+    let fits = labellings(chain, dots, path, params.pinhole()).into_iter().filter(|f| anchored(&f.1).len() >= first_steps);
     if anchor.is_empty() && !resolve {
         return fits.collect();
     }
@@ -66,8 +66,8 @@ pub(super) fn ranked_labellings(
         .filter_map(|(_, l)| {
             let a = anchored(&l);
             let head = if a.is_empty() { Head::Placed } else { Head::StartDot };
-            let l = if resolve { resolve_labels(dots, path, l, &a, head) } else { l };
-            Some((fit_rms(dots, path, &with_anchor(l.clone(), &a))?, l))
+            let l = if resolve { resolve_labels(dots, path, l, &a, head, params.pinhole()) } else { l };
+            Some((fit_rms(dots, path, &with_anchor(l.clone(), &a), params.pinhole())?, l))
         })
         .collect();
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0));

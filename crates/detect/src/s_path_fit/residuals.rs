@@ -31,7 +31,7 @@ pub fn path_residuals(ordered: &[IndexedDot], path: &SPath) -> Option<Vec<PathRe
     }
     let world: Vec<Point3<f64>> = valid.iter().map(|d| path.points_m[d.index]).collect();
     let image: Vec<Point2<f64>> = valid.iter().map(|d| d.centre_px).collect();
-    let dlt = Dlt::fit(&world, &image)?;
+    let dlt = Dlt::fit(&world, &image, None)?;
     valid
         .iter()
         .map(|d| {

@@ -1,7 +1,7 @@
 //! Index increments a chain's step lengths leave open, decided by the path's shape.
 
 use super::anchor::with_anchor;
-use super::{fit_rms, Labels};
+use super::{fit_rms, Labels, Pinhole};
 use crate::dots::Dot;
 use crate::s_path_order::{ambiguous_steps, MAX_SKIP};
 use synthcam_core::target::SPath;
@@ -37,11 +37,18 @@ pub(super) enum Head {
 /// `beside`: labels fitted together with the chain's (those compatible with it), e.g. a
 /// labelled stretch elsewhere on the path that fixes where the chain lies along it (may be empty).
 /// `head`: whether an entry at index 0 is the start dot ([`Head`]).
-pub(super) fn resolve_steps(dots: &[Dot], path: &SPath, mut chain: Vec<(i64, usize)>, beside: &[(usize, usize)], head: Head) -> Vec<(i64, usize)> {
+pub(super) fn resolve_steps(
+    dots: &[Dot],
+    path: &SPath,
+    mut chain: Vec<(i64, usize)>,
+    beside: &[(usize, usize)],
+    head: Head,
+    pinhole: Pinhole,
+) -> Vec<(i64, usize)> {
     let n = path.len() as i64;
     let rms = |c: &[(i64, usize)]| {
         let labels: Labels = c.iter().filter(|&&(i, _)| (0..n).contains(&i)).map(|&(i, j)| (i as usize, j)).collect();
-        fit_rms(dots, path, &with_anchor(labels, beside)).unwrap_or(f64::INFINITY)
+        fit_rms(dots, path, &with_anchor(labels, beside), pinhole).unwrap_or(f64::INFINITY)
     };
     let mut now = rms(&chain);
     log::trace!(
@@ -110,8 +117,8 @@ pub(super) fn chain_labels(chain: &[(i64, usize)]) -> Labels {
 }
 
 /// [`resolve_steps`] on a labelling.
-pub(super) fn resolve_labels(dots: &[Dot], path: &SPath, mut labels: Labels, beside: &[(usize, usize)], head: Head) -> Labels {
+pub(super) fn resolve_labels(dots: &[Dot], path: &SPath, mut labels: Labels, beside: &[(usize, usize)], head: Head, pinhole: Pinhole) -> Labels {
     labels.sort_unstable();
     let chain = labels.iter().map(|&(i, j)| (i as i64, j)).collect();
-    chain_labels(&resolve_steps(dots, path, chain, beside, head))
+    chain_labels(&resolve_steps(dots, path, chain, beside, head, pinhole))
 }

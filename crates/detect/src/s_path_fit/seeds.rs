@@ -1,9 +1,10 @@
 //! Seed labellings of the S-path's dots for the assignment ([`super::assign`]).
 
 use super::assign;
+use super::dlt::Dlt;
 use super::label::labellings;
 use super::resolve::chain_labels;
-use super::{more_placed, place_labels, skipped, Labels, SPathFitParams};
+use super::{correspondences, match_projection, more_placed, place_labels, skipped, Labels, SPathFitParams};
 use crate::dots::Dot;
 use crate::s_path_order::{anonymous_chains, start_dot_chain, ChainGrowth, SPathOrderParams};
 use synthcam_core::target::SPath;
@@ -43,8 +44,65 @@ pub(super) fn seeds(dots: &[Dot], path: &SPath, params: &SPathFitParams, order: 
             out.extend(START_STEPS.iter().filter(|&&k| chain.len() >= k).map(|&k| chain_labels(&chain[..k])));
         }
         for chain in anonymous_chains(dots, &SPathOrderParams { growth, ..*order }, params.min_seed).iter().take(SEED_CHAINS) {
-            out.extend(labellings(chain, dots, path).into_iter().take(SEED_CHAINS).map(|(_, l)| l));
+            out.extend(labellings(chain, dots, path, params.pinhole()).into_iter().take(SEED_CHAINS).map(|(_, l)| l));
         }
     }
     (chained, out)
+}
+
+/// Where the camera is known, the seeds of [`window_seeds`] for the [`SEED_CHAINS`] longest
+/// chains of each growth: costlier than [`seeds`], tried where those fall short.
+pub(super) fn verified_windows(dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPathOrderParams) -> Vec<Labels> {
+    if params.pinhole().is_none() {
+        return Vec::new();
+    }
+    let chains = [ChainGrowth::Strict, ChainGrowth::Strays].map(|growth| anonymous_chains(dots, &SPathOrderParams { growth, ..*order }, params.min_seed));
+    chains.iter().flat_map(|c| c.iter().take(SEED_CHAINS)).flat_map(|chain| window_seeds(chain, dots, path, params)).collect()
+}
+
+/// Dots per window of [`window_seeds`].
+const WINDOW: usize = 15;
+
+/// Placements of each window kept as seeds (by consensus).
+const PER_WINDOW: usize = 2;
+
+/// Where the camera is known: each window of [`WINDOW`] consecutive dots of a chain (windows
+/// overlapping by half; a shorter chain is one window) at every placement along the path, each placement's camera verified
+/// against all the dots (hypothesise and verify: Fischler and Bolles, 1981): the
+/// [`PER_WINDOW`] placements whose camera, refitted once to the dots it matches, matches the most
+/// dots give their matches as seeds. A window alone cannot tell its placements apart where dots stray (its
+/// placements fit it about equally); the whole view's dots can, and a long chain that counted a
+/// stray step wrongly somewhere still has windows clear of that step.
+fn window_seeds(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Vec<Labels> {
+    let window = WINDOW.min(chain.len());
+    let starts = (0..chain.len().saturating_sub(window - 1)).step_by(WINDOW / 2);
+    let mut out = Vec::new();
+    for s in starts {
+        let mut verified: Vec<Labels> =
+            labellings(&chain[s..s + window], dots, path, params.pinhole()).into_iter().filter_map(|(_, l)| consensus(dots, path, &l, params)).collect();
+        verified.sort_by_key(|l| std::cmp::Reverse(l.len()));
+        out.extend(verified.into_iter().take(PER_WINDOW));
+    }
+    out
+}
+
+/// Refits of [`consensus`] while the matched dots grow.
+const CONSENSUS_REFITS: usize = 4;
+
+/// The dots a labelling's camera matches ([`match_projection`]), refitted to them while they
+/// grow ([`CONSENSUS_REFITS`]), labelled.
+pub(super) fn consensus(dots: &[Dot], path: &SPath, labels: &[(usize, usize)], params: &SPathFitParams) -> Option<Labels> {
+    let fit = |l: &[(usize, usize)]| {
+        let (world, image) = correspondences(l, dots, path);
+        Dlt::fit_trimmed(&world, &image, params.pinhole())
+    };
+    let mut matched = match_projection(&fit(labels)?, dots, path, params.match_fraction);
+    for _ in 0..CONSENSUS_REFITS {
+        let Some(next) = fit(&matched).map(|c| match_projection(&c, dots, path, params.match_fraction)) else { break };
+        if next.len() <= matched.len() {
+            break;
+        }
+        matched = next;
+    }
+    Some(matched)
 }

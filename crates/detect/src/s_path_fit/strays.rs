@@ -18,9 +18,10 @@ const PREFIX_STEP: usize = 5;
 /// lengthen abruptly (the path turning across the line of sight) a chain of stray dots can take
 /// several steps in a row as bridged, and the count beyond is off; the projection of the known
 /// path places those dots again from the part that fits.
-fn fitting_prefix(dots: &[Dot], path: &SPath, mut labels: Labels, max_rms_px: f64, min_len: usize) -> Labels {
+fn fitting_prefix(dots: &[Dot], path: &SPath, mut labels: Labels, max_rms_px: f64, params: &SPathFitParams) -> Labels {
+    let min_len = params.min_seed;
     labels.sort_unstable();
-    while labels.len() > min_len && fit_rms(dots, path, &labels).is_none_or(|r| r > max_rms_px) {
+    while labels.len() > min_len && fit_rms(dots, path, &labels, params.pinhole()).is_none_or(|r| r > max_rms_px) {
         labels.truncate(labels.len().saturating_sub(PREFIX_STEP).max(min_len));
     }
     labels
@@ -47,13 +48,13 @@ fn label_pair(
     if first.len() + second.len() < need {
         return None;
     }
-    let seconds = labellings(second, dots, path);
+    let seconds = labellings(second, dots, path, params.pinhole());
     let mut pairs: Vec<(f64, Labels)> = ranked_labellings(first, dots, path, params, &[], true)
         .into_iter()
         .take(PAIR_CANDIDATES)
         .filter_map(|(_, a)| {
             let joined = seconds.iter().filter(|b| compatible(&b.1, &a)).map(|b| with_anchor(a.clone(), &b.1));
-            joined.filter_map(|u| Some((fit_rms(dots, path, &u)?, u))).min_by(|x, y| x.0.total_cmp(&y.0))
+            joined.filter_map(|u| Some((fit_rms(dots, path, &u, params.pinhole())?, u))).min_by(|x, y| x.0.total_cmp(&y.0))
         })
         .collect();
     pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -69,7 +70,7 @@ fn label_pair(
 /// its open steps decided ([`resolve_labels`]), cut to its [`fitting_prefix`].
 pub(super) fn label_start_chain(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams, need: usize) -> Labels {
     let shaped = label_chain(chain, dots, path, params, chain.len() >= need, &[], false).unwrap_or_else(|| chain_labels(chain));
-    fitting_prefix(dots, path, resolve_labels(dots, path, shaped, &[], Head::StartDot), STRAY_RMS_STEPS * median_step_px(chain, dots), params.min_seed)
+    fitting_prefix(dots, path, resolve_labels(dots, path, shaped, &[], Head::StartDot, params.pinhole()), STRAY_RMS_STEPS * median_step_px(chain, dots), params)
 }
 
 /// The labelling of chains grown from any dot: a chain from the start dot too short to place the
@@ -91,8 +92,8 @@ pub(super) fn label_chains(chains: &[Vec<(i64, usize)>], dots: &[Dot], path: &SP
         _ => None,
     });
     let labelled = labelled.or_else(|| chains.first().and_then(|c| by_growth(c, dots, path, params, &[], need)))?;
-    let anchor = resolve_labels(dots, path, anchor, &labelled, Head::StartDot);
-    let labels = resolve_labels(dots, path, labelled, &anchor, if anchor.is_empty() { Head::Placed } else { Head::StartDot });
+    let anchor = resolve_labels(dots, path, anchor, &labelled, Head::StartDot, params.pinhole());
+    let labels = resolve_labels(dots, path, labelled, &anchor, if anchor.is_empty() { Head::Placed } else { Head::StartDot }, params.pinhole());
     let prefix = agreeing_prefix(anchor, &labels);
     Some(with_anchor(labels, &prefix))
 }
@@ -122,7 +123,7 @@ fn by_growth(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathF
         .filter_map(|(_, l)| {
             let prefix = agreeing_prefix(anchor.to_vec(), &l);
             let g = extend_locally(dots, path, grow(dots, path, with_anchor(l, &prefix), params), params);
-            Some((g.len(), fit_rms(dots, path, &g)?, g))
+            Some((g.len(), fit_rms(dots, path, &g, params.pinhole())?, g))
         })
         .collect();
     // Contenders place nearly as many as the most; among them the best fit wins.
