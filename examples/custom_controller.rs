@@ -54,7 +54,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let spec = ScenarioSpec::parse(synthcam::sim::UR5E_CHESSBOARD)?;
     let scenario = spec.to_scenario()?;
     let renderer = Renderer::headless()?;
-    let mut sim = Sim::new(scenario.clone(), spec.robot.build(&|_| Err("no files".into()))?, Box::new(RenderedSensor { renderer: &renderer }))?;
+    let mut sim = Sim::new(scenario.clone(), spec.robot.build(&|_| Err("no files".into()))?, Box::new(RenderedSensor::new(&renderer)))?;
     // Teach the desired features by showing the camera the goal view.
     let goal = sim.observe_from(scenario.goal_cam_from_target)?;
     let mut desired = vec![None; scenario.target.feature_points_m().len()];

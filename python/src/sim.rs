@@ -65,7 +65,7 @@ fn serve(text: String, base: PathBuf, ready: mpsc::Sender<Result<Info, String>>,
         let meshes = MeshLibrary::new(&base);
         let scenario = spec.to_scenario_with(&|p: &str| meshes.load(p)).map_err(|e| chain(&e))?;
         let renderer = crate::render::renderer()?;
-        let sim = LibSim::new(scenario, robot, Box::new(RenderedSensor { renderer })).map_err(|e| chain(&e))?;
+        let sim = LibSim::new(scenario, robot, Box::new(RenderedSensor::new(renderer))).map_err(|e| chain(&e))?;
         let sc = sim.scenario();
         let info = Info {
             robot: sim.robot().name().to_owned(),

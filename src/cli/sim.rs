@@ -83,7 +83,7 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     anyhow::ensure!(!args.ideal || bags.is_empty(), "--mcap / --rosbag2 record rendered frames: they cannot go with --ideal");
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
     let sensor: Box<dyn Sensor> = match &renderer {
-        Some(r) => Box::new(RenderedSensor { renderer: r }),
+        Some(r) => Box::new(RenderedSensor::new(r)),
         None => Box::new(IdealSensor::new(IDEAL_NOISE_PX, 0)?),
     };
     let frames = Frames::default();

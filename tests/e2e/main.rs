@@ -43,5 +43,6 @@ mod sensor_effects;
 mod servo;
 mod shadow;
 mod sim_bag;
+mod tracking;
 mod truth;
 mod warped_board;

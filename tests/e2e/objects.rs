@@ -262,7 +262,7 @@ fn scenario_objects_ride_on_the_tool_and_stay_in_the_world() {
     let meshes = MeshLibrary::beside(path);
     let sc = spec.to_scenario_with(&|p: &str| meshes.load(p)).expect("valid");
     let robot = spec.robot.build(&|_| Err("no files".into())).expect("robot");
-    let mut sim = Sim::new(sc.clone(), robot, Box::new(RenderedSensor { renderer: renderer() })).expect("sim");
+    let mut sim = Sim::new(sc.clone(), robot, Box::new(RenderedSensor::new(renderer()))).expect("sim");
     let world_from_object = sc.objects[1].1.cam_from_object;
     let mut gripper_px = Vec::new();
     for dq in [0.0, 0.05] {

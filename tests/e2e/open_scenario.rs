@@ -17,7 +17,7 @@ fn scenario() -> (ScenarioSpec, SimScenario) {
 
 fn sim(spec: &ScenarioSpec, sc: &SimScenario) -> Sim<'static> {
     let robot = spec.robot.build(&|_| Err("no files".into())).expect("robot");
-    Sim::new(sc.clone(), robot, Box::new(RenderedSensor { renderer: renderer() })).expect("sim")
+    Sim::new(sc.clone(), robot, Box::new(RenderedSensor::new(renderer()))).expect("sim")
 }
 
 #[test]

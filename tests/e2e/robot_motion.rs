@@ -11,7 +11,7 @@ fn moving_sim(extra: &str) -> Sim<'static> {
     let text = format!("{}\n{extra}", synthcam::sim::UR5E_CHESSBOARD);
     let spec = ScenarioSpec::parse(&text).expect("scenario parses");
     let robot = spec.robot.build(&|_| Err("no files".into())).expect("robot");
-    Sim::new(spec.to_scenario().expect("valid"), robot, Box::new(RenderedSensor { renderer: renderer() })).expect("sim")
+    Sim::new(spec.to_scenario().expect("valid"), robot, Box::new(RenderedSensor::new(renderer()))).expect("sim")
 }
 
 #[test]

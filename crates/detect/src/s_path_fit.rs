@@ -61,6 +61,7 @@ use super::s_path_order::{anonymous_chains, indexed, start_chain, start_dot_chai
 use super::DetectError;
 use dlt::Dlt;
 pub use residuals::{path_residuals, PathResidual};
+pub use track::{SPathTrack, TRACK_FRACTION};
 pub use unmeasured::{unmeasured, MERGED_SPREAD, START_RADIUS_RATIO};
 
 mod anchor;
@@ -76,6 +77,7 @@ mod resolve;
 mod seeds;
 mod skipped;
 mod strays;
+mod track;
 mod unmeasured;
 use checks::{drop_merged, drop_outliers};
 use label::{label_chain, labellings};

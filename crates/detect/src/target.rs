@@ -14,6 +14,7 @@ use super::s_path_fit::PathResidual;
 use super::{DetectError, ImageF32, ImageU8};
 
 mod s_path;
+pub use s_path::detect_tracked;
 use synthcam_core::camera::CameraModel;
 use synthcam_core::target::{AprilGrid, Charuco, Dictionary};
 
@@ -249,6 +250,16 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
     detect_with_camera(img, spec, None)
 }
 
+/// A camera of another image size than `img` is refused.
+pub(super) fn check_camera(img: &ImageF32, camera: Option<&CameraModel>) -> Result<(), DetectError> {
+    match camera {
+        Some(c) if (c.size.width as usize, c.size.height as usize) != (img.width, img.height) => {
+            Err(DetectError::BadParams { reason: "the camera's image size is not the image's" })
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Detect `spec` in `img` taken by `camera`, where it is known (calibrated). Only the S-path uses
 /// it: its dots are then placed by the camera's pose behind its intrinsics and lens (6 degrees of
 /// freedom) instead of a projective camera (11), which tells apart placements of the path shifted
@@ -258,11 +269,7 @@ pub fn detect(img: &ImageF32, spec: &TargetSpec) -> Result<Detection, DetectErro
 /// # Errors
 /// As [`detect`]; [`DetectError::BadParams`] for a camera of another image size than `img`.
 pub fn detect_with_camera(img: &ImageF32, spec: &TargetSpec, camera: Option<&CameraModel>) -> Result<Detection, DetectError> {
-    if let Some(c) = camera {
-        if (c.size.width as usize, c.size.height as usize) != (img.width, img.height) {
-            return Err(DetectError::BadParams { reason: "the camera's image size is not the image's" });
-        }
-    }
+    check_camera(img, camera)?;
     match *spec {
         TargetSpec::Chessboard { cols, rows } => Ok(board_detection(find_chessboard(img, &ChessboardParams::new(cols, rows))?)),
         TargetSpec::DotGrid { n } => {
@@ -272,7 +279,7 @@ pub fn detect_with_camera(img: &ImageF32, spec: &TargetSpec, camera: Option<&Cam
                 None => Detection { note: Some(format!("{} dots found, no {n}x{n} grid among them", dots.len())), ..Default::default() },
             })
         }
-        TargetSpec::SPath { points } => s_path::detect_s_path(img, points, camera),
+        TargetSpec::SPath { points } => s_path::detect_s_path(img, points, camera, None),
         TargetSpec::Charuco { .. } => Ok(charuco_detection(find_charuco(img, &charuco_board(spec)?, &CharucoParams::default())?)),
         TargetSpec::Aprilgrid { .. } => {
             let Some(grid) = spec.aprilgrid(1.0) else { return Err(DetectError::BadParams { reason: "not an AprilGrid target" }) };

@@ -19,7 +19,7 @@
 //! let renderer = Renderer::headless()?;
 //! let goal = scenario.goal_cam_from_target;
 //! let cell = EyeInHand { camera: scenario.camera, target: scenario.target.clone(), tool_from_cam: scenario.tool_from_cam };
-//! let mut sim = Sim::new(scenario, robot, Box::new(RenderedSensor { renderer: &renderer }))?;
+//! let mut sim = Sim::new(scenario, robot, Box::new(RenderedSensor::new(&renderer)))?;
 //! let mut pbvs = Pbvs { cell, goal_cam_from_target: goal, params: Default::default(), stop_mm_deg: (0.05, 0.005), base_from_target: None, bias: Default::default() };
 //! let trace = run_loop(&mut sim, &mut pbvs, &goal, 1.0, 100)?;
 //! println!("{:?}", trace.steps.last().map(|s| s.goal_error_mm_deg));

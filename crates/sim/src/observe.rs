@@ -12,7 +12,8 @@ use std::time::Instant;
 use nalgebra::{Isometry3, Point2, Vector2};
 
 use synthcam_core::target::Target;
-use synthcam_detect::target::{detect, Detection, TargetSpec};
+use synthcam_detect::s_path_fit::SPathTrack;
+use synthcam_detect::target::{detect, detect_tracked, Detection, TargetSpec};
 use synthcam_detect::DetectError;
 use synthcam_geometry::pnp::{pnp_general, PnpError, PnpResult};
 use synthcam_render::{GreyImage, RenderError, Renderer};
@@ -95,11 +96,24 @@ pub struct Timed {
 /// # Errors
 /// The renderer failed, or the image buffer was inconsistent.
 pub fn render_and_detect_target(renderer: &Renderer, scene: &Scene) -> Result<Timed, ObserveError> {
+    render_and_detect_in_sequence(renderer, scene, None)
+}
+
+/// [`render_and_detect_target`] on a frame of a sequence: with `track`, the S-path's labels are
+/// carried from the previous frame where they can be ([`detect_tracked`]).
+///
+/// # Errors
+/// As [`render_and_detect_target`].
+pub fn render_and_detect_in_sequence(renderer: &Renderer, scene: &Scene, track: Option<&mut SPathTrack>) -> Result<Timed, ObserveError> {
     let t0 = Instant::now();
     let image = renderer.render(scene)?;
     let render_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
-    let det = detect(&image.to_detector_image()?, &TargetSpec::for_target(&scene.target))?;
+    let (img, spec) = (image.to_detector_image()?, TargetSpec::for_target(&scene.target));
+    let det = match track {
+        Some(t) => detect_tracked(&img, &spec, None, t)?,
+        None => detect(&img, &spec)?,
+    };
     Ok(Timed { image, det, render_ms, detect_ms: t1.elapsed().as_secs_f64() * 1e3 })
 }
 

@@ -8,8 +8,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use synthcam_detect::chessboard::corners_to_leave_out;
 
-use super::observe::{render_and_detect_target, Timed};
+use super::observe::{render_and_detect_in_sequence, Timed};
 use super::SimError;
+use synthcam_detect::s_path_fit::SPathTrack;
 use synthcam_render::{GreyImage, Renderer};
 use synthcam_scene::Scene;
 
@@ -51,16 +52,32 @@ pub trait Sensor {
     fn reseed(&mut self, _seed: u64) {}
 }
 
-/// The GPU renderer and synthcam's detector.
+/// The GPU renderer and synthcam's detector. The frames are a sequence: the S-path's labels are
+/// carried from one frame to the next where every dot moved less than a third of its spacing
+/// ([`SPathTrack::carry`]; the same labels as placing them afresh, at a fraction of the time),
+/// and placed afresh otherwise.
 #[derive(Debug)]
 pub struct RenderedSensor<'a> {
     /// The renderer.
     pub renderer: &'a Renderer,
+    track: SPathTrack,
+}
+
+impl<'a> RenderedSensor<'a> {
+    /// A sensor rendering with `renderer`, its sequence empty.
+    pub fn new(renderer: &'a Renderer) -> Self {
+        Self { renderer, track: SPathTrack::default() }
+    }
+
+    /// The S-path's sequence so far (how many frames had their labels carried).
+    pub fn track(&self) -> &SPathTrack {
+        &self.track
+    }
 }
 
 impl Sensor for RenderedSensor<'_> {
     fn capture(&mut self, scene: &Scene) -> Result<Capture, SimError> {
-        let Timed { image, det, render_ms, detect_ms } = render_and_detect_target(self.renderer, scene)?;
+        let Timed { image, det, render_ms, detect_ms } = render_and_detect_in_sequence(self.renderer, scene, Some(&mut self.track))?;
         let features = if det.found {
             let coded = det.ids.map(|ids| ids.into_iter().map(|i| i as usize).collect());
             let ids = det.indices.or(coded).unwrap_or_else(|| (0..det.points_px.len()).collect());
@@ -71,6 +88,11 @@ impl Sensor for RenderedSensor<'_> {
             Vec::new()
         };
         Ok(Capture { image: Some(image), features, note: det.note, render_ms, detect_ms })
+    }
+
+    /// A restart begins a new sequence: the next frame's labels are placed afresh.
+    fn reseed(&mut self, _seed: u64) {
+        self.track = SPathTrack::default();
     }
 }
 
@@ -125,7 +147,7 @@ pub fn sensor_for(
     seed: u64,
 ) -> Result<Box<dyn Sensor + '_>, SimError> {
     match (observation, renderer) {
-        (ObservationKind::Rendered, Some(r)) => Ok(Box::new(RenderedSensor { renderer: r })),
+        (ObservationKind::Rendered, Some(r)) => Ok(Box::new(RenderedSensor::new(r))),
         (ObservationKind::Rendered, None) => Err(SimError::Scenario("a rendered observation needs a renderer".into())),
         (ObservationKind::Ideal, _) => Ok(Box::new(IdealSensor::new(noise_px, seed)?)),
     }
