@@ -264,7 +264,7 @@ pub(super) fn check_camera(img: &ImageF32, camera: Option<&CameraModel>) -> Resu
 /// it: its dots are then placed by the camera's pose behind its intrinsics and lens (6 degrees of
 /// freedom) instead of a projective camera (11), which tells apart placements of the path shifted
 /// along itself that a projective camera fits equally where the dots stray from their nominal
-/// points ([`SPathFitParams::camera`]).
+/// points ([`SPathFitParams::camera`](super::s_path_fit::SPathFitParams::camera)).
 ///
 /// # Errors
 /// As [`detect`]; [`DetectError::BadParams`] for a camera of another image size than `img`.

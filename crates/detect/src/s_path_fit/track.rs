@@ -56,7 +56,7 @@ impl SPathTrack {
     /// The previous frame's labels carried to `dots`, or `None` where they cannot be carried
     /// safely: another number of blobs, a blob that is not the mutual nearest neighbour of one
     /// previous blob within [`TRACK_FRACTION`] of that blob's nearest-neighbour distance, or (a
-    /// safety net) a labelling that fits the path worse than the previous one ([`RMS_GROWTH`]).
+    /// safety net) a labelling whose reprojection RMS exceeds twice the previous frame's plus 0.1 px.
     ///
     /// Where every blob moved less than the fraction of its nearest-neighbour distance `d`, the
     /// true partner of a blob lies within `0.3 d` and any other previous blob at least `0.7 d`
