@@ -284,7 +284,7 @@ fn place_all(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Labe
         seeds.extend(seeds::verified_windows(dots, path, params, &order));
         labels = assigned(&seeds);
     }
-    let Some(labels) = labels else {
+    let Some(labels) = labels.map(|l| checks::drop_contradicted(dots, path, l, params, &order)) else {
         return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
     };
     if labels.len() < need {

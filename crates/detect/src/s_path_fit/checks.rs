@@ -1,9 +1,11 @@
 //! The last checks on placed S-path dots: merged blobs and residuals that jump.
 
 use super::dlt::Dlt;
-use super::{correspondences, SPathFitParams};
+use super::label::label_chain;
+use super::{correspondences, Labels, SPathFitParams};
 use crate::dots::Dot;
 use crate::filters::median_by;
+use crate::s_path_order::{anonymous_chains, ChainGrowth, SPathOrderParams};
 use synthcam_core::target::SPath;
 
 /// Blobs smaller than this (px^2) are held to [`SMALL_BLOB_DEVIATION_PX`] by [`drop_outliers`].
@@ -67,4 +69,24 @@ pub(super) fn drop_merged(dots: &[Dot], labels: Vec<(usize, usize)>, start_ratio
         })
         .collect();
     labels.into_iter().zip(keep).filter_map(|(l, k)| k.then_some(l)).collect()
+}
+
+/// `labels` less the dots of every chain (strict growth, at least [`SPathFitParams::min_seed`]
+/// dots) whose own shape places it clearly elsewhere ([`label_chain`]: its best placement, by a
+/// projective camera fitted to the chain alone, beats the runner-up by
+/// [`SPathFitParams::ambiguity_ratio`]) on most of its dots. The assignment's single camera, fitted
+/// to the whole view, can carry a stretch it extrapolates to (through lens distortion it cannot
+/// model) one index off; a chain of nominal dots knows its own place.
+pub(super) fn drop_contradicted(dots: &[Dot], path: &SPath, labels: Labels, params: &SPathFitParams, order: &SPathOrderParams) -> Labels {
+    let strict = SPathOrderParams { growth: ChainGrowth::Strict, ..*order };
+    let mut out = labels;
+    for chain in anonymous_chains(dots, &strict, params.min_seed) {
+        let Some(own) = label_chain(&chain, dots, path, params, false, &[], false) else { continue };
+        let disagree = own.iter().filter(|&&(i, j)| out.iter().any(|&(k, m)| m == j && k != i)).count();
+        if 2 * disagree > own.len() {
+            log::debug!("s-path: a chain of {} dots placed elsewhere by its own shape ({disagree} disagree): left out", own.len());
+            out.retain(|&(_, j)| own.iter().all(|&(_, m)| m != j));
+        }
+    }
+    out
 }

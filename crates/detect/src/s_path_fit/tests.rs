@@ -342,3 +342,20 @@ fn a_known_camera_places_seven_mm_strays_a_projective_camera_cannot_tell_apart()
     // the known-camera placement; renders of other seeds are measured in BENCHMARKS.md).
     assert!(calibrated >= 600 && projective < 300, "projective {projective}, calibrated {calibrated} of 610");
 }
+
+#[test]
+fn a_stretch_its_own_shape_places_elsewhere_is_left_out() {
+    // Two stretches of nominal dots (0-30, 60-80); the second labelled one index off, as a single
+    // camera extrapolated through a lens it cannot model would: its dots are left out, the rest
+    // kept; labelled rightly, nothing is left out.
+    let (path, pts) = projected();
+    let idx: Vec<usize> = (0..=30).chain(60..=80).collect();
+    let dots: Vec<Dot> = idx.iter().map(|&i| dot(pts[i].unwrap(), if i == 0 { 83.0 } else { 30.0 })).collect();
+    let right: Labels = idx.iter().enumerate().map(|(j, &i)| (i, j)).collect();
+    let off: Labels = right.iter().map(|&(i, j)| (if i >= 60 { i + 1 } else { i }, j)).collect();
+    let params = SPathFitParams::default();
+    let order = SPathOrderParams { points: path.len(), ..params.order };
+    assert_eq!(checks::drop_contradicted(&dots, &path, right.clone(), &params, &order), right);
+    let kept = checks::drop_contradicted(&dots, &path, off, &params, &order);
+    assert_eq!(kept, right.iter().copied().filter(|&(i, _)| i <= 30).collect::<Labels>());
+}
