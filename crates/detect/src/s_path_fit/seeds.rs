@@ -4,7 +4,7 @@ use super::assign;
 use super::dlt::Dlt;
 use super::label::labellings;
 use super::resolve::chain_labels;
-use super::{correspondences, match_projection, more_placed, place_labels, skipped, Labels, SPathFitParams};
+use super::{correspondences, match_projection, more_placed, place_labels, skipped, Labels, SPathFitParams, WINDOW};
 use crate::dots::Dot;
 use crate::s_path_order::{anonymous_chains, start_dot_chain, ChainGrowth, SPathOrderParams};
 use synthcam_core::target::SPath;
@@ -60,21 +60,18 @@ pub(super) fn verified_windows(dots: &[Dot], path: &SPath, params: &SPathFitPara
     chains.iter().flat_map(|c| c.iter().take(SEED_CHAINS)).flat_map(|chain| window_seeds(chain, dots, path, params)).collect()
 }
 
-/// Dots per window of [`window_seeds`].
-const WINDOW: usize = 15;
-
 /// Placements of each window kept as seeds (by consensus).
 const PER_WINDOW: usize = 2;
 
 /// Where the camera is known: each window of [`WINDOW`] consecutive dots of a chain (windows
-/// overlapping by half; a shorter chain is one window) at every placement along the path, each placement's camera verified
-/// against all the dots (hypothesise and verify: Fischler and Bolles, 1981): the
-/// [`PER_WINDOW`] placements whose camera, refitted once to the dots it matches, matches the most
-/// dots give their matches as seeds. A window alone cannot tell its placements apart where dots stray (its
-/// placements fit it about equally); the whole view's dots can, and a long chain that counted a
-/// stray step wrongly somewhere still has windows clear of that step.
+/// overlapping by half; a shorter chain is one window) at every placement along the path, each
+/// placement's camera verified against all the dots (hypothesise and verify: Fischler and
+/// Bolles, 1981, [`consensus`]): the [`PER_WINDOW`] placements that grow to the most matched dots
+/// give those matches as seeds. A window alone cannot tell its placements apart where dots stray
+/// (its placements fit it about equally); the whole view's dots can, and a long chain that counted
+/// a stray step wrongly somewhere still has windows clear of that step.
 fn window_seeds(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Vec<Labels> {
-    let window = WINDOW.min(chain.len());
+    let window = WINDOW.min(chain.len()).max(1);
     let starts = (0..chain.len().saturating_sub(window - 1)).step_by(WINDOW / 2);
     let mut out = Vec::new();
     for s in starts {
