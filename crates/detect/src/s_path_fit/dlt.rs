@@ -20,7 +20,7 @@ impl Dlt {
         let dlt = Self::fit_projective(world, image);
         match pinhole {
             None => dlt,
-            Some(k) => super::pose::fit_pose(k, world, image, dlt.as_ref().map(|d| &d.p)).map(|p| Self { p }),
+            Some(k) => super::pose::fit_pose(k, world, image, dlt.as_ref()).map(|p| Self { p }),
         }
     }
 

@@ -6,6 +6,7 @@
 //! refinement is Gauss-Newton with Levenberg-Marquardt damping (Hartley and Zisserman, *Multiple
 //! View Geometry*, 2nd ed., A6.2) on the left-multiplied rotation increment.
 
+use super::dlt::Dlt;
 use nalgebra::{Matrix2, Matrix2x3, Matrix2x6, Matrix3, Matrix3x4, Matrix6, Point2, Point3, Vector3, Vector6};
 use synthcam_core::camera::Intrinsics;
 use synthcam_core::math::so3::{project_to_so3, rotation_from_rvec, skew};
@@ -24,15 +25,15 @@ const NEAR_PROJECTIVE_PX: f64 = 0.25;
 
 /// `K [R | t]` fitted to the correspondences (image points undistorted): Levenberg-Marquardt on
 /// the six pose parameters over the reprojection error in pixels, started from the projective
-/// camera `p` (its left 3 x 3 block, `K^-1`-mapped, projected onto the rotations). A projective
+/// camera `dlt` (its left 3 x 3 block, `K^-1`-mapped, projected onto the rotations). A projective
 /// camera fits at least as well as any pose; where the refined pose stays near it
 /// ([`NEAR_PROJECTIVE`]) it is kept, otherwise (a start from a nearly flat stretch, where the
 /// DLT is poorly conditioned) SQPnP's global optimum of the object-space error is refined too and
 /// the better of the two kept.
-pub(super) fn fit_pose(k: &Intrinsics, world: &[Point3<f64>], image: &[Point2<f64>], p: Option<&Matrix3x4<f64>>) -> Option<Matrix3x4<f64>> {
+pub(super) fn fit_pose(k: &Intrinsics, world: &[Point3<f64>], image: &[Point2<f64>], dlt: Option<&Dlt>) -> Option<Matrix3x4<f64>> {
     let n = world.len().max(1) as f64;
-    let from_dlt = p.and_then(|p| projective_start(k, p)).map(|(r, t)| refine(k, world, image, r, t));
-    let bound = p.map(|p| projective_rms(p, world, image));
+    let from_dlt = dlt.and_then(|d| projective_start(k, &d.p)).map(|(r, t)| refine(k, world, image, r, t));
+    let bound = dlt.map(|d| d.rms(world, image));
     let near = |pose: &Pose, bound: f64| (pose.2 / n).sqrt() <= NEAR_PROJECTIVE * bound + NEAR_PROJECTIVE_PX;
     let pose = match (from_dlt, bound) {
         (Some(pose), Some(b)) if near(&pose, b) => pose,
@@ -56,23 +57,6 @@ fn projective_start(k: &Intrinsics, p: &Matrix3x4<f64>) -> Option<(Matrix3<f64>,
     let (a, col) = if a.determinant() < 0.0 { (-a, -m.column(3).into_owned()) } else { (a, m.column(3).into_owned()) };
     let scale = a.singular_values().mean();
     (scale > 0.0 && scale.is_finite()).then(|| (project_to_so3(&a).into_inner(), col / scale))
-}
-
-/// Reprojection RMS of the projective camera `p`, pixels (points behind it count 1e6 px).
-fn projective_rms(p: &Matrix3x4<f64>, world: &[Point3<f64>], image: &[Point2<f64>]) -> f64 {
-    let ss: f64 = world
-        .iter()
-        .zip(image)
-        .map(|(x, u)| {
-            let y = p * x.to_homogeneous();
-            if y[2] > 0.0 {
-                (Point2::new(y[0] / y[2], y[1] / y[2]) - u).norm_squared()
-            } else {
-                1e12
-            }
-        })
-        .sum();
-    (ss / world.len().max(1) as f64).sqrt()
 }
 
 /// Levenberg-Marquardt from `(r, t)` on the reprojection error.
