@@ -423,8 +423,10 @@ def render_set(args, cam, poses, folder, dev_mm):
 
 
 def camera_file(args, cam):
-    """The camera an image was rendered with, as OpenCV's YAML (for ``detect --camera``)."""
+    """The camera an image was rendered with, as OpenCV's YAML (for ``detect --camera``), written once."""
     c, path = CAMERAS[cam], args.out / f"camera_{cam}.yml"
+    if path.exists():
+        return path
     k1, k2, k3 = c["k"]
     path.write_text(f"%YAML:1.0\n---\nimage_width: {c['w']}\nimage_height: {c['h']}\n"
                     f"camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"

@@ -10,9 +10,8 @@ fn tmp(name: &str) -> std::path::PathBuf {
     d
 }
 
-#[test]
-fn s_path_render_is_detected_in_order_and_bad_files_are_reported() {
-    let dir = tmp("spath");
+/// `synthcam render` of the course's S-path scene into `dir/spath.png` (its truth beside it).
+fn render_course_s_path(dir: &std::path::Path) -> std::path::PathBuf {
     let png = dir.join("spath.png");
     let o = Command::new(bin())
         .args(["render", concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/course_s_path.toml"), "-o"])
@@ -20,6 +19,13 @@ fn s_path_render_is_detected_in_order_and_bad_files_are_reported() {
         .output()
         .expect("render");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    png
+}
+
+#[test]
+fn s_path_render_is_detected_in_order_and_bad_files_are_reported() {
+    let dir = tmp("spath");
+    let png = render_course_s_path(&dir);
     // A truncated PNG and a text file posing as a JPEG.
     let bytes = std::fs::read(&png).expect("png");
     std::fs::write(dir.join("truncated.png"), &bytes[..bytes.len() / 3]).expect("write");
@@ -119,13 +125,7 @@ fn course_camera_yaml(width: u32, height: u32) -> String {
 #[test]
 fn a_known_camera_places_the_s_path_and_bad_cameras_are_refused() {
     let dir = tmp("camera");
-    let png = dir.join("spath.png");
-    let o = Command::new(bin())
-        .args(["render", concat!(env!("CARGO_MANIFEST_DIR"), "/assets/scenes/course_s_path.toml"), "-o"])
-        .arg(&png)
-        .output()
-        .expect("render");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let png = render_course_s_path(&dir);
     let detect = |camera: &str, target: &str| {
         let cam = dir.join("cam.yml");
         std::fs::write(&cam, camera).expect("write");
