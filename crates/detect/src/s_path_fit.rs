@@ -48,8 +48,9 @@
 //! Levenberg-Marquardt), which tells those placements apart; there, in addition, a seed's matches
 //! are grown under the wider matching radius before the tight assignment, the best assignment is
 //! challenged by its reversals too, and where the usual seeds fall short, every placement of
-//! windows of consecutive chain dots is verified against all the dots (hypothesise and verify)
-//! and the best become seeds (`seeds::verified_windows`).
+//! windows of consecutive chain dots is verified against all the dots (hypothesise and verify),
+//! each window's pose also turned about its chord (`sweep`: the rotation a nearly straight
+//! stretch leaves open), and the best become seeds (`seeds::verified_windows`).
 //!
 //! Reference: Hartley and Zisserman, *Multiple View Geometry*, 2nd ed., section 7.1 (normalised
 //! DLT for camera resectioning).
@@ -78,6 +79,7 @@ mod resolve;
 mod seeds;
 mod skipped;
 mod strays;
+mod sweep;
 mod track;
 mod unmeasured;
 use checks::{drop_merged, drop_outliers};

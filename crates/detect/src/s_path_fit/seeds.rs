@@ -66,17 +66,22 @@ const PER_WINDOW: usize = 2;
 /// Where the camera is known: each window of [`WINDOW`] consecutive dots of a chain (windows
 /// overlapping by half; a shorter chain is one window) at every placement along the path, each
 /// placement's camera verified against all the dots (hypothesise and verify: Fischler and
-/// Bolles, 1981, [`consensus`]): the [`PER_WINDOW`] placements that grow to the most matched dots
-/// give those matches as seeds. A window alone cannot tell its placements apart where dots stray
-/// (its placements fit it about equally); the whole view's dots can, and a long chain that counted
-/// a stray step wrongly somewhere still has windows clear of that step.
+/// Bolles, 1981, [`consensus`]), together with the [`PER_WINDOW`] best turns of the placements'
+/// poses about the window's chord ([`super::sweep`]): the [`PER_WINDOW`] of these that grow to the
+/// most matched dots give those matches as seeds. A window alone cannot tell its placements apart
+/// where dots stray (its placements fit it about equally); the whole view's dots can, and a long
+/// chain that counted a stray step wrongly somewhere still has windows clear of that step.
 fn window_seeds(chain: &[(i64, usize)], dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Vec<Labels> {
     let window = WINDOW.min(chain.len()).max(1);
     let starts = (0..chain.len().saturating_sub(window - 1)).step_by(WINDOW / 2);
     let mut out = Vec::new();
     for s in starts {
-        let mut verified: Vec<Labels> =
-            labellings(&chain[s..s + window], dots, path, params.pinhole()).into_iter().filter_map(|(_, l)| consensus(dots, path, &l, params)).collect();
+        let placements = labellings(&chain[s..s + window], dots, path, params.pinhole());
+        let mut verified: Vec<Labels> = placements.iter().filter_map(|(_, l)| consensus(dots, path, l, params)).collect();
+        if let Some(k) = params.pinhole() {
+            let turns = super::sweep::best_turns(&placements, dots, path, k, params.match_fraction, PER_WINDOW);
+            verified.extend(turns.iter().filter_map(|l| consensus(dots, path, l, params)));
+        }
         verified.sort_by_key(|l| std::cmp::Reverse(l.len()));
         out.extend(verified.into_iter().take(PER_WINDOW));
     }

@@ -359,3 +359,26 @@ fn a_stretch_its_own_shape_places_elsewhere_is_left_out() {
     let kept = checks::drop_contradicted(&dots, &path, off, &params, &order);
     assert_eq!(kept, right.iter().copied().filter(|&(i, _)| i <= 30).collect::<Labels>());
 }
+
+#[test]
+fn turning_a_windows_pose_about_its_chord_reaches_more_of_the_view() {
+    // A window of 15 dots (43-57, the S's straightest stretch: 32 mm from its chord) straying up
+    // to 7 mm under its right labels: the pose fitted to it alone is loose (about the chord
+    // most), and the matches its camera grows to (`seeds::consensus`) hold fewer right dots than
+    // those grown from its best turn.
+    let camera = synthcam_core::camera::CameraModel::sxga_1500px();
+    let params = SPathFitParams { camera: Some(camera), ..SPathFitParams::default() };
+    let (mut fitted, mut swept) = (0, 0);
+    for seed in 0..10 {
+        let (path, dots, _) = jittered(0.007, 200 + seed);
+        let window: Labels = (43..58).map(|i| (i, i)).collect();
+        let plain = seeds::consensus(&dots, &path, &window, &params).unwrap_or_default();
+        let turned = sweep::best_turns(&[(0.0, window)], &dots, &path, &camera.intrinsics, params.match_fraction, 1);
+        let turned = turned.first().and_then(|l| seeds::consensus(&dots, &path, l, &params)).unwrap_or_default();
+        let right = |l: &Labels| l.iter().filter(|&&(i, j)| i == j).count();
+        eprintln!("seed {seed}: fitted {} ({} right), turned {} ({} right)", plain.len(), right(&plain), turned.len(), right(&turned));
+        fitted += right(&plain);
+        swept += right(&turned);
+    }
+    assert!(swept > fitted, "right dots grown from the fitted pose {fitted}, from the turned {swept} of 1010");
+}
