@@ -34,7 +34,8 @@ const REACH_DEG: f64 = 90.0;
 /// radius on the course's target) under a turn of 1.4 degrees, so half a step stays inside it.
 const STEP_DEG: f64 = 1.5;
 
-/// The dots' centres, binned in square cells for radius queries.
+/// The dots' centres, binned in square cells for radius queries (a view's hundred dots: a k-d tree
+/// crate would serve, but bins about the dots' spacing are a dozen lines and no dependency).
 struct DotGrid {
     cell: f64,
     bins: HashMap<(i64, i64), Vec<Point2<f64>>>,
