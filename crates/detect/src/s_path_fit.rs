@@ -50,7 +50,9 @@
 //! challenged by its reversals too, and where the usual seeds fall short, every placement of
 //! windows of consecutive chain dots is verified against all the dots (hypothesise and verify),
 //! each window's pose also turned about its chord (`sweep`: the rotation a nearly straight
-//! stretch leaves open), and the best become seeds (`seeds::verified_windows`).
+//! stretch leaves open), and the best become seeds (`seeds::verified_windows`); a start dot
+//! recognised by its area alone (larger than two merged dots can be) has the best labellings'
+//! shifts and mirror images that put it at index 0 compete too (`start`).
 //!
 //! Reference: Hartley and Zisserman, *Multiple View Geometry*, 2nd ed., section 7.1 (normalised
 //! DLT for camera resectioning).
@@ -78,6 +80,7 @@ mod residuals;
 mod resolve;
 mod seeds;
 mod skipped;
+mod start;
 mod strays;
 mod sweep;
 mod track;
@@ -274,7 +277,12 @@ fn place_all(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Labe
     let order = SPathOrderParams { points: path.len(), ..params.order };
     let need = order.needed(dots.len());
     let (chained, mut seeds) = seeds::seeds(dots, path, params, &order);
-    let start = seeds::start_dot(dots, &order);
+    let by_area = params.camera.and_then(|_| seeds::start_by_area(dots));
+    let start = match (by_area, seeds::start_dot(dots, &order)) {
+        (Some(s), _) => start::StartDot::Anchors(s),
+        (None, Some(s)) => start::StartDot::Breaks(s),
+        (None, None) => start::StartDot::Unknown,
+    };
     let assigned = |seeds: &[Labels]| {
         assign::best_assignment(dots, path, seeds, params, start)
             .map(|(l, placed)| assign::join_chained(l, chained.as_deref().unwrap_or_default(), &placed))

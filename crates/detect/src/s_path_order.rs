@@ -222,6 +222,17 @@ pub fn start_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i64, 
     Ok(chain)
 }
 
+/// The dot whose area is largest relative to the mean of its two nearest neighbours' (seen at
+/// about the same obliquity: the start dot's candidate), and that ratio; `None` without dots.
+pub(crate) fn largest_relative_area(dots: &[Dot]) -> Option<(usize, f64)> {
+    let ratio = |i: usize| {
+        let nn = two_nearest(dots, i);
+        let mean = nn.iter().map(|(j, _)| dots[*j].area_px).sum::<f64>() / nn.len().max(1) as f64;
+        dots[i].area_px / mean.max(1e-9)
+    };
+    (0..dots.len()).map(|i| (i, ratio(i))).max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
 /// The chain grown from the start dot, however short: (path index, dot) pairs in path order.
 ///
 /// # Errors
@@ -230,12 +241,7 @@ pub fn start_dot_chain(dots: &[Dot], params: &SPathOrderParams) -> Result<Vec<(i
     if dots.len() < 3 {
         return Err(DetectError::NotFound { reason: format!("{} dots, at least 3 needed to order a path", dots.len()) });
     }
-    let ratio = |i: usize| {
-        let nn = two_nearest(dots, i);
-        let mean = nn.iter().map(|(j, _)| dots[*j].area_px).sum::<f64>() / nn.len().max(1) as f64;
-        dots[i].area_px / mean.max(1e-9)
-    };
-    let (start, best) = (0..dots.len()).map(|i| (i, ratio(i))).max_by(|a, b| a.1.total_cmp(&b.1)).unwrap_or((0, 0.0));
+    let (start, best) = largest_relative_area(dots).unwrap_or((0, 0.0));
     if best < params.start_area_ratio {
         return Err(DetectError::NotFound { reason: format!("start dot not recognised (largest relative area {best:.2} < {})", params.start_area_ratio) });
     }

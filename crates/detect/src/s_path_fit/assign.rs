@@ -22,6 +22,7 @@
 use super::dlt::Dlt;
 use super::gate::{gates, Gate};
 use super::hungarian::min_cost_assignment;
+use super::start::{anchored_at_start, start_agrees, StartDot, ANCHORED};
 use super::{correspondences, Labels, SPathFitParams};
 use crate::dots::Dot;
 use synthcam_core::target::SPath;
@@ -257,7 +258,7 @@ fn shifted_rivals(labels: &[(usize, usize)], len: usize, splits: bool) -> Vec<La
 
 /// Offsets of the reversed labelling tried by [`reversed_rivals`], either way from the exact
 /// reversal.
-const REVERSAL_REACH: i64 = 8;
+pub(super) const REVERSAL_REACH: i64 = 8;
 
 /// Reversed placements kept as rivals by [`reversed_rivals`].
 const REVERSALS: usize = 2;
@@ -284,20 +285,6 @@ fn reversed_rivals(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, params
     fits.into_iter().take(REVERSALS).map(|(_, l)| l).collect()
 }
 
-/// What a labelling says about the start dot (the dot recognised as it by its area, `start`):
-/// `Some(false)` where it places that dot at another index or another dot at index 0 (the S
-/// placed shifted along itself), `Some(true)` where it places it at 0, `None` where there is no
-/// such dot.
-fn start_agrees(labels: &[(usize, usize)], start: Option<usize>) -> Option<bool> {
-    let s = start?;
-    let at0 = labels.iter().find(|l| l.0 == 0).map(|l| l.1);
-    let placed = labels.iter().find(|l| l.1 == s).map(|l| l.0);
-    match (at0, placed) {
-        (None, None) => None,
-        (at0, placed) => Some(at0 == Some(s) && placed == Some(0)),
-    }
-}
-
 /// The assignment of the seed labellings that explains the dots best ([`assign`],
 /// [`Assignment::cost`]), less every dot that a contender (an assignment costing less than the
 /// best's plus a margin, [`rival_margin`]) places at another index: two placements that explain
@@ -305,11 +292,21 @@ fn start_agrees(labels: &[(usize, usize)], start: Option<usize>) -> Option<bool>
 /// about the sphere's centre) leave the dots they disagree on unlabelled. Where a contender
 /// places the start dot recognised by its area (`start`) at index 0, the contenders placing it
 /// elsewhere drop out ([`start_agrees`]); the start dot only breaks ties: where beads squeeze
-/// into one blob along the outline, a blob can pass for it.
-pub(super) fn best_assignment(dots: &[Dot], path: &SPath, seeds: &[Labels], params: &SPathFitParams, start: Option<usize>) -> Option<(Labels, Vec<bool>)> {
+/// into one blob along the outline, a blob can pass for it. Where the camera is known and the
+/// start dot is recognised by its area alone ([`StartDot::Anchors`]), the placements of the best
+/// few labellings moved to put it at 0 compete too: a view showing a few dots after the start
+/// and a long stretch far from it is otherwise placed reversed (the S is nearly point-symmetric)
+/// when no seed offers the right placement.
+pub(super) fn best_assignment(dots: &[Dot], path: &SPath, seeds: &[Labels], params: &SPathFitParams, start: StartDot) -> Option<(Labels, Vec<bool>)> {
     let n = dots.len();
     let scored = |s: &Labels| assign(dots, path, s, params).map(|a| (a.cost(n), a));
     let mut results: Vec<(f64, Assignment)> = seeds.iter().filter(|s| s.len() >= 6).filter_map(scored).collect();
+    if let StartDot::Anchors(s) = start {
+        results.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let anchored: Vec<Labels> = results.iter().take(ANCHORED).flat_map(|r| anchored_at_start(&r.1.labels, s, dots, path, params)).collect();
+        results.extend(anchored.iter().filter_map(scored));
+    }
+    let start_dot = start.dot();
     // The best's own shifts along the path, whole and beyond each of its stretches, are always
     // its rivals; where one of them explains the dots better, it is the best, and so on.
     let mut challenged: Vec<Labels> = Vec::new();
@@ -328,8 +325,8 @@ pub(super) fn best_assignment(dots: &[Dot], path: &SPath, seeds: &[Labels], para
     let (cost, first) = results.first()?;
     let margin = rival_margin(&first.offsets);
     let mut contenders: Vec<&Assignment> = results.iter().filter(|r| r.0 < cost + margin).map(|r| &r.1).collect();
-    if contenders.iter().any(|c| start_agrees(&c.labels, start) == Some(true)) {
-        contenders.retain(|c| start_agrees(&c.labels, start) != Some(false));
+    if contenders.iter().any(|c| start_agrees(&c.labels, start_dot) == Some(true)) {
+        contenders.retain(|c| start_agrees(&c.labels, start_dot) != Some(false));
     }
     let best = contenders.first()?;
     if !challenged.contains(&best.labels) {

@@ -4,14 +4,29 @@ use super::assign;
 use super::dlt::Dlt;
 use super::label::labellings;
 use super::resolve::chain_labels;
+use super::START_RADIUS_RATIO;
 use super::{correspondences, match_projection, more_placed, place_labels, skipped, Labels, SPathFitParams, WINDOW};
 use crate::dots::Dot;
-use crate::s_path_order::{anonymous_chains, start_dot_chain, ChainGrowth, SPathOrderParams};
+use crate::s_path_order::{anonymous_chains, largest_relative_area, start_dot_chain, ChainGrowth, SPathOrderParams};
 use synthcam_core::target::SPath;
 
 /// The dot recognised as the start ([`start_dot_chain`]'s first), if any.
 pub(super) fn start_dot(dots: &[Dot], order: &SPathOrderParams) -> Option<usize> {
     start_dot_chain(dots, order).ok().and_then(|c| c.first().map(|e| e.1))
+}
+
+/// A dot's area over its two nearest neighbours' from which it is the start dot by its area alone:
+/// the geometric mean of the most two dots merged into one blob show (2) and the start dot's own
+/// ratio ([`START_RADIUS_RATIO`] squared, 2.78 on the course), 2.36.
+const UNMISTAKABLE_START_AREA: f64 = START_RADIUS_RATIO * std::f64::consts::SQRT_2;
+
+/// The start dot recognised by its area alone, without the chain from it that [`start_dot`]
+/// needs ([`UNMISTAKABLE_START_AREA`]; a blob touching another is never it). Where the camera is
+/// known, the best labellings moved to place this dot at index 0 compete too
+/// ([`super::assign::best_assignment`]): the S is nearly point-symmetric, and the start dot is
+/// what tells a view's placement from its reversal where only a few dots follow it.
+pub(super) fn start_by_area(dots: &[Dot]) -> Option<usize> {
+    largest_relative_area(dots).filter(|&(j, r)| r >= UNMISTAKABLE_START_AREA && !dots[j].touching).map(|(j, _)| j)
 }
 
 /// Lengths of the stretches of the start dot's chain tried as seeds.

@@ -315,7 +315,8 @@ fn a_seed_one_index_off_is_corrected_not_reported() {
         let truth: Labels = (0..101).map(|i| (i, i)).collect();
         let off = assign::shift(&truth, 1, path.len());
         let params = SPathFitParams::default();
-        let (labels, _) = assign::best_assignment(&dots, &path, &[off], &params, Some(0)).unwrap_or_else(|| panic!("{dev} m, seed {seed}: refused"));
+        let (labels, _) =
+            assign::best_assignment(&dots, &path, &[off], &params, start::StartDot::Breaks(0)).unwrap_or_else(|| panic!("{dev} m, seed {seed}: refused"));
         assert!(labels.iter().all(|&(i, j)| (dots[j].centre_px - image[i]).norm() < 1e-9), "{dev} m, seed {seed}: mis-indexed");
         assert!(labels.len() >= 100, "{dev} m, seed {seed}: {} placed", labels.len());
     }
