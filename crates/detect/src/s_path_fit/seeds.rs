@@ -16,8 +16,8 @@ pub(super) fn start_dot(dots: &[Dot], order: &SPathOrderParams) -> Option<usize>
 }
 
 /// A dot's area over its two nearest neighbours' from which it is the start dot by its area alone:
-/// the geometric mean of the most two dots merged into one blob show (2) and the start dot's own
-/// ratio ([`START_RADIUS_RATIO`] squared, 2.78 on the course), 2.36.
+/// the geometric mean of the largest ratio two dots merged into one blob can show (2) and the
+/// start dot's own ([`START_RADIUS_RATIO`] squared, 2.78 on the course), 2.36.
 const UNMISTAKABLE_START_AREA: f64 = START_RADIUS_RATIO * std::f64::consts::SQRT_2;
 
 /// The start dot recognised by its area alone, without the chain from it that [`start_dot`]
@@ -26,6 +26,10 @@ const UNMISTAKABLE_START_AREA: f64 = START_RADIUS_RATIO * std::f64::consts::SQRT
 /// ([`super::assign::best_assignment`]): the S is nearly point-symmetric, and the start dot is
 /// what tells a view's placement from its reversal where only a few dots follow it.
 pub(super) fn start_by_area(dots: &[Dot]) -> Option<usize> {
+    // Two neighbours to compare with, as for the chain's start.
+    if dots.len() < 3 {
+        return None;
+    }
     largest_relative_area(dots).filter(|&(j, r)| r >= UNMISTAKABLE_START_AREA && !dots[j].touching).map(|(j, _)| j)
 }
 
