@@ -224,6 +224,12 @@ pub(super) fn shift(labels: &[(usize, usize)], k: i64, len: usize) -> Labels {
     labels.iter().filter_map(|&(i, j)| usize::try_from(i as i64 + k).ok().filter(|&m| m < len).map(|m| (m, j))).collect()
 }
 
+/// `labels` mirrored about index `m` (index `i` to `m - i`; those leaving a path of `len` points
+/// dropped): the S run backwards.
+pub(super) fn mirror(labels: &[(usize, usize)], m: usize, len: usize) -> Labels {
+    labels.iter().filter_map(|&(i, j)| m.checked_sub(i).filter(|&k| k < len).map(|k| (k, j))).collect()
+}
+
 /// Rounds of [`best_assignment`] in which a new best is challenged by its own shifts.
 const RECHALLENGES: usize = 3;
 
@@ -275,9 +281,10 @@ fn reversed_rivals(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, params
     if params.camera.is_none() {
         return Vec::new();
     }
-    let n = path.len() as i64;
+    let last = path.len() as i64 - 1;
     let mut fits: Vec<(f64, Labels)> = (-REVERSAL_REACH..=REVERSAL_REACH)
-        .map(|k| labels.iter().filter_map(|&(i, j)| usize::try_from(n - 1 - i as i64 + k).ok().filter(|&m| m < path.len()).map(|m| (m, j))).collect::<Labels>())
+        .filter_map(|k| usize::try_from(last + k).ok())
+        .map(|m| mirror(labels, m, path.len()))
         .filter(|l| l.len() >= 6)
         .filter_map(|l| Some((super::fit_rms(dots, path, &l, params.pinhole())?, l)))
         .collect();

@@ -7,6 +7,7 @@
 use nalgebra::{Matrix2, Matrix2x3, Matrix3x2, Point2, Point3, Vector2, Vector3};
 
 use super::dlt::Dlt;
+use super::grow::facing;
 use synthcam_core::target::SPath;
 
 /// The image of a path point's tolerance disc: centre and Jacobian (pixels per metre along two
@@ -63,10 +64,5 @@ impl Gate {
 /// are hidden; every point where the camera centre is at infinity).
 pub(super) fn gates(dlt: &Dlt, path: &SPath) -> Vec<Option<Gate>> {
     let centre = dlt.centre();
-    (0..path.len())
-        .map(|i| {
-            let (x, n) = (path.points_m[i], path.normal_at(i));
-            centre.is_none_or(|c| n.dot(&(c - x)) > 0.0).then(|| Gate::at(dlt, &x, &n)).flatten()
-        })
-        .collect()
+    (0..path.len()).map(|i| facing(path, i, centre).then(|| Gate::at(dlt, &path.points_m[i], &path.normal_at(i))).flatten()).collect()
 }

@@ -1,28 +1,29 @@
 //! Growing a labelling over the dots: the projection of a fitted camera matched to the dots, and
 //! local fits that follow lens distortion beyond any single projective camera.
 
-use nalgebra::Point2;
+use nalgebra::{Point2, Point3};
 
 use super::dlt::Dlt;
 use super::{correspondences, SPathFitParams};
 use crate::dots::Dot;
 use synthcam_core::target::SPath;
 
+/// Each path point's image under `dlt`, `None` where the camera cannot see it (behind it, or on
+/// the far side of the sphere: [`facing`]).
+pub(super) fn facing_projections(dlt: &Dlt, path: &SPath) -> Vec<Option<Point2<f64>>> {
+    let centre = dlt.centre();
+    (0..path.len()).map(|i| facing(path, i, centre).then(|| dlt.project(&path.points_m[i])).flatten()).collect()
+}
+
+/// Does path point `i` face a camera centred at `centre` (every point where the centre is at
+/// infinity)? Dots on the far side of the sphere are hidden.
+pub(super) fn facing(path: &SPath, i: usize, centre: Option<Point3<f64>>) -> bool {
+    centre.is_none_or(|c| path.normal_at(i).dot(&(c - path.points_m[i])) > 0.0)
+}
+
 /// Match projected path points to dots: (path index, dot) pairs, nearest first, one each.
 pub(super) fn match_projection(dlt: &Dlt, dots: &[Dot], path: &SPath, fraction: f64) -> Vec<(usize, usize)> {
-    let centre = dlt.centre();
-    let proj: Vec<Option<Point2<f64>>> = (0..path.len())
-        .map(|i| {
-            let x = path.points_m[i];
-            // Dots on the far side of the sphere are hidden.
-            let facing = centre.is_none_or(|c| path.normal_at(i).dot(&(c - x)) > 0.0);
-            if facing {
-                dlt.project(&x)
-            } else {
-                None
-            }
-        })
-        .collect();
+    let proj = facing_projections(dlt, path);
     let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
     for (i, q) in proj.iter().enumerate() {
         let Some(q) = q else { continue };

@@ -2,7 +2,7 @@
 //! first dot (10 mm against 6 mm) tells a placement from its shifts along the path and from its
 //! reversal (the S is nearly point-symmetric).
 
-use super::assign::{shift, REVERSAL_REACH};
+use super::assign::{mirror, shift, REVERSAL_REACH};
 use super::dlt::Dlt;
 use super::{correspondences, Labels, SPathFitParams};
 use crate::dots::Dot;
@@ -54,10 +54,7 @@ pub(super) fn anchored_at_start(labels: &[(usize, usize)], start: usize, dots: &
     let reach = REVERSAL_REACH as usize;
     (l.saturating_sub(reach)..=l + reach)
         .filter(|&m| m > 0)
-        .flat_map(|m| {
-            let mirrored: Labels = labels.iter().filter_map(|&(i, j)| m.checked_sub(i).filter(|&k| k < path.len()).map(|k| (k, j))).collect();
-            [with_start(shift(labels, -(m as i64), path.len())), with_start(mirrored)]
-        })
+        .flat_map(|m| [with_start(shift(labels, -(m as i64), path.len())), with_start(mirror(labels, m, path.len()))])
         .collect()
 }
 

@@ -20,7 +20,7 @@ use nalgebra::{Matrix3, Matrix3x4, Point2, Point3, Vector3};
 use std::collections::HashMap;
 
 use super::dlt::Dlt;
-use super::grow::match_projection;
+use super::grow::{facing_projections, match_projection};
 use super::{correspondences, Labels};
 use crate::dots::Dot;
 use synthcam_core::camera::Intrinsics;
@@ -89,13 +89,7 @@ fn turned(k: &Intrinsics, (r, t): &(Matrix3<f64>, Vector3<f64>), c: &Point3<f64>
 /// Path points the camera sees (facing it, in front) whose projection has a dot within `fraction`
 /// of the projected spacing there (as [`match_projection`] matches).
 fn support(dlt: &Dlt, grid: &DotGrid, path: &SPath, fraction: f64) -> usize {
-    let centre = dlt.centre();
-    let proj: Vec<Option<Point2<f64>>> = (0..path.len())
-        .map(|i| {
-            let x = path.points_m[i];
-            centre.is_none_or(|c| path.normal_at(i).dot(&(c - x)) > 0.0).then(|| dlt.project(&x)).flatten()
-        })
-        .collect();
+    let proj = facing_projections(dlt, path);
     let spacing = |i: usize, q: &Point2<f64>| {
         [i.checked_sub(1), Some(i + 1)]
             .into_iter()
