@@ -33,6 +33,11 @@ impl ImageF32 {
         Ok(Self { width, height, data })
     }
 
+    /// The image centre, pixels (OpenCV convention: `((width - 1) / 2, (height - 1) / 2)`).
+    pub fn centre_px(&self) -> nalgebra::Point2<f64> {
+        nalgebra::Point2::new((self.width as f64 - 1.0) / 2.0, (self.height as f64 - 1.0) / 2.0)
+    }
+
     /// From 8-bit samples.
     ///
     /// # Errors

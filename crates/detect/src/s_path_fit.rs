@@ -37,6 +37,13 @@
 //!    dots best wins only where no shift of it (whole, or beyond any of its stretches) comes
 //!    close, and a start dot it contradicts rules it out (`assign`). Blobs that are no
 //!    measurement ([`unmeasured()`]) are left to the caller.
+//! 7. *Lens*: without a camera, where the image centre is given
+//!    ([`SPathFitParams::image_centre_px`]), the result is checked by a DLT with one radial term
+//!    (the division model): a beam search over its shifts along the path replaces it by one that
+//!    fits clearly better, and where the lens term is significant the undistorted dots are
+//!    assigned afresh (`radial`). Without a camera, a labelling whose reversal (the S is nearly
+//!    point-symmetric) the assignment explains better is refused as ambiguous
+//!    (`checks::reversal_explains_better`).
 //!
 //! No intrinsics are needed: the DLT's 3 x 4 matrix stands for any pinhole camera. But its 11
 //! degrees of freedom absorb much of a shift of the path along itself: where dots stray from
@@ -76,6 +83,7 @@ mod grow;
 mod hungarian;
 mod label;
 mod pose;
+mod radial;
 mod residuals;
 mod resolve;
 mod seeds;
@@ -122,6 +130,10 @@ pub struct SPathFitParams {
     /// The camera, where known (calibrated): dots are then placed by its pose (6 degrees of
     /// freedom) behind its intrinsics and lens, not by a projective camera (11).
     pub camera: Option<CameraModel>,
+    /// The image centre, pixels (`((width - 1) / 2, (height - 1) / 2)`): where the camera is
+    /// unknown, the final labelling is checked by a projective camera with one radial lens term
+    /// about it (the division model, `radial`); `None` leaves the check out.
+    pub image_centre_px: Option<Point2<f64>>,
 }
 
 impl Default for SPathFitParams {
@@ -137,6 +149,7 @@ impl Default for SPathFitParams {
             max_height_m: 0.006,
             model_error_px: 2.0,
             camera: None,
+            image_centre_px: None,
         }
     }
 }
@@ -283,24 +296,53 @@ fn place_all(dots: &[Dot], path: &SPath, params: &SPathFitParams) -> Result<Labe
         (None, Some(s)) => start::StartDot::Breaks(s),
         (None, None) => start::StartDot::Unknown,
     };
-    let assigned = |seeds: &[Labels]| {
+    let assigned = |dots: &[Dot], seeds: &[Labels]| {
         assign::best_assignment(dots, path, seeds, params, start)
             .map(|(l, placed)| assign::join_chained(l, chained.as_deref().unwrap_or_default(), &placed))
             .map(|l| drop_merged(dots, l, order.start_area_ratio))
     };
-    let mut labels = assigned(&seeds);
+    let mut labels = assigned(dots, &seeds);
     if labels.as_ref().is_none_or(|l| l.len() < need) && params.camera.is_some() {
         // The windows' placements verified against all the dots: costlier, only where needed.
         seeds.extend(seeds::verified_windows(dots, path, params, &order));
-        labels = assigned(&seeds);
+        labels = assigned(dots, &seeds);
+    }
+    if let (Some(centre), None) = (params.image_centre_px, params.camera) {
+        labels = labels.map(|l| lens_checked(dots, path, l, centre, params, assigned));
     }
     let Some(labels) = labels.map(|l| checks::drop_contradicted(dots, path, l, params, &order)) else {
         return Err(DetectError::NotFound { reason: format!("no stretch of the {} dots could be placed on the S-path", dots.len()) });
     };
+    if params.camera.is_none() && checks::reversal_explains_better(dots, path, &labels, params) {
+        return Err(DetectError::NotFound { reason: "the S run backwards explains the dots better than the labelling found: ambiguous".into() });
+    }
     if labels.len() < need {
         return Err(DetectError::NotFound { reason: format!("{} of {} dots placed on the S-path (at least {need} needed)", labels.len(), dots.len()) });
     }
     Ok(labels)
+}
+
+/// Without a camera: the labelling checked by a DLT with one radial lens term about `centre`
+/// (`radial`): replaced by a rival that fits clearly better, and where the lens term is
+/// significant, the dots undistorted by it assigned afresh (`assigned`: the assignment of
+/// [`place_all`] on the dots given, seeded by the labellings given), kept where that places no
+/// fewer dots.
+fn lens_checked(
+    dots: &[Dot],
+    path: &SPath,
+    labels: Labels,
+    centre: Point2<f64>,
+    params: &SPathFitParams,
+    assigned: impl Fn(&[Dot], &[Labels]) -> Option<Labels>,
+) -> Labels {
+    match radial::best_rival(dots, path, labels.clone(), centre, params.ambiguity_ratio) {
+        Some(radial::Checked { chosen, lens: Some((kept, division)) }) => {
+            let ideal: Vec<Dot> = dots.iter().map(|d| Dot { centre_px: division.undistort(&d.centre_px), ..*d }).collect();
+            assigned(&ideal, &[chosen.clone(), kept]).filter(|a| a.len() >= chosen.len()).unwrap_or(chosen)
+        }
+        Some(radial::Checked { chosen, lens: None }) => chosen,
+        None => labels,
+    }
 }
 
 /// The labelling of [`index_s_path`] with chains grown as `order.growth` says; `None` where no
@@ -331,5 +373,7 @@ fn place_labels(dots: &[Dot], path: &SPath, params: &SPathFitParams, order: &SPa
     }
 }
 
+#[cfg(test)]
+mod radial_tests;
 #[cfg(test)]
 mod tests;

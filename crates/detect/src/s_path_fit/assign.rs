@@ -23,7 +23,7 @@ use super::dlt::Dlt;
 use super::gate::{gates, Gate};
 use super::hungarian::min_cost_assignment;
 use super::start::{anchored_at_start, start_agrees, StartDot, ANCHORED};
-use super::{correspondences, Labels, SPathFitParams};
+use super::{correspondences, Labels, Pinhole, SPathFitParams};
 use crate::dots::Dot;
 use synthcam_core::target::SPath;
 
@@ -155,7 +155,7 @@ impl Assignment {
     /// How badly the labelling explains the dots: the placed dots' squared offsets over the
     /// deviation radius, plus [`UNPLACED_COST`] per detected dot left unplaced (a robust
     /// negative log-likelihood of dots spread over their discs).
-    fn cost(&self, detected: usize) -> f64 {
+    pub(super) fn cost(&self, detected: usize) -> f64 {
         self.offsets.iter().sum::<f64>() + UNPLACED_COST * detected.saturating_sub(self.labels.len()) as f64
     }
 }
@@ -233,21 +233,21 @@ pub(super) fn mirror(labels: &[(usize, usize)], m: usize, len: usize) -> Labels 
 /// Rounds of [`best_assignment`] in which a new best is challenged by its own shifts.
 const RECHALLENGES: usize = 3;
 
-/// Path indices between the split points of [`shifted_rivals`].
+/// Path indices between the split points of [`shifted_rivals`] in the assignment's challenge.
 const SPLIT_STEP: usize = 5;
 
 /// Rivals of a labelling that a camera fitted to it may also take: the labelling moved by one to
 /// [`SHIFTS`] indices along the path, and its part beyond each split point (every
-/// [`SPLIT_STEP`] indices), or its part before it, moved by one either way (a labelling right up to a missed or stray
+/// `split_step` indices; none where `None`), or its part before it, moved by one either way (a labelling right up to a missed or stray
 /// dot and one index off beyond it fits one projective camera nearly as well where the dots
 /// stray by a quarter of their spacing).
-fn shifted_rivals(labels: &[(usize, usize)], len: usize, splits: bool) -> Vec<Labels> {
+pub(super) fn shifted_rivals(labels: &[(usize, usize)], len: usize, split_step: Option<usize>) -> Vec<Labels> {
     let mut out: Vec<Labels> = (1..=SHIFTS as i64).flat_map(|k| [-k, k]).map(|k| shift(labels, k, len)).collect();
-    if !splits {
+    let Some(step) = split_step.filter(|&s| s > 0) else {
         return out;
-    }
+    };
     let (lo, hi) = labels.iter().fold((usize::MAX, 0), |(a, b), l| (a.min(l.0), b.max(l.0)));
-    for split in (lo + SPLIT_STEP..hi).step_by(SPLIT_STEP) {
+    for split in (lo + step..hi).step_by(step) {
         let (head, tail): (Labels, Labels) = labels.iter().partition(|l| l.0 < split);
         for k in [-1i64, 1] {
             // The part beyond the split moved, then the part before it.
@@ -281,15 +281,22 @@ fn reversed_rivals(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, params
     if params.camera.is_none() {
         return Vec::new();
     }
-    let last = path.len() as i64 - 1;
-    let mut fits: Vec<(f64, Labels)> = (-REVERSAL_REACH..=REVERSAL_REACH)
-        .filter_map(|k| usize::try_from(last + k).ok())
-        .map(|m| mirror(labels, m, path.len()))
-        .filter(|l| l.len() >= 6)
-        .filter_map(|l| Some((super::fit_rms(dots, path, &l, params.pinhole())?, l)))
-        .collect();
+    let mut fits = reversal_fits(labels, dots, path, params.pinhole(), 6);
     fits.sort_by(|a, b| a.0.total_cmp(&b.0));
     fits.into_iter().take(REVERSALS).map(|(_, l)| l).collect()
+}
+
+/// The labelling's reversals (mirrored about the path's last index, moved by up to
+/// [`REVERSAL_REACH`] either way) that keep at least `min_len` of its dots, with the reprojection
+/// RMS of the camera fitted to each.
+pub(super) fn reversal_fits(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, pinhole: Pinhole, min_len: usize) -> Vec<(f64, Labels)> {
+    let last = path.len() as i64 - 1;
+    (-REVERSAL_REACH..=REVERSAL_REACH)
+        .filter_map(|k| usize::try_from(last + k).ok())
+        .map(|m| mirror(labels, m, path.len()))
+        .filter(|l| l.len() >= min_len.max(6))
+        .filter_map(|l| Some((super::fit_rms(dots, path, &l, pinhole)?, l)))
+        .collect()
 }
 
 /// The assignment of the seed labellings that explains the dots best ([`assign`],
@@ -325,7 +332,9 @@ pub(super) fn best_assignment(dots: &[Dot], path: &SPath, seeds: &[Labels], para
         if challenged.contains(&best) {
             break;
         }
-        results.extend(shifted_rivals(&best, path.len(), splits).iter().chain(&reversed_rivals(&best, dots, path, params)).filter_map(scored));
+        results.extend(
+            shifted_rivals(&best, path.len(), splits.then_some(SPLIT_STEP)).iter().chain(&reversed_rivals(&best, dots, path, params)).filter_map(scored),
+        );
         challenged.push(best);
     }
     results.sort_by(|a, b| a.0.total_cmp(&b.0));

@@ -5,7 +5,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use synthcam_core::target::spherical_s;
 
 /// The course S-path seen from the course's desired pose (f = 1500 px, 1280 x 1024).
-fn projected() -> (SPath, Vec<Option<Point2<f64>>>) {
+pub(super) fn projected() -> (SPath, Vec<Option<Point2<f64>>>) {
     let path = spherical_s();
     let r = nalgebra::Rotation3::from_matrix_unchecked(nalgebra::Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, 1.0, -1.0, 0.0, 0.0));
     let cam_from_world = Isometry3::from_parts(Translation3::new(0.0, -0.55, 1.8), UnitQuaternion::from_rotation_matrix(&r));
@@ -20,7 +20,7 @@ fn projected() -> (SPath, Vec<Option<Point2<f64>>>) {
     (path, pts)
 }
 
-fn dot(p: Point2<f64>, area: f64) -> Dot {
+pub(super) fn dot(p: Point2<f64>, area: f64) -> Dot {
     Dot { centre_px: p, area_px: area, spread_px: 0.5 * (area / std::f64::consts::PI).sqrt(), core_px: 4, contrast: 200.0, touching: false }
 }
 
@@ -71,7 +71,7 @@ fn indexes_the_path_without_its_start_and_across_a_gap() {
 
 /// The course view with every dot moved on the sphere by up to `dev_m` (uniform in a disc,
 /// seeded), the start dot 10/6 times larger in radius than the others.
-fn jittered(dev_m: f64, seed: u64) -> (SPath, Vec<Dot>, Vec<Point2<f64>>) {
+pub(super) fn jittered(dev_m: f64, seed: u64) -> (SPath, Vec<Dot>, Vec<Point2<f64>>) {
     use rand::{Rng, SeedableRng};
     let (path, _) = projected();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);

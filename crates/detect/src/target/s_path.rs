@@ -38,7 +38,10 @@ pub(super) fn detect_s_path(img: &ImageF32, points: usize, camera: Option<&Camer
     let t1 = std::time::Instant::now();
     let carried = track.as_deref().and_then(|t| t.carry(&dots, &path));
     let tracked = carried.is_some();
-    let indexed = carried.map_or_else(|| index_s_path(&dots, &path, &SPathFitParams { camera: camera.copied(), ..SPathFitParams::default() }), Ok);
+    let indexed = carried.map_or_else(
+        || index_s_path(&dots, &path, &SPathFitParams { camera: camera.copied(), image_centre_px: Some(img.centre_px()), ..SPathFitParams::default() }),
+        Ok,
+    );
     if let Some(t) = track {
         t.remember(&dots, indexed.as_deref().unwrap_or_default(), &path, tracked);
     }
