@@ -337,8 +337,8 @@ fn lens_checked(
 ) -> Labels {
     match radial::best_rival(dots, path, labels.clone(), centre, params.ambiguity_ratio) {
         Some(radial::Checked { chosen, lens: Some((kept, division)) }) => {
-            let ideal: Vec<Dot> = dots.iter().map(|d| Dot { centre_px: division.undistort(&d.centre_px), ..*d }).collect();
-            assigned(&ideal, &[chosen.clone(), kept]).filter(|a| a.len() >= chosen.len()).unwrap_or(chosen)
+            let undistorted: Vec<Dot> = dots.iter().map(|d| Dot { centre_px: division.undistort(&d.centre_px), ..*d }).collect();
+            assigned(&undistorted, &[chosen.clone(), kept]).filter(|a| a.len() >= chosen.len()).unwrap_or(chosen)
         }
         Some(radial::Checked { chosen, lens: None }) => chosen,
         None => labels,

@@ -237,10 +237,10 @@ const RECHALLENGES: usize = 3;
 const SPLIT_STEP: usize = 5;
 
 /// Rivals of a labelling that a camera fitted to it may also take: the labelling moved by one to
-/// [`SHIFTS`] indices along the path, and its part beyond each split point (every
-/// `split_step` indices; none where `None`), or its part before it, moved by one either way (a labelling right up to a missed or stray
-/// dot and one index off beyond it fits one projective camera nearly as well where the dots
-/// stray by a quarter of their spacing).
+/// [`SHIFTS`] indices along the path, and its part beyond each split point (every `split_step`
+/// indices; none where `None`), or its part before it, moved by one either way (a labelling right
+/// up to a missed or stray dot and one index off beyond it fits one projective camera nearly as
+/// well where the dots stray by a quarter of their spacing).
 pub(super) fn shifted_rivals(labels: &[(usize, usize)], len: usize, split_step: Option<usize>) -> Vec<Labels> {
     let mut out: Vec<Labels> = (1..=SHIFTS as i64).flat_map(|k| [-k, k]).map(|k| shift(labels, k, len)).collect();
     let Some(step) = split_step.filter(|&s| s > 0) else {
