@@ -41,7 +41,9 @@
 //!    ([`SPathFitParams::image_centre_px`]), the result is checked by a DLT with one radial term
 //!    (the division model): a beam search over its shifts along the path replaces it by one that
 //!    fits clearly better, and where the lens term is significant the undistorted dots are
-//!    assigned afresh (`radial`). Without a camera, a labelling whose reversal (the S is nearly
+//!    assigned afresh (`radial`); where the assignment's contenders dispute its dots, those
+//!    this camera fits far worse than the best of them drop out (`assign`). Without a camera, a
+//!    labelling whose reversal (the S is nearly
 //!    point-symmetric) the assignment explains better is refused as ambiguous
 //!    (`checks::reversal_explains_better`).
 //!

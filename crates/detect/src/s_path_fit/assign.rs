@@ -344,6 +344,9 @@ pub(super) fn best_assignment(dots: &[Dot], path: &SPath, seeds: &[Labels], para
     if contenders.iter().any(|c| start_agrees(&c.labels, start_dot) == Some(true)) {
         contenders.retain(|c| start_agrees(&c.labels, start_dot) != Some(false));
     }
+    if let (Some(centre), None, true) = (params.image_centre_px, params.camera, contenders.len() > 1) {
+        contenders = super::radial::lens_settled(dots, path, contenders, centre, params.ambiguity_ratio);
+    }
     let best = contenders.first()?;
     if !challenged.contains(&best.labels) {
         log::debug!("s-path assignment: the best of {} seeds ({} dots at cost {cost:.2}) kept changing", seeds.len(), best.labels.len());
