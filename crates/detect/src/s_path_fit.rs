@@ -96,7 +96,7 @@ mod sweep;
 mod track;
 mod unmeasured;
 use checks::{drop_merged, drop_outliers};
-use grow::{extend_locally, grow, match_projection, TRIM_KEEP};
+use grow::{extend_locally, grow, match_projection};
 use label::{label_chain, labellings};
 use resolve::{chain_labels, resolve_steps, Head};
 use synthcam_core::camera::{CameraModel, Intrinsics};

@@ -3,7 +3,8 @@
 
 use nalgebra::{Matrix3x4, Matrix4, Point2, Point3, SMatrix, SymmetricEigen, Vector3, Vector4};
 
-use super::{Pinhole, TRIM_KEEP};
+use super::grow::trimmed_count;
+use super::Pinhole;
 use synthcam_core::target::SPath;
 
 /// A camera matrix `P` (3 x 4, pixels): projective, fitted by the DLT, or `K [R | t]` where the
@@ -73,12 +74,12 @@ impl Dlt {
         p.iter().all(|v| v.is_finite()).then_some(Self { p })
     }
 
-    /// Fit, then refit to the [`TRIM_KEEP`] share of the pairs it fits best: a few mislabelled
+    /// Fit, then refit to the [`super::grow::TRIM_KEEP`] share of the pairs it fits best: a few mislabelled
     /// dots (a skip miscounted where dots stray from the nominal curve) then cannot drag the
     /// camera, and the matching that follows relabels them.
     pub(super) fn fit_trimmed(world: &[Point3<f64>], image: &[Point2<f64>], pinhole: Pinhole) -> Option<Self> {
         let dlt = Self::fit(world, image, pinhole)?;
-        let keep = ((TRIM_KEEP * world.len() as f64).ceil() as usize).max(12);
+        let keep = trimmed_count(world.len());
         if keep >= world.len() {
             return Some(dlt);
         }

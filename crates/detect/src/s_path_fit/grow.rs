@@ -52,6 +52,11 @@ pub(super) fn match_projection(dlt: &Dlt, dots: &[Dot], path: &SPath, fraction: 
 /// Share of the labelled pairs [`Dlt::fit_trimmed`] refits to.
 pub(super) const TRIM_KEEP: f64 = 0.8;
 
+/// Pairs a trimmed fit keeps of `n`: the [`TRIM_KEEP`] share, at least 12.
+pub(super) fn trimmed_count(n: usize) -> usize {
+    ((TRIM_KEEP * n as f64).ceil() as usize).max(12)
+}
+
 /// Fit to labelled pairs (trimmed), then alternate projection matching and refitting until stable.
 pub(super) fn grow(dots: &[Dot], path: &SPath, mut labels: Vec<(usize, usize)>, params: &SPathFitParams) -> Vec<(usize, usize)> {
     for _ in 0..6 {

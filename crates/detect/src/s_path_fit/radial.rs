@@ -28,7 +28,8 @@ use nalgebra::{Point2, Point3};
 
 use super::assign::{shifted_rivals, Assignment};
 use super::dlt::Dlt;
-use super::{correspondences, Labels, TRIM_KEEP};
+use super::grow::trimmed_count;
+use super::{correspondences, Labels};
 use crate::dots::Dot;
 use synthcam_core::target::SPath;
 
@@ -135,14 +136,14 @@ const SCREENED: usize = 3;
 /// [`shifted_rivals`]), screened at its lambda, the [`SCREENED`] best refitted with their own. A
 /// stretch placed wrongly can differ from the right placement by a shift and a miscounted skip
 /// inside it (two steps, the first fitting worse: a beam, not a descent). The best found replaces
-/// `labels` only where it fits clearly better (by `ratio`). Returned as seeds with the division
-/// model fitted to the [`TRIM_KEEP`] share of the dots the chosen labelling fits best, and that
-/// share; `None` where `labels` fit no camera.
+/// `labels` only where it fits clearly better (by `ratio`). Returned with the division model
+/// fitted to the [`super::grow::TRIM_KEEP`] share of the dots the chosen labelling fits best, and that share,
+/// where the lens term is significant ([`Checked`]); `None` where `labels` fit no camera.
 pub(super) fn best_rival(dots: &[Dot], path: &SPath, labels: Labels, centre: Point2<f64>, ratio: f64) -> Option<Checked> {
     let (own, division) = fit_labels(dots, path, &labels, centre)?;
     let mut seen: std::collections::HashSet<Labels> = std::collections::HashSet::from([labels.clone()]);
     let mut beam = vec![(own, labels.clone(), division)];
-    let (mut rms, mut now) = (own, labels.clone());
+    let (mut rms, mut now, mut now_division) = (own, labels.clone(), division);
     for _ in 0..SEARCH_STEPS {
         let mut next: Vec<(f64, Labels, Division)> = Vec::new();
         for (_, from, division) in &beam {
@@ -160,19 +161,19 @@ pub(super) fn best_rival(dots: &[Dot], path: &SPath, labels: Labels, centre: Poi
         next.sort_by(|a, b| a.0.total_cmp(&b.0));
         next.truncate(BEAM);
         match next.first() {
-            Some(first) if first.0 < rms => (rms, now) = (first.0, first.1.clone()),
+            Some(first) if first.0 < rms => (rms, now, now_division) = (first.0, first.1.clone(), first.2),
             Some(_) => {}
             None => break,
         }
         beam = next;
     }
-    let chosen = if rms * ratio < own {
+    let (chosen, fitted) = if rms * ratio < own {
         log::debug!("s-path radial check: a rival of the labelling fits at {rms:.3} px against its {own:.3} px: taken");
-        now
+        (now, now_division)
     } else {
-        labels
+        (labels, division)
     };
-    let lens = trimmed_division(dots, path, &chosen, centre).filter(|(kept, division)| significant(dots, path, kept, division));
+    let lens = Some(trimmed_division(dots, path, &chosen, centre, fitted)).filter(|(kept, division)| significant(dots, path, kept, division));
     Some(Checked { chosen, lens })
 }
 
@@ -209,15 +210,15 @@ fn significant(dots: &[Dot], path: &SPath, labels: &[(usize, usize)], division: 
 /// Concentration steps of [`trimmed_division`].
 const C_STEPS: usize = 6;
 
-/// The division model fitted to the [`TRIM_KEEP`] share of the labelled dots it fits best, and
+/// The division model fitted to the [`super::grow::TRIM_KEEP`] share of the labelled dots it fits best, and
 /// that share: a least-trimmed-squares fit by concentration steps (Rousseeuw and Van Driessen,
 /// "Computing LTS regression for large data sets", 2006): fit, keep the share with the smallest
 /// residuals, refit to it, until the share stops changing ([`C_STEPS`] at most). A stretch one
-/// index off drags a fit to all dots its way; the steps shed it.
-fn trimmed_division(dots: &[Dot], path: &SPath, labels: &[(usize, usize)], centre: Point2<f64>) -> Option<(Labels, Division)> {
-    let (_, mut division) = fit_labels(dots, path, labels, centre)?;
+/// index off drags a fit to all dots its way; the steps shed it. `division`: [`fit`] to all of
+/// `labels`, where the steps start.
+fn trimmed_division(dots: &[Dot], path: &SPath, labels: &[(usize, usize)], centre: Point2<f64>, mut division: Division) -> (Labels, Division) {
     let (world, image) = correspondences(labels, dots, path);
-    let keep = ((TRIM_KEEP * labels.len() as f64).ceil() as usize).max(12).min(labels.len());
+    let keep = trimmed_count(labels.len()).min(labels.len());
     let mut kept: Labels = labels.to_vec();
     for _ in 0..C_STEPS {
         let (kw, ki) = correspondences(&kept, dots, path);
@@ -234,7 +235,7 @@ fn trimmed_division(dots: &[Dot], path: &SPath, labels: &[(usize, usize)], centr
         let Some((_, d)) = fit_labels(dots, path, &kept, centre) else { break };
         division = d;
     }
-    Some((kept, division))
+    (kept, division)
 }
 
 /// Without a camera, where the image centre is known: the contenders less those that a DLT with
