@@ -75,7 +75,7 @@ struct Params {
     sun: vec4<f32>,      // objects' shadows: the direction towards the light (camera frame; 0: none), shadowed / lit shading (objects.wgsl)
     soft_c: vec4<f32>,   // objects' soft shadows (area light): a corner in the camera frame, the ambient term
     soft_u: vec4<f32>,   // its edges, camera frame; w: 1 when on (soft_u), 0
-    soft_v: vec4<f32>,
+    soft_v: vec4<f32>,   // its other edge; w: the soft-shadow lattice's first row in objs (0: none, -1: computing its points; objects.wgsl lattice_at)
     obj_sun: vec4<f32>,  // lit objects: the directional light's irradiance times the unit direction towards it (camera frame; 0: none), the ambient term (objects.wgsl sun_on)
 };
 

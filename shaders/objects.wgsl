@@ -193,20 +193,28 @@ var<private> soft: vec2<f32>;
 
 // Under the area light, the mean over the pixel of the target's shading in the objects' shadow
 // over its mean lit shading, (A + E V) / (A + E) with the light's closed-form term E
-// (planar.wgsl area_irradiance) and its visible share V (light_share, each point its own rows),
-// at 2 x 2 sub-pixel points; x: 1 when some of the light is hidden from one of them. (0, 1)
+// (planar.wgsl area_irradiance) and its visible share V (light_share, each point its own rows;
+// or bilinear from the soft-shadow lattice where the pixel's quad takes it: lattice_mode), at
+// 2 x 2 sub-pixel points; x: 1 when some of the light is hidden from one of them. (0, 1)
 // without an area light.
-fn soft_pixel(centre: Ray) -> vec2<f32> {
+fn soft_pixel(centre: Ray, px: vec2<u32>) -> vec2<f32> {
     if (P.soft_u.w != 1.0 || !centre.ok) { return vec2<f32>(0.0, 1.0); }
+    let quad = px / QUAD;
+    let mode = lattice_mode(quad);
     var shaded = 0.0;
     var lit = 0.0;
     var hidden = 0.0;
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let d = ray_at(centre, vec2<f32>(f32(k % 2u), f32(k / 2u)) * 0.5 - 0.25);
+        let o = vec2<f32>(f32(k % 2u), f32(k / 2u)) * 0.5 - 0.25;
+        let d = ray_at(centre, o);
         let t = target_t(d);
         if (t < 3e38) {
             var v = 1.0;
-            if (light_may_be_hidden(d, t)) { v = light_share(d, t, (f32(k) + 0.5) * 0.25); }
+            if (mode != 0u) {
+                v = lattice_lerp(quad, mode, vec2<f32>(px) + o);
+            } else if (light_may_be_hidden(d, t)) {
+                v = light_share(d, t, (f32(k) + 0.5) * 0.25);
+            }
             let e = area_irradiance(plane_point(d).xy);
             shaded = shaded + P.soft_c.w + e * v;
             lit = lit + P.soft_c.w + e;
@@ -214,6 +222,60 @@ fn soft_pixel(centre: Ray) -> vec2<f32> {
         }
     }
     return vec2<f32>(hidden, select(1.0, shaded / lit, lit > 0.0));
+}
+
+// The soft-shadow lattice (crates/render/src/soft_lattice.rs), where P.soft_v.w > 0 gives its
+// first row in objs: the visible share V at the points (QUAD a - 0.5, QUAD b - 0.5) of the image
+// (2 tiles_x + 1 per row, 2 tiles_y + 1 rows; -1 where not computed or off the sheet), then per
+// 4 x 4 quad of pixels how it takes V: 2 bilinearly from its tile's corners, 1 from its own, 0
+// each pixel integrating its own (the CPU's checks of the lattice's second differences and of
+// the cells' centres against the tolerance). Soft shadows vary smoothly: interpolated pixels
+// cost no shadow ray.
+const QUAD: u32 = 4u;
+// Phases of light_share at a lattice point: LIGHT_ROWS times as many rows of the emitter.
+const LATTICE_PHASES: u32 = 4u;
+
+fn lattice_at(k: u32) -> f32 {
+    let r = objs[u32(P.soft_v.w) + k / 4u];
+    return r[k % 4u];
+}
+
+// How the pixels of quad `quad` take V (2, 1 or 0, above); 0 without a lattice.
+fn lattice_mode(quad: vec2<u32>) -> u32 {
+    if (P.soft_v.w <= 0.0) { return 0u; }
+    let points = (2u * P.tiles.x + 1u) * (2u * P.tiles.y + 1u);
+    return u32(lattice_at(points + quad.y * 2u * P.tiles.x + quad.x));
+}
+
+// V at the image point q (pixels) of quad `quad`, bilinear over its cell: the tile's (mode 2)
+// or the quad's own (mode 1).
+fn lattice_lerp(quad: vec2<u32>, mode: u32, q: vec2<f32>) -> f32 {
+    let step = select(1u, 2u, mode == 2u);
+    let cell = quad / step * step;
+    let uv = (q + 0.5 - vec2<f32>(cell * QUAD)) / f32(step * QUAD);
+    let n = 2u * P.tiles.x + 1u;
+    let k = cell.y * n + cell.x;
+    let top = mix(lattice_at(k), lattice_at(k + step), uv.x);
+    let bottom = mix(lattice_at(k + step * n), lattice_at(k + step * n + step), uv.x);
+    return mix(top, bottom, uv.y);
+}
+
+// The lattice's own values (P.soft_v.w == -1: the fine entry evaluates work items as lattice
+// points): V at the point q of the image, the mean over LATTICE_PHASES phases of light_share;
+// -1 where q's ray misses the sheet.
+fn lattice_share(q: vec2<f32>) -> f32 {
+    let ray = pixel_ray(q);
+    let d = ray_d(ray);
+    let t = target_t(d);
+    var v = -1.0;
+    if (ray.ok && t < 3e38) {
+        v = 1.0;
+        if (light_may_be_hidden(d, t)) {
+            v = 0.0;
+            for (var k = 0u; k < LATTICE_PHASES; k = k + 1u) { v = v + light_share(d, t, (f32(k) + 0.5) / f32(LATTICE_PHASES)) / f32(LATTICE_PHASES); }
+        }
+    }
+    return v;
 }
 
 // Whether an instance may hide the light points at `to` (four, relative to the target point
@@ -239,11 +301,101 @@ fn hull_meets_objects(d_cam: vec3<f32>, t: f32, to: array<vec3<f32>, 4>) -> bool
     return false;
 }
 
-// hull_meets_objects for the whole light's rectangle.
+// Whether an object may hide some of the light from the target point t d_cam: hull_meets_objects
+// for the whole light's rectangle, then shaft_meets_objects. `false` proves the light wholly visible.
 fn light_may_be_hidden(d_cam: vec3<f32>, t: f32) -> bool {
     let x = t * d_cam;
     let c = P.soft_c.xyz - x;
-    return hull_meets_objects(d_cam, t, array<vec3<f32>, 4>(c, c + P.soft_u.xyz, c + P.soft_v.xyz, c + P.soft_u.xyz + P.soft_v.xyz));
+    let to = array<vec3<f32>, 4>(c, c + P.soft_u.xyz, c + P.soft_u.xyz + P.soft_v.xyz, c + P.soft_v.xyz);
+    return hull_meets_objects(d_cam, t, to) && shaft_meets_objects(d_cam, t, to);
+}
+
+// A shaft (mesh frame): the pyramid from a point through the light's corners, cut by the light's
+// plane; five planes n . p >= w (n unit) bound it.
+struct Shaft { n: array<vec3<f32>, 5>, w: array<f32, 5>, };
+
+// How far beyond a plane a box or triangle must lie to be outside the shaft (mesh units): f32
+// rounding must not prove a light visible that a triangle grazes.
+const SHAFT_SLACK: f32 = 1e-5;
+
+// The shaft of instance `inst` from its mesh-frame point o to the light corners `to` (camera
+// frame, relative to the point, in order around the rectangle).
+fn light_shaft(inst: u32, o: vec3<f32>, to: array<vec3<f32>, 4>) -> Shaft {
+    var s: Shaft;
+    let mc = mesh_dir(inst, 0.25 * (to[0] + to[1] + to[2] + to[3]));
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let p = cross3(mesh_dir(inst, to[k]), mesh_dir(inst, to[(k + 1u) % 4u]));
+        let n = normalize(select(-p, p, dot3(p, mc) >= 0.0));
+        s.n[k] = n;
+        s.w[k] = dot3(n, o);
+    }
+    let e = normalize(mesh_dir(inst, cross(P.soft_u.xyz, P.soft_v.xyz)));
+    let l0 = o + mesh_dir(inst, to[0]);
+    let n = select(-e, e, dot3(e, o - l0) >= 0.0);
+    s.n[4] = n;
+    s.w[4] = dot3(n, l0);
+    return s;
+}
+
+// Whether the box lo..hi may meet the shaft: not behind any of its planes.
+fn box_in_shaft(lo: vec3<f32>, hi: vec3<f32>, s: Shaft) -> bool {
+    var inside = lo.x <= hi.x;
+    for (var k = 0u; k < 5u; k = k + 1u) {
+        let far = select(lo, hi, s.n[k] > vec3<f32>(0.0, 0.0, 0.0));
+        inside = inside && dot3(s.n[k], far) >= s.w[k] - SHAFT_SLACK;
+    }
+    return inside;
+}
+
+// Whether a triangle of leaf c may meet the shaft: no plane has all three corners behind it.
+fn leaf_in_shaft(tri_base: u32, c: u32, s: Shaft) -> bool {
+    for (var k = leaf_first(c); k < leaf_end(c); k = k + 1u) {
+        let b = tri_base + 4u * k;
+        let v0 = objs[b].xyz;
+        let v1 = v0 + objs[b + 1u].xyz;
+        let v2 = v0 + objs[b + 2u].xyz;
+        var inside = true;
+        for (var j = 0u; j < 5u; j = j + 1u) {
+            let lim = s.w[j] - SHAFT_SLACK;
+            inside = inside && !(dot3(s.n[j], v0) < lim && dot3(s.n[j], v1) < lim && dot3(s.n[j], v2) < lim);
+        }
+        if (inside) { return true; }
+    }
+    return false;
+}
+
+// Whether a triangle of an object may lie in the shaft from the target point t d_cam to the
+// area light's corners `to`: a traversal of each instance's hierarchy entering the boxes the
+// shaft may meet, its leaves' triangles tested against the shaft's planes. Conservative (boxes
+// and triangles are outside only when wholly behind one plane): `false` proves every light
+// point visible from the target point, so light_share (72 or more shadow rays) is not needed.
+fn shaft_meets_objects(d_cam: vec3<f32>, t: f32, to: array<vec3<f32>, 4>) -> bool {
+    for (var i = 0u; i < P.obj.x; i = i + 1u) {
+        let od = instance_ray(i, d_cam);
+        let s = light_shaft(i, od[0] + t * od[1], to);
+        let info = bitcast<vec4<u32>>(objs[P.obj.y + 5u * i + 3u]);
+        var stack: array<u32, MESH_STACK>;
+        var sp = 0u;
+        var node = 0u;
+        loop {
+            let r = node_rows(info.x, node);
+            var go0 = box_in_shaft(r[0].xyz, r[1].xyz, s);
+            var go1 = box_in_shaft(r[2].xyz, r[3].xyz, s);
+            let c0 = bitcast<u32>(r[0].w);
+            let c1 = bitcast<u32>(r[1].w);
+            if (go0 && (c0 & LEAF_BIT) != 0u) {
+                if (leaf_in_shaft(info.y, c0, s)) { return true; }
+                go0 = false;
+            }
+            if (go1 && (c1 & LEAF_BIT) != 0u) {
+                if (leaf_in_shaft(info.y, c1, s)) { return true; }
+                go1 = false;
+            }
+            node = next_node(&stack, &sp, go0, go1, c0, c1);
+            if (node == NO_OBJECT) { break; }
+        }
+    }
+    return false;
 }
 
 // Rows of the area light the visible share integrates over; points per row (the segments between
@@ -486,7 +638,7 @@ fn cs_coarse_objects(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoca
     var val = 1.0;
     if (ray.ok && h.inst == NO_OBJECT && tt < 3e38) {
         // A target pixel in an object's shadow: its value is the ratio to the lit one.
-        soft = soft_pixel(ray);
+        soft = soft_pixel(ray, px.xy);
         let shade = shadow_ratio(d, tt);
         cls = select(0u, SHADOW_CLASS, shade.x == 1.0);
         val = shade.y;
@@ -685,10 +837,20 @@ fn scan_line(q: vec2<f32>, centre: Ray, gathered: bool, axis: u32, pos: f32) -> 
 fn cs_fine_objects(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = min(gid.y * 65535u * 64u + gid.x, P.tiles.w - 1u);
     let packed = work[i];
+    let slot = gid.y * 65535u * 64u + gid.x;
+    uniform_view();
+    // The soft-shadow lattice's points (P.soft_v.w == -1): the item's lattice point (a, b) = (x,
+    // y), or with bit 31 the centre of quad (a, b). llvmpipe runs a branch's code under a lane
+    // mask whether or not a lane takes it: the pixels' loops below get no trips instead.
+    let lattice = P.soft_v.w == -1.0;
+    if (lattice) {
+        let point = vec2<f32>(f32(packed & 0x7fffu), f32((packed >> 16u) & 0x7fffu)) * f32(QUAD) - 0.5;
+        out_vals[slot] = lattice_share(point + select(0.0, 0.5 * f32(QUAD), (packed >> 31u) == 1u));
+        out_hard[slot] = 0u;
+    }
     let axis = (packed >> 15u) & 1u;
     let grid = (packed >> 31u) == 1u;
     let q = vec2<f32>(f32(packed & 0x7fffu), f32((packed >> 16u) & 0x7fffu));
-    uniform_view();
     let centre = pixel_ray(q);
     // The frustum: the pixel's corners, a hundredth of a pixel wider (the sub-samples' rays are
     // the same linearisation, or for a fisheye each its own inversion: margin for its bending).
@@ -703,24 +865,25 @@ fn cs_fine_objects(@builtin(global_invocation_id) gid: vec3<u32>) {
     soft = vec2<f32>(0.0, 1.0);
     acc_sheet = 0.0;
     var gathered = centre.ok;
-    for (var k = 0u; k < P.obj.x; k = k + 1u) {
+    for (var k = 0u; k < select(P.obj.x, 0u, lattice); k = k + 1u) {
         gathered = gathered && gather_instance(k, c, ray_d(centre));
     }
     // Per-lane trip counts: a lane runs its own loop only (llvmpipe leaves a loop when no lane
     // is active in it).
-    let lines = select(P.obj.z, 0u, grid);
+    let lines = select(select(P.obj.z, 0u, grid), 0u, lattice);
     var acc = 0.0;
     for (var j = 0u; j < lines; j = j + 1u) {
         acc = acc + scan_line(q, centre, gathered, axis, (f32(j) + 0.5) / f32(lines) - 0.5);
     }
-    let n = select(0u, P.obj.w, grid);
+    let n = select(select(0u, P.obj.w, grid), 0u, lattice);
     let inv = 1.0 / f32(max(n, 1u));
     for (var k = 0u; k < n * n; k = k + 1u) {
         let m = see(q, centre, (vec2<f32>(f32(k % n), f32(k / n)) + 0.5) * inv - 0.5, gathered);
         acc = acc + m.v * inv;
         acc_sheet = acc_sheet + m.v * m.sheet * inv;
     }
-    let slot = gid.y * 65535u * 64u + gid.x;
-    out_vals[slot] = select(acc / f32(max(lines, 1u)), acc * inv, grid);
-    out_hard[slot] = bitcast<u32>(select(acc_sheet / f32(max(lines, 1u)), acc_sheet * inv, grid));
+    if (!lattice) {
+        out_vals[slot] = select(acc / f32(max(lines, 1u)), acc * inv, grid);
+        out_hard[slot] = bitcast<u32>(select(acc_sheet / f32(max(lines, 1u)), acc_sheet * inv, grid));
+    }
 }

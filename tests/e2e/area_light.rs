@@ -170,7 +170,7 @@ fn an_area_light_shades_a_flat_board_as_its_integral_says() {
 
 /// The plate's soft shadow from the area light: every 5th pixel the shadow touches and every
 /// 97th elsewhere against the reference, within the 0.5 grey levels (the Lambert bound;
-/// measured max 0.40, RMS 0.031) and 0.1 RMS. The truth's features get the shadowed irradiance of
+/// measured max 0.40, RMS 0.038) and 0.1 RMS. The truth's features get the shadowed irradiance of
 /// the library's own sampling, within 0.01 of this test's.
 #[test]
 fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
@@ -206,7 +206,7 @@ fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
 /// board's edges, the lit board's render times the mean over the pixel's 2 x 2 points of
 /// `A + E V` over the mean of `A + E`, `V` from `scene::shadow::visible_share` (48 x 48 emitter
 /// cells, f64 rays through the CPU hierarchy; its own cells err by up to a few tenths of a grey
-/// level). Within 0.75 grey levels (measured max 0.54, RMS 0.085).
+/// level). Within 0.75 grey levels (measured max 0.48, RMS 0.078).
 #[test]
 fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
     let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("assets/scenes/objects"));

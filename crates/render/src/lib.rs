@@ -39,6 +39,7 @@ pub(crate) mod objects;
 pub(crate) mod post;
 pub mod renderer;
 mod shader;
+mod soft_lattice;
 pub(crate) mod tiles;
 pub(crate) mod uniforms;
 pub mod views;

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use super::buffers::{Buffers, STORAGE_DST};
 use super::gpu_scene::{GpuScene, PassKind};
 use super::objects::{instance_rows, object_params, MeshRows};
+use super::soft_lattice::Lattice;
 use super::tiles::TILE_PX;
 use super::{RenderError, Renderer};
 use synthcam_scene::Scene;
@@ -28,7 +29,9 @@ impl Renderer {
         };
         let instances = instance_rows(scene, &meshes);
         let (device, queue) = (&self.context().device, &self.context().queue);
-        let bytes = ((meshes.rows.len() + instances.len()) * 16) as u64;
+        // Under an area light, room behind the instances for the soft-shadow lattice.
+        let lattice = if gs.params.soft_shadows() { Lattice::rows(gs.params.tiles[0], gs.params.tiles[1]) } else { 0 };
+        let bytes = ((meshes.rows.len() + instances.len() + lattice) * 16) as u64;
         let max = device.limits().max_storage_buffer_binding_size;
         if bytes > max {
             return Err(RenderError::TooLarge { width: scene.camera.size.width, height: scene.camera.size.height, max_bytes: max });
@@ -53,14 +56,18 @@ impl Renderer {
             return Ok(());
         }
         let (w, h) = (gs.params.size[0] as usize, gs.params.size[1] as usize);
-        let (vals, classes) = self.run_pass(bufs, gs, PassKind::Objects, false, tiles)?;
+        let soft = gs.params.soft_shadows();
+        let mut params = gs.params;
+        if soft {
+            params.soft_v[3] = self.soft_lattice(bufs, gs, tiles)?;
+        }
+        let (vals, classes) = self.run_pass_with(bufs, gs, params, PassKind::Objects, false, tiles)?;
         // Per pixel of the image: its class and value (pixels outside the tiles see no object;
         // where no object is in front, the value is the target passes').
         let mut class = vec![0u32; w * h];
         let mut value = img.to_vec();
         // Under an area light: the coarse pass's soft-shadow ratio per target pixel (1 elsewhere),
         // which scales the sheet's share of each fine pixel.
-        let soft = gs.params.soft_shadows();
         let mut ratio = if soft { vec![1.0f32; w * h] } else { Vec::new() };
         for (j, packed) in tiles.iter().enumerate() {
             for (k, x, y) in tile_pixels(*packed, w, h) {
@@ -111,6 +118,37 @@ impl Renderer {
             }
         }
         Ok(())
+    }
+}
+
+impl Renderer {
+    /// Under an area light: the soft-shadow lattice of `tiles` computed in two passes
+    /// (`super::soft_lattice`) and written behind the instances in the objects' buffer; its
+    /// first row there, for `Params::soft_v`'s w.
+    fn soft_lattice(&self, bufs: &mut Buffers, gs: &GpuScene, tiles: &[u32]) -> Result<f32, RenderError> {
+        let (tiles_x, tiles_y) = (gs.params.tiles[0], gs.params.tiles[1]);
+        let mut lattice = Lattice::new(tiles_x, tiles_y);
+        let mut params = gs.params;
+        params.soft_v[3] = -1.0;
+        let work = lattice.tile_work(tiles);
+        lattice.record(&work, &self.run_pass_with(bufs, gs, params, PassKind::Objects, true, &work)?.0);
+        let failed = lattice.decide_tiles(tiles);
+        let quad_work = lattice.quad_work(&failed);
+        if !quad_work.is_empty() {
+            lattice.record(&quad_work, &self.run_pass_with(bufs, gs, params, PassKind::Objects, true, &quad_work)?.0);
+        }
+        lattice.decide_quads(&failed);
+        let start = gs.params.obj[1] as usize + 5 * gs.params.obj[0] as usize;
+        let buffer = bufs.objs.get(&self.context().device, "objs", ((start + Lattice::rows(tiles_x, tiles_y)) * 16) as u64, STORAGE_DST);
+        self.context().queue.write_buffer(buffer, (start * 16) as u64, bytemuck::cast_slice(&lattice.values()));
+        let (from_tiles, from_quads) = lattice.counts();
+        log::debug!(
+            "objects: soft-shadow lattice of {} + {} points; of {} quads {from_tiles} interpolated over their tile, {from_quads} over themselves",
+            work.len(),
+            quad_work.len(),
+            4 * tiles.len()
+        );
+        Ok(start as f32)
     }
 }
 

@@ -107,7 +107,9 @@ pub struct Params {
     pub soft_c: [f32; 4],
     /// Its edge along the width, camera frame; w: 1 when soft shadows are on.
     pub soft_u: [f32; 4],
-    /// Its edge along the height, camera frame.
+    /// Its edge along the height, camera frame; w: the soft-shadow lattice's first row in the
+    /// objects' buffer (0: none; -1 while the lattice's own points are computed:
+    /// `super::soft_lattice`).
     pub soft_v: [f32; 4],
     /// Lit objects (`shaders/objects.wgsl` `sun_on`): the directional light's irradiance `E`
     /// times the unit direction towards it (camera frame; 0: no light), the ambient term `A`.
