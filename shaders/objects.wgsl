@@ -226,7 +226,8 @@ fn soft_pixel(centre: Ray, px: vec2<u32>) -> vec2<f32> {
 
 // The soft-shadow lattice (crates/render/src/soft_lattice.rs), where P.soft_v.w > 0 gives its
 // first row in objs: the visible share V at the points (QUAD a - 0.5, QUAD b - 0.5) of the image
-// (2 tiles_x + 1 per row, 2 tiles_y + 1 rows; -1 where not computed or off the sheet), then per
+// (2 tiles_x + 1 per row, 2 tiles_y + 1 rows; -1 where not computed or the ray misses the
+// target's plane: V is computed on the plane past the sheet's edge too), then per
 // 4 x 4 quad of pixels how it takes V: 2 bilinearly from its tile's corners, 1 from its own, 0
 // each pixel integrating its own (the CPU's checks of the lattice's second differences and of
 // the cells' centres against the tolerance). Soft shadows vary smoothly: interpolated pixels
@@ -262,11 +263,12 @@ fn lattice_lerp(quad: vec2<u32>, mode: u32, q: vec2<f32>) -> f32 {
 
 // The lattice's own values (P.soft_v.w == -1: the fine entry evaluates work items as lattice
 // points): V at the point q of the image, the mean over LATTICE_PHASES phases of light_share;
-// -1 where q's ray misses the sheet.
+// -1 where q's ray misses the target's plane (beyond the sheet, the plane: V is smooth across
+// the sheet's edge).
 fn lattice_share(q: vec2<f32>) -> f32 {
     let ray = pixel_ray(q);
     let d = ray_d(ray);
-    let t = target_t(d);
+    let t = plane_t(d);
     var v = -1.0;
     if (ray.ok && t < 3e38) {
         v = 1.0;
@@ -312,7 +314,7 @@ fn light_may_be_hidden(d_cam: vec3<f32>, t: f32) -> bool {
 
 // A shaft (mesh frame): the pyramid from a point through the light's corners, cut by the light's
 // plane; five planes n . p >= w (n unit) bound it.
-struct Shaft { n: array<vec3<f32>, 5>, w: array<f32, 5>, };
+struct Shaft { n: array<vec3<f32>, 5>, w: array<f32, 5>, corners: array<vec3<f32>, 5>, };
 
 // How far beyond a plane a box or triangle must lie to be outside the shaft (mesh units): f32
 // rounding must not prove a light visible that a triangle grazes.
@@ -329,6 +331,8 @@ fn light_shaft(inst: u32, o: vec3<f32>, to: array<vec3<f32>, 4>) -> Shaft {
         s.n[k] = n;
         s.w[k] = dot3(n, o);
     }
+    s.corners[4] = o;
+    for (var k = 0u; k < 4u; k = k + 1u) { s.corners[k] = o + mesh_dir(inst, to[k]); }
     let e = normalize(mesh_dir(inst, cross(P.soft_u.xyz, P.soft_v.xyz)));
     let l0 = o + mesh_dir(inst, to[0]);
     let n = select(-e, e, dot3(e, o - l0) >= 0.0);
@@ -347,19 +351,32 @@ fn box_in_shaft(lo: vec3<f32>, hi: vec3<f32>, s: Shaft) -> bool {
     return inside;
 }
 
-// Whether a triangle of leaf c may meet the shaft: no plane has all three corners behind it.
+// Whether a triangle of leaf c may meet the shaft: no plane of the shaft has all three corners
+// behind it, and the triangle's own plane does not have all five corners of the shaft on one
+// side (separating planes: a large face beside the shaft's edge passes the first test alone).
 fn leaf_in_shaft(tri_base: u32, c: u32, s: Shaft) -> bool {
     for (var k = leaf_first(c); k < leaf_end(c); k = k + 1u) {
         let b = tri_base + 4u * k;
         let v0 = objs[b].xyz;
-        let v1 = v0 + objs[b + 1u].xyz;
-        let v2 = v0 + objs[b + 2u].xyz;
+        let e1 = objs[b + 1u].xyz;
+        let e2 = objs[b + 2u].xyz;
+        let v1 = v0 + e1;
+        let v2 = v0 + e2;
         var inside = true;
         for (var j = 0u; j < 5u; j = j + 1u) {
             let lim = s.w[j] - SHAFT_SLACK;
             inside = inside && !(dot3(s.n[j], v0) < lim && dot3(s.n[j], v1) < lim && dot3(s.n[j], v2) < lim);
         }
-        if (inside) { return true; }
+        let n = cross3(e1, e2);
+        let slack = SHAFT_SLACK * length(n);
+        var above = 0u;
+        var below = 0u;
+        for (var j = 0u; j < 5u; j = j + 1u) {
+            let side = dot3(n, s.corners[j] - v0);
+            above = above + select(0u, 1u, side > slack);
+            below = below + select(0u, 1u, side < -slack);
+        }
+        if (inside && above < 5u && below < 5u) { return true; }
     }
     return false;
 }
@@ -424,42 +441,228 @@ fn light_weight(to: vec3<f32>) -> f32 {
 // by light_weight (crates/scene/src/shadow.rs visible_share): per row of the emitter (rows at
 // (r + phase) / LIGHT_ROWS: soft_pixel's four sub-pixel points take the four phases, 32 rows
 // for the pixel's mean; the rule across rows is exact where the visible length is linear in the
-// row, as behind a straight occluder edge) the trapezoid rule along it, each segment whose ends
-// differ split at its bisected crossing.
+// row, as behind a straight occluder edge) the row's hidden intervals in closed form
+// (row_share), or where they are too many the row sampled (sampled_row).
 fn light_share(d_cam: vec3<f32>, t: f32, phase: f32) -> f32 {
     let x = t * d_cam;
     var seen = 0.0;
     var all = 0.0;
     for (var r = 0u; r < LIGHT_ROWS; r = r + 1u) {
         let row = P.soft_c.xyz + P.soft_v.xyz * ((f32(r) + phase) / f32(LIGHT_ROWS)) - x;
-        var sa = 0.0;
-        var va = light_visible(d_cam, t, row);
-        var wa = light_weight(row);
-        for (var k = 1u; k <= LIGHT_SEGMENTS; k = k + 1u) {
-            let sb = f32(k) / f32(LIGHT_SEGMENTS);
-            let to_b = row + P.soft_u.xyz * sb;
-            let vb = light_visible(d_cam, t, to_b);
-            let wb = light_weight(to_b);
-            all = all + 0.5 * (wa + wb) * (sb - sa);
-            if (va == vb) {
-                seen = seen + select(0.0, 0.5 * (wa + wb) * (sb - sa), va);
-            } else {
-                var lo = sa;
-                var hi = sb;
-                for (var j = 0u; j < LIGHT_BISECTIONS; j = j + 1u) {
-                    let mid = 0.5 * (lo + hi);
-                    if (light_visible(d_cam, t, row + P.soft_u.xyz * mid) == va) { lo = mid; } else { hi = mid; }
-                }
-                let c = 0.5 * (lo + hi);
-                let wc = light_weight(row + P.soft_u.xyz * c);
-                seen = seen + select(0.5 * (wc + wb) * (sb - c), 0.5 * (wa + wc) * (c - sa), va);
-            }
-            sa = sb;
-            va = vb;
-            wa = wb;
-        }
+        var share = row_share(d_cam, t, row);
+        if (share.y < 0.0) { share = sampled_row(d_cam, t, row); }
+        seen = seen + share.x;
+        all = all + share.y;
     }
     return select(1.0, seen / all, all > 0.0);
+}
+
+// One row of the emitter (`row`: its start relative to the target point t d_cam, running along
+// P.soft_u), sampled: the trapezoid rule over LIGHT_SEGMENTS segments of light_weight where
+// visible, each segment whose ends differ split at its bisected crossing. (seen, all).
+fn sampled_row(d_cam: vec3<f32>, t: f32, row: vec3<f32>) -> vec2<f32> {
+    var seen = 0.0;
+    var all = 0.0;
+    var sa = 0.0;
+    var va = light_visible(d_cam, t, row);
+    var wa = light_weight(row);
+    for (var k = 1u; k <= LIGHT_SEGMENTS; k = k + 1u) {
+        let sb = f32(k) / f32(LIGHT_SEGMENTS);
+        let to_b = row + P.soft_u.xyz * sb;
+        let vb = light_visible(d_cam, t, to_b);
+        let wb = light_weight(to_b);
+        all = all + 0.5 * (wa + wb) * (sb - sa);
+        if (va == vb) {
+            seen = seen + select(0.0, 0.5 * (wa + wb) * (sb - sa), va);
+        } else {
+            var lo = sa;
+            var hi = sb;
+            for (var j = 0u; j < LIGHT_BISECTIONS; j = j + 1u) {
+                let mid = 0.5 * (lo + hi);
+                if (light_visible(d_cam, t, row + P.soft_u.xyz * mid) == va) { lo = mid; } else { hi = mid; }
+            }
+            let c = 0.5 * (lo + hi);
+            let wc = light_weight(row + P.soft_u.xyz * c);
+            seen = seen + select(0.5 * (wc + wb) * (sb - c), 0.5 * (wa + wc) * (c - sa), va);
+        }
+        sa = sb;
+        va = vb;
+        wa = wb;
+    }
+    return vec2<f32>(seen, all);
+}
+
+// ---- one emitter row in closed form: the row's points a + s u (s in [0, 1], relative to the
+// target point o) and o span a plane; a triangle the plane cuts hides from o the central
+// projection onto the row of the part of its cut between o and the light, an interval of s.
+// The union of the triangles' intervals is the row's hidden part, exact; light_weight is
+// integrated over the rest with the trapezoid rule on the LIGHT_SEGMENTS segments.
+
+// Disjoint hidden intervals of the current row; `hid_full` when more would be needed.
+const MAX_HIDDEN: u32 = 8u;
+var<private> hid_lo: array<f32, MAX_HIDDEN>;
+var<private> hid_hi: array<f32, MAX_HIDDEN>;
+var<private> hid_n: u32;
+var<private> hid_full: bool;
+
+// Add [l, h] to the hidden intervals, merging those it meets (their union with it is one
+// interval, which meets no other: one pass suffices).
+fn hide(l_in: f32, h_in: f32) {
+    var l = l_in;
+    var h = h_in;
+    var k = 0u;
+    loop {
+        if (k >= hid_n) { break; }
+        if (l <= hid_hi[k] && h >= hid_lo[k]) {
+            l = min(l, hid_lo[k]);
+            h = max(h, hid_hi[k]);
+            hid_n = hid_n - 1u;
+            hid_lo[k] = hid_lo[hid_n];
+            hid_hi[k] = hid_hi[hid_n];
+        } else {
+            k = k + 1u;
+        }
+    }
+    if (hid_n == MAX_HIDDEN) {
+        hid_full = true;
+    } else {
+        hid_lo[hid_n] = l;
+        hid_hi[hid_n] = h;
+        hid_n = hid_n + 1u;
+    }
+}
+
+// A row in one instance's mesh frame: the point o, the row's start a and direction u (relative
+// to o), the plane's unit normal n, the Gram matrix of (a, u) and its determinant, the box of the
+// triangle o, o + a, o + a + u.
+struct RowFrame { o: vec3<f32>, a: vec3<f32>, u: vec3<f32>, n: vec3<f32>, gram: vec4<f32>, lo: vec3<f32>, hi: vec3<f32>, };
+
+fn row_frame(inst: u32, d_cam: vec3<f32>, t: f32, row: vec3<f32>) -> RowFrame {
+    let od = instance_ray(inst, d_cam);
+    let o = od[0] + t * od[1];
+    let a = mesh_dir(inst, row);
+    let u = mesh_dir(inst, P.soft_u.xyz);
+    let aa = dot3(a, a);
+    let au = dot3(a, u);
+    let uu = dot3(u, u);
+    let lo = min(o, min(o + a, o + a + u));
+    let hi = max(o, max(o + a, o + a + u));
+    return RowFrame(o, a, u, normalize(cross3(a, u)), vec4<f32>(aa, au, uu, aa * uu - au * au), lo, hi);
+}
+
+// The coordinates (alpha, beta) of p - o = alpha a + beta u, p in the row's plane.
+fn row_coords(f: RowFrame, p: vec3<f32>) -> vec2<f32> {
+    let q = p - f.o;
+    let ap = dot3(f.a, q);
+    let up = dot3(f.u, q);
+    return vec2<f32>(f.gram.z * ap - f.gram.y * up, f.gram.x * up - f.gram.y * ap) / f.gram.w;
+}
+
+// Whether the box lo..hi may meet the triangle o, o + a, o + a + u: the boxes overlap and the
+// box reaches the plane (SHAFT_SLACK each).
+fn box_meets_row(lo: vec3<f32>, hi: vec3<f32>, f: RowFrame) -> bool {
+    let apart = any(hi < f.lo - vec3<f32>(SHAFT_SLACK)) || any(lo > f.hi + vec3<f32>(SHAFT_SLACK));
+    let c = 0.5 * (lo + hi);
+    let reach = dot3(abs(f.n), 0.5 * (hi - lo));
+    return !apart && lo.x <= hi.x && abs(dot3(f.n, c - f.o)) <= reach + SHAFT_SLACK;
+}
+
+// The interval of the row the triangle v0 v1 v2 hides from o: where the plane cuts it (the
+// crossings of the two edges whose ends lie on opposite sides), the cut clipped to 0 < alpha <= 1
+// (between o and the light), its ends projected from o onto the row (s = beta / alpha: a
+// segment with alpha > 0 projects onto the interval between its ends' projections).
+fn hide_triangle(f: RowFrame, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>) {
+    let v = array<vec3<f32>, 3>(v0, v1, v2);
+    let d = array<f32, 3>(dot3(f.n, v0 - f.o), dot3(f.n, v1 - f.o), dot3(f.n, v2 - f.o));
+    var ends: array<vec2<f32>, 2>;
+    var m = 0u;
+    for (var e = 0u; e < 3u; e = e + 1u) {
+        let j = (e + 1u) % 3u;
+        if ((d[e] >= 0.0) != (d[j] >= 0.0)) {
+            ends[min(m, 1u)] = row_coords(f, v[e] + (v[j] - v[e]) * (d[e] / (d[e] - d[j])));
+            m = m + 1u;
+        }
+    }
+    if (m < 2u) { return; }
+    var p1 = ends[0];
+    var p2 = ends[1];
+    if (p1.x > p2.x) {
+        p1 = ends[1];
+        p2 = ends[0];
+    }
+    if (p2.x <= ALPHA_MIN || p1.x >= 1.0) { return; }
+    if (p1.x < ALPHA_MIN) { p1 = mix(p1, p2, (ALPHA_MIN - p1.x) / (p2.x - p1.x)); }
+    if (p2.x > 1.0) { p2 = mix(p1, p2, (1.0 - p1.x) / (p2.x - p1.x)); }
+    let s1 = p1.y / p1.x;
+    let s2 = p2.y / p2.x;
+    let l = max(min(s1, s2), 0.0);
+    let h = min(max(s1, s2), 1.0);
+    if (l < h) { hide(l, h); }
+}
+
+// A cut this near o (in units of the way to the light) is o's own surface, not an occluder.
+const ALPHA_MIN: f32 = 1e-5;
+
+// hide_triangle for every triangle of instance `inst` the row's plane may cut: a traversal of
+// its hierarchy entering the boxes box_meets_row keeps.
+fn hide_instance(inst: u32, f: RowFrame) {
+    let info = bitcast<vec4<u32>>(objs[P.obj.y + 5u * inst + 3u]);
+    var stack: array<u32, MESH_STACK>;
+    var sp = 0u;
+    var node = 0u;
+    loop {
+        let r = node_rows(info.x, node);
+        var go0 = box_meets_row(r[0].xyz, r[1].xyz, f);
+        var go1 = box_meets_row(r[2].xyz, r[3].xyz, f);
+        let c0 = bitcast<u32>(r[0].w);
+        let c1 = bitcast<u32>(r[1].w);
+        if (go0 && (c0 & LEAF_BIT) != 0u) {
+            hide_leaf(info.y, c0, f);
+            go0 = false;
+        }
+        if (go1 && (c1 & LEAF_BIT) != 0u && c1 != c0) { hide_leaf(info.y, c1, f); }
+        if ((c1 & LEAF_BIT) != 0u) { go1 = false; }
+        node = next_node(&stack, &sp, go0, go1, c0, c1);
+        if (node == NO_OBJECT) { break; }
+    }
+}
+
+fn hide_leaf(tri_base: u32, c: u32, f: RowFrame) {
+    for (var k = leaf_first(c); k < leaf_end(c); k = k + 1u) {
+        let b = tri_base + 4u * k;
+        let v0 = objs[b].xyz;
+        hide_triangle(f, v0, v0 + objs[b + 1u].xyz, v0 + objs[b + 2u].xyz);
+    }
+}
+
+// One row of the emitter (as sampled_row) in closed form: (seen, all), all = -1 where the hidden
+// intervals overflow MAX_HIDDEN.
+fn row_share(d_cam: vec3<f32>, t: f32, row: vec3<f32>) -> vec2<f32> {
+    hid_n = 0u;
+    hid_full = false;
+    for (var i = 0u; i < P.obj.x; i = i + 1u) { hide_instance(i, row_frame(i, d_cam, t, row)); }
+    if (hid_full) { return vec2<f32>(0.0, -1.0); }
+    var all = 0.0;
+    var hidden = 0.0;
+    var sa = 0.0;
+    var wa = light_weight(row);
+    for (var k = 1u; k <= LIGHT_SEGMENTS; k = k + 1u) {
+        let sb = f32(k) / f32(LIGHT_SEGMENTS);
+        let wb = light_weight(row + P.soft_u.xyz * sb);
+        all = all + 0.5 * (wa + wb) * (sb - sa);
+        for (var j = 0u; j < hid_n; j = j + 1u) {
+            let l = max(hid_lo[j], sa);
+            let h = min(hid_hi[j], sb);
+            if (l < h) {
+                let wl = mix(wa, wb, (l - sa) / (sb - sa));
+                let wh = mix(wa, wb, (h - sa) / (sb - sa));
+                hidden = hidden + 0.5 * (wl + wh) * (h - l);
+            }
+        }
+        sa = sb;
+        wa = wb;
+    }
+    return vec2<f32>(all - hidden, all);
 }
 
 // The class of target pixels in an object's shadow (crates/render/src/object_pass.rs).
@@ -473,6 +676,13 @@ fn target_t(d: vec3<f32>) -> f32 {
     let on = pp.z > 0.0 && pp.x >= s.x && pp.x < s.z && pp.y >= s.y && pp.y < s.w;
     let nd = P.plane.x * d.x + P.plane.y * d.y + P.plane.z * d.z;
     return select(3e38, P.plane.w / nd, on && nd != 0.0);
+}
+
+// The target's plane's ray parameter along d, the sheet's bounds left out (the soft-shadow
+// lattice: V is smooth across the sheet's edge), or 3e38 where the ray meets the plane behind.
+fn plane_t(d: vec3<f32>) -> f32 {
+    let nd = P.plane.x * d.x + P.plane.y * d.y + P.plane.z * d.z;
+    return select(3e38, P.plane.w / nd, plane_point(d).z > 0.0 && nd != 0.0);
 }
 
 // Texture coordinates (texels: s right, t down) of hit h.

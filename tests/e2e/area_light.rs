@@ -169,8 +169,9 @@ fn an_area_light_shades_a_flat_board_as_its_integral_says() {
 }
 
 /// The plate's soft shadow from the area light: every 5th pixel the shadow touches and every
-/// 97th elsewhere against the reference, within the 0.5 grey levels (the Lambert bound;
-/// measured max 0.40, RMS 0.038) and 0.1 RMS. The truth's features get the shadowed irradiance of
+/// 97th elsewhere against the reference, within 0.25 grey levels (half the Lambert bound;
+/// measured max 0.135, RMS 0.034; each emitter row's hidden part in closed form, the cells of the
+/// soft-shadow lattice interpolated) and 0.06 RMS. The truth's features get the shadowed irradiance of
 /// the library's own sampling, within 0.01 of this test's.
 #[test]
 fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
@@ -189,7 +190,7 @@ fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
     report("soft shadow, penumbra and umbra", &penumbra);
     assert!(penumbra.len() > 500, "the plate's shadow covers many compared pixels: {}", penumbra.len());
     let rms = (penumbra.iter().map(|(r, g, ..)| (g - r) * (g - r)).sum::<f64>() / penumbra.len() as f64).sqrt();
-    assert!(max_all <= 0.5 && rms <= 0.1, "soft shadows within 0.5 grey levels (max) and 0.1 (RMS): {max_all}, {rms}");
+    assert!(max_all <= 0.25 && rms <= 0.06, "soft shadows within 0.25 grey levels (max) and 0.06 (RMS): {max_all}, {rms}");
     let (n, _) = board_plane(&s);
     let truth = synthcam::scene::truth_labels(&s);
     for f in &truth.features {
@@ -206,7 +207,7 @@ fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
 /// board's edges, the lit board's render times the mean over the pixel's 2 x 2 points of
 /// `A + E V` over the mean of `A + E`, `V` from `scene::shadow::visible_share` (48 x 48 emitter
 /// cells, f64 rays through the CPU hierarchy; its own cells err by up to a few tenths of a grey
-/// level). Within 0.75 grey levels (measured max 0.48, RMS 0.078).
+/// level). Within 0.5 grey levels (measured max 0.25, RMS 0.044).
 #[test]
 fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
     let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("assets/scenes/objects"));
@@ -252,5 +253,5 @@ fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
     let rms = (errs.iter().map(|e| e * e).sum::<f64>() / count.max(1) as f64).sqrt();
     eprintln!("gripper's soft shadow: {count} pixels, |rendered - CPU sampling| RMS {rms:.3}, p99 {:.3}, max {worst:.3} grey levels, deepest shadow ratio {deepest:.3}", errs[count * 99 / 100]);
     assert!(count > 300 && deepest < 0.7, "the shadow covers many pixels, some deeply: {count}, {deepest}");
-    assert!(worst <= 0.75 && rms <= 0.15, "within the stated tolerance: max {worst}, RMS {rms}");
+    assert!(worst <= 0.5 && rms <= 0.1, "within the stated tolerance: max {worst}, RMS {rms}");
 }

@@ -7,8 +7,8 @@ use std::sync::Arc;
 use super::buffers::{Buffers, STORAGE_DST};
 use super::gpu_scene::{GpuScene, PassKind};
 use super::objects::{instance_rows, object_params, MeshRows};
-use super::soft_lattice::Lattice;
-use super::tiles::TILE_PX;
+use super::soft_lattice::{near_sheet, Lattice};
+use super::tiles::{TileCornerRays, TILE_PX};
 use super::{RenderError, Renderer};
 use synthcam_scene::Scene;
 
@@ -51,7 +51,13 @@ impl Renderer {
     /// Run the objects' passes over `tiles` and write their pixels into `img` (a target pixel in
     /// an object's shadow: the target passes' value times the shadowed-over-lit ratio the coarse
     /// pass returns for it).
-    pub(super) fn render_objects(&self, bufs: &mut Buffers, gs: &GpuScene, tiles: &[u32], img: &mut [f32]) -> Result<(), RenderError> {
+    pub(super) fn render_objects(
+        &self,
+        bufs: &mut Buffers,
+        gs: &GpuScene,
+        (tiles, grid): (&[u32], &TileCornerRays),
+        img: &mut [f32],
+    ) -> Result<(), RenderError> {
         if tiles.is_empty() {
             return Ok(());
         }
@@ -59,7 +65,7 @@ impl Renderer {
         let soft = gs.params.soft_shadows();
         let mut params = gs.params;
         if soft {
-            params.soft_v[3] = self.soft_lattice(bufs, gs, tiles)?;
+            params.soft_v[3] = self.soft_lattice(bufs, gs, &near_sheet(tiles, grid, &gs.params))?;
         }
         let (vals, classes) = self.run_pass_with(bufs, gs, params, PassKind::Objects, false, tiles)?;
         // Per pixel of the image: its class and value (pixels outside the tiles see no object;

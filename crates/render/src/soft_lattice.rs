@@ -4,8 +4,10 @@
 //! take it bilinearly where the lattice shows that to be within [`V_TOLERANCE`] (their
 //! irradiance stays exact: `(A + E V) / (A + E)` per sub-pixel point). Two levels: the corners
 //! of the image's 8 x 8 tiles, with their centres; where a tile fails, the corners of its four
-//! 4 x 4 quads, with theirs. Elsewhere (where `V` meets 0 or 1 with a kink at the penumbra's
-//! edge, contact shadows, the sheet's edge) every pixel integrates its own.
+//! 4 x 4 quads, with theirs. `V` is computed on the target's plane past the sheet's edge too
+//! (it is smooth there), for the tiles near the sheet ([`near_sheet`]). Elsewhere (cells wholly
+//! in full light or umbra, where a shadow narrower than a cell could hide; kinks where the
+//! penumbra meets full light; contact shadows) every pixel integrates its own.
 //!
 //! The check is a posteriori, on the computed values: bilinear interpolation over a cell of
 //! side `h` errs by at most `h^2 / 8 (|V_xx| + |V_yy|)`; the lattice's second differences along
@@ -16,11 +18,46 @@
 //! holds, refined where not, as in irradiance caching (G. Ward, F. Rubinstein, R. Clear, *A ray
 //! tracing solution for diffuse interreflection*, SIGGRAPH 1988).
 
-/// Largest estimated interpolation error of the visible share in an interpolated cell (its
-/// share of the light's term: on a board grey of 225 under a light 2.7 times the ambient term,
-/// 0.16 grey levels). The gripper's soft shadow against the library's CPU sampling stays within
-/// its per-pixel figures (`tests/e2e/area_light.rs`).
+use nalgebra::Vector3;
+
+use super::tiles::TileCornerRays;
+use super::uniforms::Params;
+
+/// Largest estimated interpolation error of the visible share in an interpolated cell: at most
+/// `V_TOLERANCE E / (A + E)` of a pixel's lit value, 0.5 grey levels on white (255) under a light
+/// far brighter than the ambient term, 0.37 on the gripper's board. About the scatter of the
+/// per-point integral's 32 rows between neighbouring points, so that cells are not refused for
+/// it. Measured against independent references (`tests/e2e/area_light.rs`, see BENCHMARKS.md).
 pub(super) const V_TOLERANCE: f32 = 2e-3;
+
+/// The tiles of `tiles` (`i | j << 16`) within their own size of the printed sheet on the
+/// target's plane (the plane points of their corner rays `grid` through the homography
+/// `params.h0..h2`, their box grown by its extent, against `params.sheet`), or whose corners do
+/// not all meet the plane in front: `V` beyond serves no sheet pixel, and the lattice is computed
+/// on the plane past the sheet's edge (smooth there) only for these tiles' cells.
+pub(super) fn near_sheet(tiles: &[u32], grid: &TileCornerRays, params: &Params) -> Vec<u32> {
+    let row = |h: [f32; 4]| Vector3::new(f64::from(h[0]), f64::from(h[1]), f64::from(h[2]));
+    let (h0, h1, h2) = (row(params.h0), row(params.h1), row(params.h2));
+    let [x0, y0, x1, y1] = params.sheet.map(f64::from);
+    let near = |t: &u32| {
+        let Some(rays) = grid.tile(t & 0xffff, t >> 16) else { return true };
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for d in &rays {
+            let w = h2.dot(d);
+            if !(w > 0.0) {
+                return true;
+            }
+            for (k, h) in [h0, h1].iter().enumerate() {
+                lo[k] = lo[k].min(h.dot(d) / w);
+                hi[k] = hi[k].max(h.dot(d) / w);
+            }
+        }
+        let grow = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+        lo[0] - grow <= x1 && hi[0] + grow >= x0 && lo[1] - grow <= y1 && hi[1] + grow >= y0
+    };
+    tiles.iter().copied().filter(near).collect()
+}
 
 /// Work items of the lattice pass: a lattice point `a | b << 16` (image point `(4 a - 0.5,
 /// 4 b - 0.5)`), with this bit the centre of quad `(a, b)`.
@@ -170,9 +207,13 @@ impl Lattice {
     /// its corners, `centre` the value at its centre.
     fn smooth(&self, a: u32, b: u32, step: u32, centre: Option<f32>) -> bool {
         let (a, b, s) = (i64::from(a), i64::from(b), i64::from(step));
-        let penumbra = |v: Option<f32>| v.is_some_and(|v| v > 0.0 && v < 1.0);
+        // Every value on the sheet's plane (in [0, 1]) and one strictly inside: a cell wholly in
+        // full light or in the umbra keeps its pixels' own test (a shadow narrower than the
+        // cell could pass between its points); a kink where the penumbra meets either shows in
+        // the second differences below.
         let corners = [(a, b), (a + s, b), (a, b + s), (a + s, b + s)];
-        if !penumbra(centre) || !corners.iter().all(|&(x, y)| penumbra(self.at(x, y))) {
+        let values: Vec<Option<f32>> = corners.iter().map(|&(x, y)| self.at(x, y)).chain([centre]).collect();
+        if values.iter().any(Option::is_none) || !values.iter().flatten().any(|v| *v > 0.0 && *v < 1.0) {
             return false;
         }
         let mean = corners.iter().filter_map(|&(x, y)| self.at(x, y)).sum::<f32>() / 4.0;

@@ -17,10 +17,11 @@
 //! The renderer draws a shadowed board pixel as the lit one times the ratio of the two shadings
 //! and integrates the pixels a hard shadow's edge crosses exactly along scan lines (the objects'
 //! fine pass, `shaders/objects.wgsl`); a soft shadow's share is integrated over the emitter row
-//! by row with its crossings bisected, on a lattice of image points whose cells the pixels
-//! interpolate where the lattice's second differences allow, per pixel elsewhere (the render
-//! crate's `soft_lattice`); a point whose shaft to the emitter meets no object's triangle sees
-//! all of it. A feature's truth says whether it lies in
+//! by row, each row's hidden part in closed form (the intervals of the row that the triangles
+//! cut by the plane through the point and the row hide from it), on a lattice of image points
+//! whose cells the pixels interpolate where the lattice's second differences allow, per pixel
+//! elsewhere (the render crate's `soft_lattice`); a point whose shaft to the emitter meets no
+//! object's triangle sees all of it. A feature's truth says whether it lies in
 //! shadow (for an area light: whether any of the light is hidden from it).
 //!
 //! Reference: hard shadows by shadow rays, T. Whitted, *An improved illumination model for
