@@ -604,7 +604,9 @@ fn hide_triangle(f: RowFrame, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>) {
 const ALPHA_MIN: f32 = 1e-5;
 
 // hide_triangle for every triangle of instance `inst` the row's plane may cut: a traversal of
-// its hierarchy entering the boxes box_meets_row keeps.
+// its hierarchy entering the boxes box_meets_row keeps. (The traversal's loop is the one of
+// shaft_meets_objects and gather_instance with another box test and leaf action: WGSL passes no
+// functions, so each keeps its own.)
 fn hide_instance(inst: u32, f: RowFrame) {
     let info = bitcast<vec4<u32>>(objs[P.obj.y + 5u * inst + 3u]);
     var stack: array<u32, MESH_STACK>;

@@ -202,26 +202,83 @@ fn a_plates_soft_shadow_matches_the_integral_over_the_visible_emitter() {
 
 /// The gripper's soft shadow (`assets/scenes/objects/gripper_soft_shadow.toml`: a mesh of many
 /// triangles, whose shadow rays walk a deep hierarchy, where llvmpipe's loop budget per
-/// invocation could cut the shader's integral short) against the library's own CPU sampling:
-/// every 41st board pixel the gripper's shadow touches, away from the gripper's outline and the
-/// board's edges, the lit board's render times the mean over the pixel's 2 x 2 points of
-/// `A + E V` over the mean of `A + E`, `V` from `scene::shadow::visible_share` (48 x 48 emitter
-/// cells, f64 rays through the CPU hierarchy; its own cells err by up to a few tenths of a grey
-/// level). Within 0.5 grey levels (measured max 0.25, RMS 0.044).
+/// invocation could cut the shader's integral short) against the library's own CPU sampling
+/// ([`against_cpu_sampling`], every 41st shadowed board pixel). Within 0.5 grey levels and 0.1
+/// RMS (measured max 0.19, RMS 0.033; against 48 x 48 cells, before the reference was refined:
+/// 0.25 / 0.044 for this renderer, 0.54 / 0.085 for the one that integrated every pixel with
+/// sampled rows).
 #[test]
 fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
+    let (errs, deepest) = against_cpu_sampling(&gripper_scene(), 41);
+    let (count, worst, rms) = summary("gripper's soft shadow", &errs, deepest);
+    assert!(count > 300 && deepest < 0.7, "the shadow covers many pixels, some deeply: {count}, {deepest}");
+    assert!(worst <= 0.5 && rms <= 0.1, "within the stated tolerance: max {worst}, RMS {rms}");
+}
+
+/// The gripper's soft shadow with the gripper turned up to 0.3 rad about a random axis and moved
+/// up to 2 cm, and the light moved up to 4 cm and resized to 5-15 cm a side, from a fresh seed
+/// each run (printed; `SYNTHCAM_STRESS_SEED` repeats it): every 97th shadowed board pixel against
+/// the library's CPU sampling, the same bounds as the fixed view. Attacks the soft-shadow
+/// lattice's checks and the rows' closed form with penumbrae they were not tuned on.
+#[test]
+fn soft_shadows_hold_under_random_poses_and_lights() {
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use rand::{Rng, SeedableRng};
+    let seed = std::env::var("SYNTHCAM_STRESS_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64));
+    eprintln!("SYNTHCAM_STRESS_SEED={seed}");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut s = gripper_scene();
+    let mut r = || rng.random_range(-1.0f64..1.0);
+    let axis = Vector3::new(r(), r(), r()).try_normalize(1e-6).unwrap_or_else(Vector3::z);
+    let turn = UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_unchecked(axis), 0.3 * r());
+    let shift = Translation3::new(0.02 * r(), 0.02 * r(), 0.02 * r());
+    let pose = &mut s.objects[0].cam_from_object;
+    *pose = Isometry3::from_parts(shift * pose.translation, turn * pose.rotation);
+    let light = s.render.lighting.area.as_mut().expect("an area light");
+    light.position_m = [light.position_m[0] + 0.04 * r(), light.position_m[1] + 0.04 * r(), light.position_m[2]];
+    light.size_m = [0.1 + 0.05 * r(), 0.1 + 0.05 * r()];
+    let (errs, deepest) = against_cpu_sampling(&s, 97);
+    let (count, worst, rms) = summary(&format!("random soft shadow (seed {seed})"), &errs, deepest);
+    assert!(count > 50, "seed {seed}: the shadow falls on the board: {count} pixels");
+    assert!(worst <= 0.5 && rms <= 0.1, "seed {seed}: within the stated tolerance: max {worst}, RMS {rms}");
+}
+
+fn gripper_scene() -> Scene {
     let meshes = synthcam::dataset::MeshLibrary::new(std::path::Path::new("assets/scenes/objects"));
-    let s = synthcam::scene::file::parse_scene_with(include_str!("../../assets/scenes/objects/gripper_soft_shadow.toml"), &meshes).expect("scene");
-    let img = renderer().render_linear(&s).expect("soft");
+    synthcam::scene::file::parse_scene_with(include_str!("../../assets/scenes/objects/gripper_soft_shadow.toml"), &meshes).expect("scene")
+}
+
+/// Print and return the count, max and RMS of `errs` (sorted).
+fn summary(what: &str, errs: &[f64], deepest: f64) -> (usize, f64, f64) {
+    let (count, worst) = (errs.len(), errs.last().copied().unwrap_or(0.0));
+    let rms = (errs.iter().map(|e| e * e).sum::<f64>() / count.max(1) as f64).sqrt();
+    let p99 = errs.get(count * 99 / 100).copied().unwrap_or(0.0);
+    eprintln!("{what}: {count} pixels, |rendered - CPU sampling| RMS {rms:.3}, p99 {p99:.3}, max {worst:.3} grey levels, deepest shadow ratio {deepest:.3}");
+    (count, worst, rms)
+}
+
+/// Emitter cells per side of the CPU reference (`scene::shadow::visible_share`): at 48 its own
+/// error reached 0.72 grey levels on a random view (0.27 at 128) with a narrow light.
+const REFERENCE_CELLS: usize = 128;
+
+/// Every `step`-th board pixel the objects' shadow touches in `s` (away from the objects'
+/// outlines and the board's edges): |the render - the lit board's render times the mean over the
+/// pixel's 2 x 2 points of `A + E V` over the mean of `A + E`|, `V` from
+/// `scene::shadow::visible_share` ([`REFERENCE_CELLS`] a side), sorted; and the deepest shadow ratio.
+fn against_cpu_sampling(s: &Scene, step: usize) -> (Vec<f64>, f64) {
+    let img = renderer().render_linear(s).expect("soft");
     let lit = renderer().render_linear(&Scene { objects: Vec::new(), ..s.clone() }).expect("lit");
     let unlit = renderer().render_linear(&Scene { objects: Vec::new(), render: Default::default(), ..s.clone() }).expect("unlit");
-    let light = synthcam::scene::shadow::shadow_light(&s).expect("a shadow light");
+    let light = synthcam::scene::shadow::shadow_light(s).expect("a shadow light");
     let synthcam::scene::shadow::ShadowLight::Area { rect, radiance, ambient } = light else { panic!("an area light") };
     let greys = s.target.greys();
-    let (n, c) = board_plane(&s);
+    let (n, c) = board_plane(s);
     let w = s.camera.size.width as usize;
     let (mut errs, mut deepest) = (Vec::new(), 1.0f64);
-    for k in (0..img.len()).step_by(41) {
+    for k in (0..img.len()).step_by(step) {
         if !greys[..3].iter().any(|g| (f64::from(unlit[k]) - g).abs() < 1e-4) {
             continue;
         }
@@ -235,13 +292,13 @@ fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
             let d = ray(dx, dy);
             Point3::from(d * (c / n.dot(&d)))
         });
-        if !points.iter().any(|x| synthcam::scene::shadow::in_shadow(&s, &light, x)) {
+        if !points.iter().any(|x| synthcam::scene::shadow::in_shadow(s, &light, x)) {
             continue;
         }
         let (mut shaded, mut full) = (0.0, 0.0);
         for x in &points {
             let e = radiance * rect.projected_solid_angle(x, &n);
-            shaded += ambient + e * synthcam::scene::shadow::visible_share(&s, &rect, x, &n, 48);
+            shaded += ambient + e * synthcam::scene::shadow::visible_share(s, &rect, x, &n, REFERENCE_CELLS);
             full += ambient + e;
         }
         let expected = f64::from(lit[k]) * shaded / full;
@@ -249,9 +306,5 @@ fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
         deepest = deepest.min(shaded / full);
     }
     errs.sort_by(f64::total_cmp);
-    let (count, worst) = (errs.len(), errs.last().copied().unwrap_or(0.0));
-    let rms = (errs.iter().map(|e| e * e).sum::<f64>() / count.max(1) as f64).sqrt();
-    eprintln!("gripper's soft shadow: {count} pixels, |rendered - CPU sampling| RMS {rms:.3}, p99 {:.3}, max {worst:.3} grey levels, deepest shadow ratio {deepest:.3}", errs[count * 99 / 100]);
-    assert!(count > 300 && deepest < 0.7, "the shadow covers many pixels, some deeply: {count}, {deepest}");
-    assert!(worst <= 0.5 && rms <= 0.1, "within the stated tolerance: max {worst}, RMS {rms}");
+    (errs, deepest)
 }
