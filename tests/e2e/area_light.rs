@@ -224,11 +224,7 @@ fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
 fn soft_shadows_hold_under_random_poses_and_lights() {
     use nalgebra::{Isometry3, Translation3, UnitQuaternion};
     use rand::{Rng, SeedableRng};
-    let seed = std::env::var("SYNTHCAM_STRESS_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64));
-    eprintln!("SYNTHCAM_STRESS_SEED={seed}");
+    let seed = crate::common::stress_seed();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut s = gripper_scene();
     let mut r = || rng.random_range(-1.0f64..1.0);

@@ -194,11 +194,7 @@ fn s_path_disc_slivers_match_the_traced_image() {
 fn s_path_bead_blobs_hold_under_random_turns() {
     use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
     use rand::{Rng, SeedableRng};
-    let seed = std::env::var("SYNTHCAM_STRESS_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64));
-    eprintln!("SYNTHCAM_STRESS_SEED={seed}");
+    let seed = crate::common::stress_seed();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     for k in 0..8 {
         let mut scene = parse_scene(include_str!("../../assets/scenes/course_s_path.toml")).expect("scene");

@@ -103,3 +103,14 @@ pub fn write_chessboard_views(dir: &std::path::Path) {
         std::fs::write(dir.join(format!("v{k}.png")), synthcam::dataset::encode_png(&img).expect("png")).expect("write");
     }
 }
+
+/// A stress test's seed: `SYNTHCAM_STRESS_SEED` when set (to repeat a run), else fresh from the
+/// clock; printed, so that a failing run can be repeated.
+pub fn stress_seed() -> u64 {
+    let seed = std::env::var("SYNTHCAM_STRESS_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64));
+    eprintln!("SYNTHCAM_STRESS_SEED={seed}");
+    seed
+}
