@@ -130,8 +130,11 @@ impl Renderer {
 impl Renderer {
     /// Under an area light: the soft-shadow lattice of `tiles` computed in two passes
     /// (`super::soft_lattice`) and written behind the instances in the objects' buffer; its
-    /// first row there, for `Params::soft_v`'s w.
+    /// first row there, for `Params::soft_v`'s w (0, no lattice, without tiles).
     fn soft_lattice(&self, bufs: &mut Buffers, gs: &GpuScene, tiles: &[u32]) -> Result<f32, RenderError> {
+        if tiles.is_empty() {
+            return Ok(0.0);
+        }
         let (tiles_x, tiles_y) = (gs.params.tiles[0], gs.params.tiles[1]);
         let mut lattice = Lattice::new(tiles_x, tiles_y);
         let mut params = gs.params;

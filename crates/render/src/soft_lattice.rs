@@ -75,7 +75,7 @@ const FROM_TILE: f32 = 2.0;
 pub(super) struct Lattice {
     tiles_x: u32,
     tiles_y: u32,
-    /// `V` per point; NaN where not computed, negative off the sheet.
+    /// `V` per point; NaN where not computed, negative where the ray misses the target's plane.
     points: Vec<f32>,
     /// `V` at the quads' centres (NaN where not computed).
     centres: Vec<f32>,
@@ -103,7 +103,7 @@ impl Lattice {
         b as usize * 2 * self.tiles_x as usize + a as usize
     }
 
-    /// `V` at point `(a, b)` where computed and on the sheet.
+    /// `V` at point `(a, b)` where computed and on the target's plane.
     fn at(&self, a: i64, b: i64) -> Option<f32> {
         let inside = (0..=2 * i64::from(self.tiles_x)).contains(&a) && (0..=2 * i64::from(self.tiles_y)).contains(&b);
         inside.then(|| self.points[self.point(a as u32, b as u32)]).filter(|v| *v >= 0.0)
@@ -149,7 +149,7 @@ impl Lattice {
     }
 
     /// Decide the tiles of the first pass; the tiles that failed but lie in a penumbra (some
-    /// point strictly between 0 and 1, all on the sheet), for the second.
+    /// point strictly between 0 and 1, all on the target's plane), for the second.
     pub(super) fn decide_tiles(&mut self, tiles: &[u32]) -> Vec<u32> {
         let mut failed = Vec::new();
         for t in tiles {
@@ -163,8 +163,8 @@ impl Lattice {
                 continue;
             }
             let block = [(0, 0), (2, 0), (0, 2), (2, 2), (1, 1)].map(|(da, db)| self.at(i64::from(a + da), i64::from(b + db)));
-            let on_sheet = block.iter().all(Option::is_some);
-            if on_sheet && block.iter().flatten().any(|v| *v > 0.0 && *v < 1.0) {
+            let on_plane = block.iter().all(Option::is_some);
+            if on_plane && block.iter().flatten().any(|v| *v > 0.0 && *v < 1.0) {
                 failed.push(*t);
             }
         }
@@ -218,7 +218,7 @@ impl Lattice {
         }
         let mean = corners.iter().filter_map(|&(x, y)| self.at(x, y)).sum::<f32>() / 4.0;
         // Second differences along x and y at each corner; a neighbour beyond the image, off the
-        // sheet or not computed leaves the cell to its pixels.
+        // plane or not computed leaves the cell to its pixels.
         let bent = |x: i64, y: i64, dx: i64, dy: i64| match (self.at(x - dx, y - dy), self.at(x, y), self.at(x + dx, y + dy)) {
             (Some(p), Some(c), Some(n)) => (p - 2.0 * c + n).abs() / 8.0,
             _ => f32::INFINITY,
