@@ -267,6 +267,24 @@ mod tests {
     }
 
     #[test]
+    fn near_sheet_keeps_the_tiles_within_their_size_of_the_sheet() {
+        // f = 100 px on a 64 x 64 image: tile i spans x = (8 i - 32) / 100 .. (8 i - 24) / 100 on
+        // the plane z = 1 (the homography the identity), 0.08 wide; the sheet |x|, |y| <= 0.1.
+        let grid = TileCornerRays::new(&synthcam_core::camera::CameraModel::pinhole(64, 64, 100.0));
+        let mut params =
+            Params { h0: [1.0, 0.0, 0.0, 0.0], h1: [0.0, 1.0, 0.0, 0.0], h2: [0.0, 0.0, 1.0, 0.0], sheet: [-0.1, -0.1, 0.1, 0.1], ..Params::default() };
+        let tiles: Vec<u32> = (0..8).flat_map(|j| (0..8).map(move |i| i | (j << 16))).collect();
+        let near = near_sheet(&tiles, &grid, &params);
+        // Tiles 1..=6 on each axis: tile 1 ends at -0.16, within 0.08 of the sheet's -0.1;
+        // tile 0 ends at -0.24.
+        assert_eq!(near.len(), 36);
+        assert!(near.contains(&(1 | (6 << 16))) && !near.contains(&(3 << 16)) && !near.contains(&7));
+        // The plane behind the camera (W < 0 at every corner): every tile, as nothing is known.
+        params.h2 = [0.0, 0.0, -1.0, 0.0];
+        assert_eq!(near_sheet(&tiles, &grid, &params).len(), 64);
+    }
+
+    #[test]
     fn the_first_pass_holds_each_needed_corner_once_and_the_centres() {
         let l = Lattice::new(3, 2);
         let work = l.tile_work(&[1, 2]);
