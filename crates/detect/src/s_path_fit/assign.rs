@@ -142,6 +142,12 @@ pub(super) struct Assignment {
 const ON_POINTS_RMS: f64 = 0.5;
 
 impl Assignment {
+    /// An assignment of `labels` whose offsets are not known (tests of its users).
+    #[cfg(test)]
+    pub(super) fn from_labels(labels: Labels) -> Self {
+        Self { labels, offsets: Vec::new() }
+    }
+
     /// Whether the placed dots lie on their path points (RMS offset at most [`ON_POINTS_RMS`] of
     /// the deviation radius): a stretch one index off beyond a split point fits the camera of the
     /// rest only where the dots stray by a good part of the radius (its dots would otherwise lie a

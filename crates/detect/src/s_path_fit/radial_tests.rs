@@ -1,7 +1,9 @@
 //! Tests of `radial`: the division model's parameter recovered from views distorted by its exact
-//! inverse, the labelling one index off beyond a split corrected, and the significance test.
+//! inverse, the labelling one index off beyond a split corrected, the significance test, and the
+//! assignment's contenders settled by the lens term.
 
-use super::radial::{best_rival, fit, Division};
+use super::assign::Assignment;
+use super::radial::{best_rival, fit, lens_settled, Division};
 use super::tests::{dot, jittered, projected};
 use super::*;
 use rand::{Rng, SeedableRng};
@@ -99,4 +101,24 @@ fn a_labelling_its_own_reversal_explains_better_is_caught() {
     let params = SPathFitParams::default();
     assert!(!checks::reversal_explains_better(&dots, &path, &truth, &params));
     assert!(checks::reversal_explains_better(&dots, &path, &reversed, &params));
+}
+
+#[test]
+fn contenders_the_lens_term_fits_far_worse_drop_out_unless_the_least_cost_is_one_of_them() {
+    // Dots 0-90 of the distorted view with 0.05 px noise, labelled rightly and with the stretch
+    // from index 45 one index high (a shift the projective gates cannot tell apart).
+    let (path, dots) = distorted_view(BARREL, 0.05, 5);
+    let truth: Labels = (0..=90).map(|i| (i, i)).collect();
+    let shifted: Labels = truth.iter().map(|&(i, j)| (i + usize::from(i >= 45), j)).collect();
+    let (right, wrong) = (Assignment::from_labels(truth.clone()), Assignment::from_labels(shifted));
+    // The right labelling first (the least cost): the shift drops out.
+    let kept = lens_settled(&dots, &path, vec![&right, &wrong], CENTRE, 2.5);
+    assert_eq!(kept.len(), 1);
+    assert_eq!(kept[0].labels, truth);
+    // The shift first: the least-cost contender is one the lens term fits far worse, so none
+    // drops out (the dispute stands, and the assignment refuses the view).
+    assert_eq!(lens_settled(&dots, &path, vec![&wrong, &right], CENTRE, 2.5).len(), 2);
+    // Two contenders the lens term fits alike both stay.
+    let again = Assignment::from_labels(truth.clone());
+    assert_eq!(lens_settled(&dots, &path, vec![&right, &again], CENTRE, 2.5).len(), 2);
 }
