@@ -384,8 +384,9 @@ fn leaf_in_shaft(tri_base: u32, c: u32, s: Shaft) -> bool {
 // Whether a triangle of an object may lie in the shaft from the target point t d_cam to the
 // area light's corners `to`: a traversal of each instance's hierarchy entering the boxes the
 // shaft may meet, its leaves' triangles tested against the shaft's planes. Conservative (boxes
-// and triangles are outside only when wholly behind one plane): `false` proves every light
-// point visible from the target point, so light_share (72 or more shadow rays) is not needed.
+// and triangles are outside only when wholly behind one plane, or a triangle's plane has the
+// whole shaft on one side): `false` proves every light
+// point visible from the target point, so light_share (8 rows, each a traversal) is not needed.
 fn shaft_meets_objects(d_cam: vec3<f32>, t: f32, to: array<vec3<f32>, 4>) -> bool {
     for (var i = 0u; i < P.obj.x; i = i + 1u) {
         let od = instance_ray(i, d_cam);
@@ -415,9 +416,10 @@ fn shaft_meets_objects(d_cam: vec3<f32>, t: f32, to: array<vec3<f32>, 4>) -> boo
     return false;
 }
 
-// Rows of the area light the visible share integrates over; points per row (the segments between
-// them, each with its crossing bisected LIGHT_BISECTIONS times): an occluder whose shadow ray
-// pyramid leaves a gap narrower than a segment between two samples can be missed.
+// Rows of the area light the visible share integrates over; segments per row (the trapezoid
+// rule of light_weight; where a row is sampled, sampled_row, each segment's crossing bisected
+// LIGHT_BISECTIONS times: there an occluder whose shadow leaves a gap narrower than a segment
+// between two samples can be missed).
 const LIGHT_ROWS: u32 = 8u;
 const LIGHT_SEGMENTS: u32 = 8u;
 const LIGHT_BISECTIONS: u32 = 7u;

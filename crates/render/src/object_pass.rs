@@ -50,14 +50,8 @@ impl Renderer {
 
     /// Run the objects' passes over `tiles` and write their pixels into `img` (a target pixel in
     /// an object's shadow: the target passes' value times the shadowed-over-lit ratio the coarse
-    /// pass returns for it).
-    pub(super) fn render_objects(
-        &self,
-        bufs: &mut Buffers,
-        gs: &GpuScene,
-        (tiles, grid): (&[u32], &TileCornerRays),
-        img: &mut [f32],
-    ) -> Result<(), RenderError> {
+    /// pass returns for it); `grid`, the tiles' corner rays, places the soft-shadow lattice.
+    pub(super) fn render_objects(&self, bufs: &mut Buffers, gs: &GpuScene, tiles: &[u32], grid: &TileCornerRays, img: &mut [f32]) -> Result<(), RenderError> {
         if tiles.is_empty() {
             return Ok(());
         }

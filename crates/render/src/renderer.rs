@@ -219,7 +219,7 @@ impl Renderer {
         let mut img = self.target_image(&mut bufs, &gs, scene)?;
         self.compose_background(&mut bufs, &gs, scene, &grid_rays, &mut img)?;
         if !scene.objects.is_empty() {
-            self.render_objects(&mut bufs, &gs, (&super::objects::object_tiles(scene, &grid_rays, sun.as_ref()), &grid_rays), &mut img)?;
+            self.render_objects(&mut bufs, &gs, &super::objects::object_tiles(scene, &grid_rays, sun.as_ref()), &grid_rays, &mut img)?;
         }
         Ok(img)
     }

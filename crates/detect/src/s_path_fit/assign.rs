@@ -287,22 +287,22 @@ fn reversed_rivals(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, params
     if params.camera.is_none() {
         return Vec::new();
     }
-    let mut fits = reversal_fits(labels, dots, path, params.pinhole(), 6);
-    fits.sort_by(|a, b| a.0.total_cmp(&b.0));
-    fits.into_iter().take(REVERSALS).map(|(_, l)| l).collect()
+    best_reversals(labels, dots, path, params.pinhole(), 6, REVERSALS)
 }
 
-/// The labelling's reversals (mirrored about the path's last index, moved by up to
-/// [`REVERSAL_REACH`] either way) that keep at least `min_len` of its dots, with the reprojection
-/// RMS of the camera fitted to each.
-pub(super) fn reversal_fits(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, pinhole: Pinhole, min_len: usize) -> Vec<(f64, Labels)> {
+/// The labelling's `n` reversals (mirrored about the path's last index, moved by up to
+/// [`REVERSAL_REACH`] either way, keeping at least `min_len` of its dots) whose fitted camera
+/// reprojects them best, best first.
+pub(super) fn best_reversals(labels: &[(usize, usize)], dots: &[Dot], path: &SPath, pinhole: Pinhole, min_len: usize, n: usize) -> Vec<Labels> {
     let last = path.len() as i64 - 1;
-    (-REVERSAL_REACH..=REVERSAL_REACH)
+    let mut fits: Vec<(f64, Labels)> = (-REVERSAL_REACH..=REVERSAL_REACH)
         .filter_map(|k| usize::try_from(last + k).ok())
         .map(|m| mirror(labels, m, path.len()))
         .filter(|l| l.len() >= min_len.max(6))
         .filter_map(|l| Some((super::fit_rms(dots, path, &l, pinhole)?, l)))
-        .collect()
+        .collect();
+    fits.sort_by(|a, b| a.0.total_cmp(&b.0));
+    fits.into_iter().take(n).map(|(_, l)| l).collect()
 }
 
 /// The assignment of the seed labellings that explains the dots best ([`assign`],

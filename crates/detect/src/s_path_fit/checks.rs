@@ -99,7 +99,7 @@ const REVERSALS_TRIED: usize = 2;
 /// Does the labelling run backwards explain the dots better than the labelling itself: a lower
 /// assignment cost ([`super::assign::assign`], the measure the assignment itself minimises) for one
 /// of its [`REVERSALS_TRIED`] reversals that fit a projective camera best
-/// ([`super::assign::reversal_fits`], mirrored within 8 indices, keeping all its dots)? The S is
+/// ([`super::assign::best_reversals`], mirrored within 8 indices, keeping all its dots)? The S is
 /// nearly point-symmetric: where its dots stray from the nominal path, a placement and its
 /// reversal fit a camera about equally, and a view whose labelling its own reversal explains
 /// better is ambiguous, not found: reported, it would be wholly wrong. On independent 7 mm renders
@@ -111,7 +111,5 @@ pub(super) fn reversal_explains_better(dots: &[Dot], path: &SPath, labels: &[(us
     let n = dots.len();
     let cost = |l: &[(usize, usize)]| super::assign::assign(dots, path, l, params).map(|a| a.cost(n));
     let Some(own) = cost(labels) else { return false };
-    let mut reversals = super::assign::reversal_fits(labels, dots, path, None, labels.len());
-    reversals.sort_by(|a, b| a.0.total_cmp(&b.0));
-    reversals.iter().take(REVERSALS_TRIED).filter_map(|(_, l)| cost(l)).any(|c| c < own)
+    super::assign::best_reversals(labels, dots, path, None, labels.len(), REVERSALS_TRIED).iter().filter_map(|l| cost(l)).any(|c| c < own)
 }
