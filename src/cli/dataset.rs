@@ -39,13 +39,22 @@ pub struct DatasetArgs {
     /// WebDataset shard size, bytes (with `--format webdataset`).
     #[arg(long, default_value_t = synthcam::dataset::formats::DEFAULT_SHARD_BYTES)]
     pub shard_bytes: u64,
+    /// Also write the finished dataset (an unsharded run, or `merge`) as a rerun recording: each
+    /// image with its true features and camera pose (builds with `--features rerun`).
+    #[arg(long, value_name = "FILE.rrd")]
+    pub rerun: Option<PathBuf>,
 }
 
-/// Export `dir` in the formats `--format` names.
+/// Export `dir` in the formats `--format` names, and as `--rerun`'s recording.
 fn export_formats(dir: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     let formats = super::export::parse_formats(&args.format)?;
     let opts = synthcam::dataset::formats::ExportOptions { shard_bytes: args.shard_bytes, ..Default::default() };
-    super::export::export_all(dir, &formats, None, &opts)
+    super::export::export_all(dir, &formats, None, &opts)?;
+    #[cfg(feature = "rerun")]
+    if let Some(path) = &args.rerun {
+        super::rerun_out::dataset(path, dir)?;
+    }
+    Ok(())
 }
 
 /// Run `dataset`.
@@ -66,6 +75,7 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     let out = args.out.as_ref().context("missing -o DIR (usage: synthcam dataset SPEC.toml -o DIR)")?;
     anyhow::ensure!(args.jobs >= 1, "--jobs must be at least 1");
     super::export::parse_formats(&args.format)?;
+    super::rerun_out::check_available(args.rerun.as_deref())?;
     let text = std::fs::read_to_string(spec_path).with_context(|| format!("reading {}", spec_path.display()))?;
     let plan = parse_dataset_spec_with(&text, &MeshLibrary::beside(spec_path)).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
     synthcam::dataset::poses::check_feasible(&plan).with_context(|| format!("in dataset spec {}", spec_path.display()))?;
@@ -101,18 +111,19 @@ fn run_generate(spec_path: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
         args.jobs,
         report.manifest.display()
     );
-    if args.format.is_empty() {
+    if args.format.is_empty() && args.rerun.is_none() {
         Ok(())
     } else if shard.count == 1 {
         export_formats(out, args)
     } else {
-        eprintln!("--format: the formats are written once the dataset is whole: synthcam dataset merge {} --format {}", out.display(), args.format.join(","));
+        eprintln!("--format / --rerun: written once the dataset is whole: synthcam dataset merge {} [--format F] [--rerun FILE.rrd]", out.display());
         Ok(())
     }
 }
 
 fn merge(dir: &Path, args: &DatasetArgs) -> anyhow::Result<()> {
     super::export::parse_formats(&args.format)?;
+    super::rerun_out::check_available(args.rerun.as_deref())?;
     let spec_path = dir.join(SPEC_COPY);
     let text = std::fs::read_to_string(&spec_path).with_context(|| format!("reading {} (is {} a dataset folder?)", spec_path.display(), dir.display()))?;
     // Only the count matters here: the copy's mesh paths may be relative to the original spec.

@@ -15,6 +15,7 @@ mod export;
 mod handeye;
 mod progress;
 mod render;
+mod rerun_out;
 mod scenario_file;
 mod servo;
 mod sim;

@@ -87,6 +87,10 @@ pub struct ServoArgs {
     /// Also write that bag as a rosbag2 folder (metadata.yaml + MCAP), for `ros2 bag play DIR`.
     #[arg(long, value_name = "DIR")]
     pub rosbag2: Option<PathBuf>,
+    /// Write the rendered run as a rerun recording (every frame, the detected, true and desired
+    /// features, the camera's pose and frustum, joints and errors; builds with `--features rerun`).
+    #[arg(long, value_name = "FILE.rrd")]
+    pub rerun: Option<PathBuf>,
 }
 
 fn options(args: &ServoArgs, observation: ObservationKind) -> ServoOptions {
@@ -191,7 +195,7 @@ struct FrameSink {
     first: Option<(usize, GreyImage)>,
     last: Option<(usize, GreyImage)>,
     err: Option<anyhow::Error>,
-    /// Every frame, for `--mcap`.
+    /// Every frame, for `--mcap`, `--rosbag2` and `--rerun`.
     bag: Option<Vec<(usize, GreyImage)>>,
 }
 
@@ -272,7 +276,8 @@ fn load_scenario(args: &ServoArgs) -> anyhow::Result<Loaded> {
 /// Run `servo`.
 pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
     let bags = super::export::bag_outputs(args.mcap.as_deref(), args.rosbag2.as_deref());
-    anyhow::ensure!(!args.ideal || bags.is_empty(), "--mcap / --rosbag2 write rendered frames: drop --ideal");
+    anyhow::ensure!(!args.ideal || (bags.is_empty() && args.rerun.is_none()), "--mcap / --rosbag2 / --rerun write rendered frames: drop --ideal");
+    super::rerun_out::check_available(args.rerun.as_deref())?;
     let (scenario, spec, handeye_around) = load_scenario(args)?;
     let size = scenario.camera.size;
     let run = |renderer: Option<&synthcam::render::Renderer>, observation, sink: &mut dyn FnMut(usize, &synthcam::render::GreyImage)| {
@@ -286,7 +291,8 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
     let mut frames = Vec::new();
     if !args.ideal {
         let renderer = super::open_renderer("auto")?;
-        let mut sink = FrameSink { dir: args.frames.then(|| out.join("frames")), bag: (!bags.is_empty()).then(Vec::new), ..FrameSink::default() };
+        let mut sink =
+            FrameSink { dir: args.frames.then(|| out.join("frames")), bag: (!bags.is_empty() || args.rerun.is_some()).then(Vec::new), ..FrameSink::default() };
         if let Some(dir) = &sink.dir {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
@@ -300,6 +306,11 @@ pub fn run(args: &ServoArgs) -> anyhow::Result<()> {
         bar.finish_and_clear();
         if let Some(bag) = &sink.bag {
             write_bags(&bags, &spec, &scenario, &t, bag)?;
+            #[cfg(feature = "rerun")]
+            if let Some(path) = &args.rerun {
+                let robot = spec.build(&|p| std::fs::read_to_string(p).map_err(|e| e.to_string()))?;
+                super::rerun_out::servo(path, &scenario, robot.as_ref(), &t, bag)?;
+            }
         }
         frames = sink.finish(&out)?;
         print_run("rendered + detected", &t);

@@ -1,4 +1,4 @@
-//! `synthcam sim SCENARIO.toml [--law pbvs|ibvs] [--views N] [--ideal] [--json OUT] [--mcap BAG]`:
+//! `synthcam sim SCENARIO.toml [--law pbvs|ibvs] [--views N] [--ideal] [--json OUT] [--mcap BAG] [--rerun RRD]`:
 //! an open scenario (any camera, target and robot): hand-eye from rendered views, then the law.
 
 use std::cell::RefCell;
@@ -43,6 +43,10 @@ pub struct SimArgs {
     /// Write the same bag as a rosbag2 folder (metadata.yaml + MCAP), for `ros2 bag play DIR`.
     #[arg(long, value_name = "DIR")]
     pub rosbag2: Option<PathBuf>,
+    /// Write the loop as a rerun recording (every frame, features, poses, joints, commands and
+    /// errors; builds with `--features rerun`).
+    #[arg(long, value_name = "FILE.rrd")]
+    pub rerun: Option<PathBuf>,
 }
 
 /// Frames kept by [`Recording`]: (simulator frame, image).
@@ -80,14 +84,18 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
     let meshes = synthcam::dataset::MeshLibrary::beside(&args.scenario);
     let scenario = spec.to_scenario_with(&|p: &str| meshes.load(p))?;
     let bags = super::export::bag_outputs(args.mcap.as_deref(), args.rosbag2.as_deref());
-    anyhow::ensure!(!args.ideal || bags.is_empty(), "--mcap / --rosbag2 record rendered frames: they cannot go with --ideal");
+    anyhow::ensure!(
+        !args.ideal || (bags.is_empty() && args.rerun.is_none()),
+        "--mcap / --rosbag2 / --rerun record rendered frames: they cannot go with --ideal"
+    );
+    super::rerun_out::check_available(args.rerun.as_deref())?;
     let renderer = if args.ideal { None } else { Some(super::open_renderer("auto")?) };
     let sensor: Box<dyn Sensor> = match &renderer {
         Some(r) => Box::new(RenderedSensor::new(r)),
         None => Box::new(IdealSensor::new(IDEAL_NOISE_PX, 0)?),
     };
     let frames = Frames::default();
-    let sensor: Box<dyn Sensor> = if !bags.is_empty() { Box::new(Recording { inner: sensor, frames: frames.clone() }) } else { sensor };
+    let sensor: Box<dyn Sensor> = if !bags.is_empty() || args.rerun.is_some() { Box::new(Recording { inner: sensor, frames: frames.clone() }) } else { sensor };
     let mut sim = Sim::new(scenario.clone(), robot, sensor)?;
     // Ideal features carry N(0, sigma^2) per coordinate: their RMS distance to the desired ones
     // cannot fall below sigma sqrt(2), so the IBVS stop is raised to 2 sigma there.
@@ -112,6 +120,10 @@ pub fn run(args: &SimArgs) -> anyhow::Result<()> {
         let (counts, bytes) = synthcam::dataset::formats::series::write_loop_bag(bag, &scenario, sim.robot(), &run.trace, &frames.borrow())
             .with_context(|| format!("writing {}", bag.path().display()))?;
         super::export::print_bag(bag, &counts, bytes);
+    }
+    #[cfg(feature = "rerun")]
+    if let Some(path) = &args.rerun {
+        super::rerun_out::sim(path, &scenario, sim.robot(), &run.trace, &frames.borrow())?;
     }
     anyhow::ensure!(run.trace.stopped, "the loop did not converge in {} steps", args.steps);
     Ok(())

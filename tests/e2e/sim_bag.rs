@@ -84,3 +84,34 @@ fn sim_loop_bag_holds_every_step_with_its_joints() {
     assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 2, "only the bag and its metadata");
     println!("sim --mcap --rosbag2: {each} steps -> {counts:?}");
 }
+
+/// `--rerun`: a build without the `rerun` feature refuses it before the run (non-zero exit, the
+/// way to get it, no file); a build with it writes a rerun recording (rerun's `RRF2` stream
+/// header) and no temporary file beside it. python/tests/test_rerun_cli.py reads the recordings
+/// back with rerun-sdk.
+#[test]
+fn sim_rerun_recording_or_a_clear_refusal() {
+    let dir = std::env::temp_dir().join(format!("synthcam-sim-rrd-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let rrd = dir.join("run.rrd");
+    let o = std::process::Command::new(bin())
+        .args(["sim", "assets/scenarios/ur5e_chessboard.toml", "--law", "ibvs", "--views", "0", "--steps", "3", "--rerun"])
+        .arg(&rrd)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let names: Vec<String> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    if cfg!(feature = "rerun") {
+        // Three steps do not converge: the run fails after writing its recording.
+        assert!(stderr.contains("did not converge"), "{stderr}");
+        assert_eq!(names, ["run.rrd"]);
+        assert_eq!(&std::fs::read(&rrd).unwrap()[..4], b"RRF2");
+    } else {
+        assert!(!o.status.success() && stderr.contains("without rerun support") && stderr.contains("--features rerun"), "{stderr}");
+        assert!(names.is_empty(), "{names:?}");
+        // Refused before the run: nothing of the run was printed.
+        assert!(o.stdout.is_empty(), "{}", String::from_utf8_lossy(&o.stdout));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -261,6 +261,13 @@ pub struct LoopStep {
     pub goal_error_mm_deg: (f64, f64),
     /// The command's joint velocities (empty on stop).
     pub qdot: Vec<f64>,
+    /// The features observed (ids resolved), for recordings (`synthcam sim --rerun`); not in the
+    /// JSON.
+    #[serde(skip)]
+    pub observed: Vec<Feature>,
+    /// Render + readback and detection, milliseconds; not in the JSON.
+    #[serde(skip)]
+    pub render_detect_ms: (f64, f64),
 }
 
 /// A closed-loop run.
@@ -295,7 +302,15 @@ pub fn run_loop(
             Command::Velocities(v) => v.clone(),
             Command::Stop => Vec::new(),
         };
-        trace.steps.push(LoopStep { frame: obs.frame, q_rad: obs.q_rad.clone(), features: obs.features.len(), goal_error_mm_deg: err, qdot: qdot.clone() });
+        trace.steps.push(LoopStep {
+            frame: obs.frame,
+            q_rad: obs.q_rad.clone(),
+            features: obs.features.len(),
+            goal_error_mm_deg: err,
+            qdot: qdot.clone(),
+            observed: obs.features.clone(),
+            render_detect_ms: (obs.render_ms, obs.detect_ms),
+        });
         if cmd == Command::Stop {
             trace.stopped = true;
             break;

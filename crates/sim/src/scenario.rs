@@ -42,7 +42,7 @@
 //! An optional top-level `joint_limits = "ignore"` lets the arm pass its joint limits (the
 //! course's convention; `assets/scenarios/course_sim.toml`); the default is `"enforce"`.
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Point2, Point3};
 use serde::Deserialize;
 
 use super::SimError;
@@ -173,6 +173,18 @@ pub struct SimScenario {
     /// Objects, each with the frame its pose is given in (`cam_from_object` holds
     /// `frame_from_object`; [`super::world`] places them every frame).
     pub objects: Vec<(synthcam_scene::file::ObjectFrame, synthcam_scene::objects::SceneObject)>,
+}
+
+impl SimScenario {
+    /// Every feature's exact pixel with the camera at `cam_from_target` (`None` where it is not
+    /// visible), from the camera model: no rendering.
+    pub fn projected_px(&self, cam_from_target: &Isometry3<f64>) -> Vec<Option<Point2<f64>>> {
+        let project = |p: &Point3<f64>| {
+            let pr = self.camera.project(&(cam_from_target * p));
+            pr.visible().then_some(pr.pixel_px)
+        };
+        self.target.feature_points_m().iter().map(project).collect()
+    }
 }
 
 impl ScenarioSpec {

@@ -9,7 +9,7 @@
 //! layout error of centimetres or degrees does not change (a real cell resolves it the same way,
 //! or with a coded board).
 
-use nalgebra::{Isometry3, Point2, Point3};
+use nalgebra::{Isometry3, Point2};
 
 use super::scenario::JointLimits;
 use super::sensor::{Capture, Feature, Sensor};
@@ -232,12 +232,7 @@ impl<'s> Sim<'s> {
     /// Every feature's exact pixel with the camera at `cam_from_target` (`None` where it is not
     /// visible), from the scenario's camera model: no rendering.
     pub fn projected_px(&self, cam_from_target: &Isometry3<f64>) -> Vec<Option<Point2<f64>>> {
-        let cam = &self.scenario.camera;
-        let project = |p: &Point3<f64>| {
-            let pr = cam.project(&(cam_from_target * p));
-            pr.visible().then_some(pr.pixel_px)
-        };
-        self.scenario.target.feature_points_m().iter().map(project).collect()
+        self.scenario.projected_px(cam_from_target)
     }
 
     /// [`Sim::projected_px`] with the robot at joints `q` (the model's prediction a controller

@@ -10,6 +10,8 @@ pub mod coco;
 pub mod folder;
 pub mod mcap;
 pub mod ros2_msgs;
+#[cfg(feature = "rerun")]
+pub mod rrd;
 pub mod series;
 pub mod webdataset;
 
@@ -98,6 +100,14 @@ pub enum FormatError {
         /// The OS error.
         #[source]
         source: std::io::Error,
+    },
+    /// The rerun recording could not be written (the `rerun` feature).
+    #[error("cannot write the rerun recording {path}: {reason}")]
+    Rerun {
+        /// The path.
+        path: String,
+        /// The recorder's error.
+        reason: String,
     },
     /// The MCAP writer failed.
     #[error("cannot write the MCAP file {path}")]
