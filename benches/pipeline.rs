@@ -48,6 +48,10 @@ fn bench_detect(c: &mut Criterion) {
     g.sample_size(20);
     g.bench_function("chessboard 11x8 corners", |b| b.iter(|| detect(&gb, &TargetSpec::Chessboard { cols: 11, rows: 8 }).map(|d| d.points_px.len())));
     g.bench_function("S-path 101 dots", |b| b.iter(|| detect(&gs, &TargetSpec::SPath { points: 101 }).map(|d| d.points_px.len())));
+    // The dots alone: a servo loop's tracked frames carry their labels and spend their detection here.
+    g.bench_function("S-path dots found (no labelling)", |b| {
+        b.iter(|| synthcam::detect::dots::find_dots(&gs, &synthcam::detect::dots::DotParams::default()).map(|d| d.len()))
+    });
     g.finish();
 }
 

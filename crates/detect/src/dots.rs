@@ -39,7 +39,7 @@ use super::edge_surround::EdgeSurround;
 use super::filters::{extreme_filter, median_by};
 use super::outline::Outline;
 use super::par::map_indexed;
-use super::runs::runs_where;
+use super::runs::Run;
 use super::{DetectError, ImageF32};
 use blob::{bbox, blob_region, closed_window, components, dark_level, darker_than_rim, edge_weights, is_thin, merge_fragments, paint_level, split_large};
 use centroid::{settle_touching, ties, weighted_centroid, Centroid, Measured};
@@ -95,19 +95,70 @@ const SIGNIFICANT_WEIGHT: f64 = 0.1;
 /// Pooling factor of the local-level images.
 const POOL: usize = 4;
 
-/// POOL x POOL minimum (or maximum) pooling; partial blocks at the right and bottom edges.
-fn pool(img: &ImageF32, max: bool) -> ImageF32 {
+/// POOL x POOL minimum and maximum pooling in one pass; partial blocks at the right and bottom
+/// edges.
+fn pool_min_max(img: &ImageF32) -> (ImageF32, ImageF32) {
     let (pw, ph) = (img.width.div_ceil(POOL), img.height.div_ceil(POOL));
-    let mut data = vec![if max { f32::NEG_INFINITY } else { f32::INFINITY }; pw * ph];
-    for y in 0..img.height {
-        let row = &img.data[y * img.width..(y + 1) * img.width];
-        let out = &mut data[(y / POOL) * pw..(y / POOL + 1) * pw];
-        for (x, v) in row.iter().enumerate() {
-            let o = &mut out[x / POOL];
-            *o = if max { o.max(*v) } else { o.min(*v) };
+    let (mut lo, mut hi) = (vec![f32::INFINITY; pw * ph], vec![f32::NEG_INFINITY; pw * ph]);
+    for (y, row) in img.data.chunks(img.width).enumerate() {
+        let out = (y / POOL) * pw..(y / POOL + 1) * pw;
+        for ((l, h), block) in lo[out.clone()].iter_mut().zip(&mut hi[out]).zip(row.chunks(POOL)) {
+            for v in block {
+                *l = l.min(*v);
+                *h = h.max(*v);
+            }
         }
     }
-    ImageF32 { width: pw, height: ph, data }
+    (ImageF32 { width: pw, height: ph, data: lo }, ImageF32 { width: pw, height: ph, data: hi })
+}
+
+/// The runs of the core pixels (step 1 of the module docs): `I < lo + core_fraction (hi - lo)`
+/// where the local contrast `hi - lo` exceeds `min_contrast`, with `lo`, `hi` per 4 x 4 block.
+/// The threshold is the block's: a block whose contrast is too low, or whose own darkest pixel
+/// (`block_min`) does not pass, holds no core pixel and is skipped.
+fn core_runs(img: &ImageF32, (lo, hi): (&ImageF32, &ImageF32), block_min: &ImageF32, params: &DotParams) -> Vec<Run> {
+    let thr: Vec<f32> = lo
+        .data
+        .iter()
+        .zip(&hi.data)
+        .zip(&block_min.data)
+        .map(|((l, hh), m)| {
+            let t = l + params.core_fraction * (hh - l);
+            if hh - l > params.min_contrast && *m < t {
+                t
+            } else {
+                f32::NEG_INFINITY
+            }
+        })
+        .collect();
+    let (w, pw) = (img.width, lo.width);
+    let mut runs = Vec::new();
+    for (y, row) in img.data.chunks(w).enumerate() {
+        let mut start: Option<usize> = None;
+        for (bx, t) in thr[(y / POOL) * pw..(y / POOL + 1) * pw].iter().enumerate() {
+            let x0 = bx * POOL;
+            if *t == f32::NEG_INFINITY {
+                if let Some(s) = start.take() {
+                    runs.push(Run { y: y as u32, x0: s as u32, x1: x0 as u32 });
+                }
+                continue;
+            }
+            for (x, v) in row.iter().enumerate().take((x0 + POOL).min(w)).skip(x0) {
+                match (*v < *t, start) {
+                    (true, None) => start = Some(x),
+                    (false, Some(s)) => {
+                        runs.push(Run { y: y as u32, x0: s as u32, x1: x as u32 });
+                        start = None;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if let Some(s) = start {
+            runs.push(Run { y: y as u32, x0: s as u32, x1: w as u32 });
+        }
+    }
+    runs
 }
 
 /// Find dark dots.
@@ -148,16 +199,13 @@ fn find_cores(img: &ImageF32, params: &DotParams) -> (Vec<Vec<(usize, usize)>>, 
     // Local levels for the cores, on 4 x 4 min / max pooled images (16x fewer pixels; the window
     // grows to a multiple of 4, which only matters far from any dot).
     let r4 = params.window_px.div_ceil(POOL);
-    let lo = extreme_filter(&pool(img, false), r4, false);
-    let hi = extreme_filter(&pool(img, true), r4, true);
+    let (block_min, block_max) = pool_min_max(img);
+    let lo = extreme_filter(&block_min, r4, false);
+    let hi = extreme_filter(&block_max, r4, true);
     let pw = lo.width;
-    let core_runs = runs_where(w, h, |x, y| {
-        let i = (y / POOL) * pw + x / POOL;
-        let (l, hh, v) = (lo.data[i], hi.data[i], img.data[y * w + x]);
-        hh - l > params.min_contrast && v < l + params.core_fraction * (hh - l)
-    });
+    let runs = core_runs(img, (&lo, &hi), &block_min, params);
     let t1 = t0.elapsed().as_secs_f64() * 1e3;
-    let mut cores = components(&core_runs, (0, 0));
+    let mut cores = components(&runs, (0, 0));
     log::debug!("dots: filters+mask {t1:.1} ms, components {:.1} ms", t0.elapsed().as_secs_f64() * 1e3 - t1);
     // A dot straddling the sphere's outline can join the mid-grey background into one huge core
     // (where the local minimum is the dot's mixed pixels, the background passes the threshold):
