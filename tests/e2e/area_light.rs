@@ -222,9 +222,22 @@ fn the_grippers_soft_shadow_matches_the_librarys_sampling() {
 /// lattice's checks and the rows' closed form with penumbrae they were not tuned on.
 #[test]
 fn soft_shadows_hold_under_random_poses_and_lights() {
+    random_soft_shadow(crate::common::stress_seed());
+}
+
+/// A seed the random test failed on (max 0.65 grey levels, RMS 0.085): an edge of the turned
+/// gripper ran along the emitter's rows, where the rule across rows errs by up to half a row's
+/// share; with 16 rows a point (64 a pixel and a lattice point) instead of 8 (32): max 0.29,
+/// RMS 0.031.
+#[test]
+fn soft_shadows_hold_where_an_edge_runs_along_the_emitters_rows() {
+    random_soft_shadow(1_796_684_115_240_995_042);
+}
+
+/// [`soft_shadows_hold_under_random_poses_and_lights`] for `seed`.
+fn random_soft_shadow(seed: u64) {
     use nalgebra::{Isometry3, Translation3, UnitQuaternion};
     use rand::{Rng, SeedableRng};
-    let seed = crate::common::stress_seed();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut s = gripper_scene();
     let mut r = || rng.random_range(-1.0f64..1.0);

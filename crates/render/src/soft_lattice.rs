@@ -26,7 +26,7 @@ use super::uniforms::Params;
 /// Largest estimated interpolation error of the visible share in an interpolated cell: at most
 /// `V_TOLERANCE E / (A + E)` of a pixel's lit value, 0.5 grey levels on white (255) under a light
 /// far brighter than the ambient term, 0.37 on the gripper's board. About the scatter of the
-/// per-point integral's 32 rows between neighbouring points, so that cells are not refused for
+/// per-point integral's rows between neighbouring points, so that cells are not refused for
 /// it. Measured against independent references (`tests/e2e/area_light.rs`, see BENCHMARKS.md).
 pub(super) const V_TOLERANCE: f32 = 2e-3;
 
