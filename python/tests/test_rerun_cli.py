@@ -104,3 +104,19 @@ def test_unwritable_recording_fails_and_leaves_nothing(tmp_path):
         pytest.skip("skipped: the synthcam binary was built without the `rerun` feature")
     assert r.returncode != 0 and "x.rrd" in r.stderr, r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["missing"]
+
+
+def test_rig_dataset_recording_has_each_camera(tmp_path):
+    spec = tmp_path / "rig.toml"
+    spec.write_text((REPO / "assets" / "specs" / "stereo_rig_1280.toml").read_text().replace("count = 20", "count = 2"))
+    out, rrd = tmp_path / "rig", tmp_path / "rig.rrd"
+    synthcam("dataset", spec, "-o", out, "--rerun", rrd)
+    run = RecordedRun(rrd)
+    for name in ("left", "right"):
+        entity = f"world/{name}/image"
+        assert run.steps(entity, "EncodedImage:blob") == [0, 1], run.entities
+        assert f"world/{name}/image/truth" in run.entities and f"world/{name}" in run.entities
+        for k in range(2):
+            truth = json.loads((out / "images" / name / f"{k:06d}.json").read_text())
+            pts = run.value(f"world/{name}/image/truth", "Points2D:positions", k)
+            assert np.allclose(pts, np.array([f["pixel_px"] for f in truth["features"] if f["visible"]]) + OFFSET, atol=1e-4)
