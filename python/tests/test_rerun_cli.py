@@ -26,12 +26,34 @@ from synthcam.rerun_log import RecordedRun, Recorder  # noqa: E402
 RUN_ENTITIES = set(Recorder.ENTITIES) | {"error/pose_mm", "error/pose_deg", "joints/q0"}
 
 
-def synthcam(*args):
+def run_cli(*args):
+    """The binary's result; skips the test on a binary built without the `rerun` feature."""
     r = subprocess.run([BIN, *map(str, args)], capture_output=True, text=True, cwd=REPO)
     if r.returncode != 0 and "built without rerun support" in r.stderr:
         pytest.skip("skipped: the synthcam binary was built without the `rerun` feature (cargo build --release --features rerun)")
+    return r
+
+
+def synthcam(*args):
+    r = run_cli(*args)
     assert r.returncode == 0, r.stderr
     return r
+
+
+def dataset_recording(tmp_path, spec_name, count_line, count):
+    """`dataset SPEC --rerun` on a copy of assets/specs/SPEC with `count` images: (folder, run)."""
+    spec = tmp_path / spec_name
+    spec.write_text((REPO / "assets" / "specs" / spec_name).read_text().replace(count_line, f"count = {count}"))
+    out, rrd = tmp_path / "ds", tmp_path / "ds.rrd"
+    synthcam("dataset", spec, "-o", out, "--rerun", rrd)
+    return out, RecordedRun(rrd)
+
+
+def assert_truth_points(run, entity, truth_json, k):
+    """The recording's true points at step k are the truth file's visible features (+ OFFSET)."""
+    truth = json.loads(truth_json.read_text())
+    pts = run.value(entity, "Points2D:positions", k)
+    assert np.allclose(pts, np.array([f["pixel_px"] for f in truth["features"] if f["visible"]]) + OFFSET, atol=1e-4)
 
 
 def test_sim_recording_holds_every_step_of_the_trace(tmp_path):
@@ -72,51 +94,36 @@ def test_servo_recording_matches_the_trace(tmp_path):
         f = np.array(s["features_px"])
         assert np.allclose(pts, f[:, 1:] + OFFSET, atol=1e-4)
         assert run.value("world/camera/image/detected", "Points2D:keypoint_ids", s["step"]).tolist() == f[:, 0].astype(int).tolist()
-    desired = run.value("world/camera/image/desired", "Points2D:positions", 0)
+    desired = run.value("world/camera/image/desired", "Points2D:positions")  # static
     assert np.allclose(desired, np.array([d for d in trace["desired_px"] if d is not None]) + OFFSET, atol=1e-4)
     print(f"servo --rerun: {run.bytes} bytes, {len(run.frames)} frames")
 
 
 def test_dataset_recording_holds_images_and_truth(tmp_path):
-    spec = tmp_path / "tiny.toml"
-    spec.write_text((REPO / "assets" / "specs" / "tiny.toml").read_text().replace("count = 200", "count = 5"))
-    out, rrd = tmp_path / "ds", tmp_path / "ds.rrd"
-    synthcam("dataset", spec, "-o", out, "--rerun", rrd)
-    run = RecordedRun(rrd)
+    out, run = dataset_recording(tmp_path, "tiny.toml", "count = 200", 5)
     assert {"world/camera", "world/camera/image", "world/camera/image/truth", "world/target/features", "camera_info"} <= set(run.entities)
     assert run.frames == list(range(5))
     from PIL import Image
 
     for k in range(5):
-        truth = json.loads((out / "images" / f"{k:06d}.json").read_text())
         png = np.asarray(Image.open(out / "images" / f"{k:06d}.png"))
         assert np.array_equal(run.image(k), png)
-        vis = [f for f in truth["features"] if f["visible"]]
-        pts = run.value("world/camera/image/truth", "Points2D:positions", k)
-        assert np.allclose(pts, np.array([f["pixel_px"] for f in vis]) + OFFSET, atol=1e-4)
+        assert_truth_points(run, "world/camera/image/truth", out / "images" / f"{k:06d}.json", k)
 
 
 def test_unwritable_recording_fails_and_leaves_nothing(tmp_path):
     bad = tmp_path / "missing" / "x.rrd"
     (tmp_path / "missing").write_text("a file, not a folder")
-    r = subprocess.run([BIN, "sim", "assets/scenarios/ur5e_chessboard.toml", "--views", "0", "--steps", "2", "--rerun", bad], capture_output=True, text=True, cwd=REPO)
-    if "built without rerun support" in r.stderr:
-        pytest.skip("skipped: the synthcam binary was built without the `rerun` feature")
+    r = run_cli("sim", "assets/scenarios/ur5e_chessboard.toml", "--views", "0", "--steps", "2", "--rerun", bad)
     assert r.returncode != 0 and "x.rrd" in r.stderr, r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["missing"]
 
 
 def test_rig_dataset_recording_has_each_camera(tmp_path):
-    spec = tmp_path / "rig.toml"
-    spec.write_text((REPO / "assets" / "specs" / "stereo_rig_1280.toml").read_text().replace("count = 20", "count = 2"))
-    out, rrd = tmp_path / "rig", tmp_path / "rig.rrd"
-    synthcam("dataset", spec, "-o", out, "--rerun", rrd)
-    run = RecordedRun(rrd)
+    out, run = dataset_recording(tmp_path, "stereo_rig_1280.toml", "count = 20", 2)
     for name in ("left", "right"):
         entity = f"world/{name}/image"
         assert run.steps(entity, "EncodedImage:blob") == [0, 1], run.entities
         assert f"world/{name}/image/truth" in run.entities and f"world/{name}" in run.entities
         for k in range(2):
-            truth = json.loads((out / "images" / name / f"{k:06d}.json").read_text())
-            pts = run.value(f"world/{name}/image/truth", "Points2D:positions", k)
-            assert np.allclose(pts, np.array([f["pixel_px"] for f in truth["features"] if f["visible"]]) + OFFSET, atol=1e-4)
+            assert_truth_points(run, f"world/{name}/image/truth", out / "images" / name / f"{k:06d}.json", k)

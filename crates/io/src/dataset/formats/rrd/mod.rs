@@ -6,7 +6,9 @@
 //! - `world` (right-handed, Z up), `world/camera` (`Transform3D`: `world_from_cam`),
 //!   `world/camera/image` (`Pinhole`, static; the frame as a PNG `EncodedImage`),
 //!   `world/camera/image/detected`, `.../truth`, `.../desired` (`Points2D`, feature ids as
-//!   keypoint ids), `world/target` (`world_from_target`), `world/goal_camera` (+ `/image`, static),
+//!   keypoint ids; the desired ones static), `world/target` (`world_from_target`, static: the
+//!   runs' targets do not move; the Python recorder logs both per step), `world/goal_camera`
+//!   (+ `/image`, static),
 //!   `joints/q<i>` (rad), `command/qdot<i>` (rad/s), `error/pixel_rms_px` (detected vs desired),
 //!   `error/detection_rms_px` (detected vs truth), `error/pose_mm`, `error/pose_deg` (the true
 //!   camera against the goal), `features/detected`, `features/matched`, `timing/render_ms`,
@@ -29,7 +31,6 @@ use nalgebra::{Isometry3, Point2};
 use rerun::RecordingStream;
 
 use super::{tmp_path, FormatError};
-use synthcam_render::GreyImage;
 use synthcam_scene::file::CameraSpec;
 
 pub use dataset::write_dataset_rrd;
@@ -153,15 +154,19 @@ impl Rrd {
 
     /// Points (OpenCV pixels) with their ids, as `Points2D` in rerun's pixel convention.
     pub(crate) fn points(&self, entity: &str, pts: &[(usize, Point2<f64>)], style: PointStyle) -> Result<(), FormatError> {
+        self.log(entity, &Self::points_2d(pts, style))
+    }
+
+    /// [`Rrd::points`]' archetype, for a caller that logs it static.
+    pub(crate) fn points_2d(pts: &[(usize, Point2<f64>)], style: PointStyle) -> rerun::Points2D {
         let o = PIXEL_OFFSET;
         let pos: Vec<[f32; 2]> = pts.iter().map(|(_, p)| [(p.x + o) as f32, (p.y + o) as f32]).collect();
         let ids: Vec<u16> = pts.iter().map(|(i, _)| u16::try_from(*i).unwrap_or(u16::MAX)).collect();
-        let points = rerun::Points2D::new(pos)
+        rerun::Points2D::new(pos)
             .with_keypoint_ids(ids)
             .with_colors([rerun::Color::from_rgb(style.rgb[0], style.rgb[1], style.rgb[2])])
             .with_radii([rerun::Radius::new_ui_points(style.radius)])
-            .with_draw_order(style.order);
-        self.log(entity, &points)
+            .with_draw_order(style.order)
     }
 
     /// A frame as a PNG `EncodedImage` (lossless, a fraction of the raw size).
@@ -202,14 +207,3 @@ pub(crate) const DETECTED: PointStyle = PointStyle { rgb: [40, 220, 40], radius:
 pub(crate) const TRUTH: PointStyle = PointStyle { rgb: [60, 150, 255], radius: 1.5, order: 40.0 };
 /// Desired features: red, under the others.
 pub(crate) const DESIRED: PointStyle = PointStyle { rgb: [255, 60, 60], radius: 4.0, order: 20.0 };
-
-/// A frame's PNG bytes.
-pub(crate) fn png(img: &GreyImage) -> Result<Vec<u8>, FormatError> {
-    Ok(crate::dataset::encode_png(img)?)
-}
-
-/// RMS distance between `a` and `b` over the ids both hold (`None` when none).
-pub(crate) fn matched_rms(a: &[(usize, Point2<f64>)], b: &[Option<Point2<f64>>]) -> Option<(f64, usize)> {
-    let d2: Vec<f64> = a.iter().filter_map(|(i, p)| b.get(*i).copied().flatten().map(|q| (p - q).norm_squared())).collect();
-    (!d2.is_empty()).then(|| ((d2.iter().sum::<f64>() / d2.len() as f64).sqrt(), d2.len()))
-}

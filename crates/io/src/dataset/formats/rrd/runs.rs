@@ -6,14 +6,15 @@ use std::path::Path;
 
 use nalgebra::{Isometry3, Point2};
 
-use super::{matched_rms, png, Rrd, RrdCounts, DESIRED, DETECTED, TRUTH};
+use super::{Rrd, RrdCounts, DESIRED, DETECTED, TRUTH};
 use crate::dataset::formats::series::DEFAULT_FRAME_PERIOD_NS;
 use crate::dataset::formats::FormatError;
 use synthcam_core::robot::Robot;
 use synthcam_course::servo_run::ServoTrace;
 use synthcam_render::GreyImage;
 use synthcam_scene::file::CameraSpec;
-use synthcam_sim::controller::LoopTrace;
+use synthcam_sim::controller::{pixel_rms, LoopTrace};
+use synthcam_sim::sensor::Feature;
 use synthcam_sim::SimScenario;
 
 /// One step of a run, as recorded.
@@ -21,14 +22,15 @@ struct StepLog<'a> {
     step: usize,
     q_rad: &'a [f64],
     qdot: &'a [f64],
-    detected: Vec<(usize, Point2<f64>)>,
+    detected: Vec<Feature>,
     /// The true camera against the goal: millimetres and degrees.
     pose_error: (f64, f64),
     render_detect_ms: (f64, f64),
     frame: Option<&'a GreyImage>,
 }
 
-/// What every step of a run shares: the scenario, its robot and the goal's features.
+/// What every step of a run shares: the scenario, its robot and the goal's features (the target
+/// and the goal are logged once, static: they do not move).
 struct RunLog<'a> {
     rrd: Rrd,
     scenario: &'a SimScenario,
@@ -46,6 +48,8 @@ impl RunLog<'_> {
         let world_from_goal_cam = scenario.world_from_target * scenario.goal_cam_from_target.inverse();
         rrd.pose("world/goal_camera", &world_from_goal_cam, true)?;
         rrd.camera("world/goal_camera/image", &cam)?;
+        rrd.pose("world/target", &scenario.world_from_target, true)?;
+        rrd.log_static("world/camera/image/desired", &Rrd::points_2d(&seen(&desired), DESIRED))?;
         for (entity, name) in [
             ("error/pixel_rms_px", "detected vs desired RMS (px)"),
             ("error/detection_rms_px", "detected vs truth RMS (px)"),
@@ -68,31 +72,30 @@ impl RunLog<'_> {
         let base_from_tool = self.robot.base_from_tool(s.q_rad).map_err(|e| rrd.err(format!("step {}: forward kinematics: {e}", s.step)))?;
         let world_from_cam: Isometry3<f64> = self.scenario.world_from_base * base_from_tool * self.scenario.tool_from_cam;
         rrd.pose("world/camera", &world_from_cam, false)?;
-        rrd.pose("world/target", &self.scenario.world_from_target, false)?;
         if let Some(img) = s.frame {
-            rrd.frame("world/camera/image", png(img)?)?;
+            rrd.frame("world/camera/image", crate::dataset::encode_png(img)?)?;
         }
         let truth = self.scenario.projected_px(&(world_from_cam.inverse() * self.scenario.world_from_target));
-        rrd.points("world/camera/image/detected", &s.detected, DETECTED)?;
+        let detected: Vec<(usize, Point2<f64>)> = s.detected.iter().map(|f| (f.id, f.pixel_px)).collect();
+        rrd.points("world/camera/image/detected", &detected, DETECTED)?;
         rrd.points("world/camera/image/truth", &seen(&truth), TRUTH)?;
-        rrd.points("world/camera/image/desired", &seen(&self.desired), DESIRED)?;
         for (i, q) in s.q_rad.iter().enumerate() {
             rrd.scalar(&format!("joints/q{i}"), *q)?;
         }
         for (i, v) in s.qdot.iter().enumerate() {
             rrd.scalar(&format!("command/qdot{i}"), *v)?;
         }
-        let matched = matched_rms(&s.detected, &self.desired);
-        if let Some((rms, _)) = matched {
+        if let Some(rms) = pixel_rms(&s.detected, &self.desired) {
             rrd.scalar("error/pixel_rms_px", rms)?;
         }
-        if let Some((rms, _)) = matched_rms(&s.detected, &truth) {
+        if let Some(rms) = pixel_rms(&s.detected, &truth) {
             rrd.scalar("error/detection_rms_px", rms)?;
         }
+        let matched = s.detected.iter().filter(|f| self.desired.get(f.id).is_some_and(Option::is_some)).count();
         rrd.scalar("error/pose_mm", s.pose_error.0)?;
         rrd.scalar("error/pose_deg", s.pose_error.1)?;
         rrd.scalar("features/detected", s.detected.len() as f64)?;
-        rrd.scalar("features/matched", matched.map_or(0, |m| m.1) as f64)?;
+        rrd.scalar("features/matched", matched as f64)?;
         rrd.scalar("timing/render_ms", s.render_detect_ms.0)?;
         rrd.scalar("timing/detect_ms", s.render_detect_ms.1)
     }
@@ -141,7 +144,7 @@ pub fn write_servo_rrd(
         q_rad: &s.q_rad,
         // The servo trace keeps the joints, not the commands.
         qdot: &[],
-        detected: s.features_px.iter().map(|f| (f[0] as usize, Point2::new(f[1], f[2]))).collect(),
+        detected: s.features_px.iter().map(|f| Feature { id: f[0] as usize, pixel_px: Point2::new(f[1], f[2]) }).collect(),
         pose_error: (s.pose_error_mm, s.pose_error_deg),
         render_detect_ms: (s.render_ms, s.detect_ms),
         frame: images.iter().find(|(i, _)| *i == s.step).map(|(_, img)| img),
@@ -167,7 +170,7 @@ pub fn write_loop_rrd(
         step: k,
         q_rad: &s.q_rad,
         qdot: &s.qdot,
-        detected: s.observed.iter().map(|f| (f.id, f.pixel_px)).collect(),
+        detected: s.observed.clone(),
         pose_error: s.goal_error_mm_deg,
         render_detect_ms: s.render_detect_ms,
         frame: images.iter().find(|(i, _)| *i as u64 == s.frame).map(|(_, img)| img),
