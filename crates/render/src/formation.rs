@@ -96,10 +96,14 @@ fn raw_values(scene: &Scene, radiance: Vec<f32>) -> Result<(Vec<f32>, f64), Rend
 /// # Errors
 /// [`RenderError::Scene`] when the sensor rejects the image (a buffer of the wrong size).
 pub fn finish(scene: &Scene, linear: &[f32]) -> Result<GreyImage, RenderError> {
+    finish_owned(scene, linear.to_vec())
+}
+
+/// [`finish`] on a render the caller gives up (no copy of it).
+pub(crate) fn finish_owned(scene: &Scene, mut img: Vec<f32>) -> Result<GreyImage, RenderError> {
     let (w, h) = (scene.camera.size.width, scene.camera.size.height);
     let fx = &scene.render.effects;
     let t0 = std::time::Instant::now();
-    let mut img = linear.to_vec();
     if fx.optics.vignettes() {
         let map = irradiance_map(scene)?;
         img.par_iter_mut().zip(map.par_iter()).for_each(|(v, f)| *v = (f64::from(*v) * f64::from(*f)) as f32);

@@ -172,7 +172,6 @@ impl Renderer {
     /// # Errors
     /// As [`Renderer::render_linear`].
     pub fn render(&self, scene: &Scene) -> Result<GreyImage, RenderError> {
-        let linear = self.render_radiance(scene)?;
-        finish(scene, &linear)
+        formation::finish_owned(scene, self.render_radiance(scene)?)
     }
 }
