@@ -7,7 +7,9 @@
 use nalgebra::{Isometry3, Point2, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use synthcam::detect::chessboard::TRUSTED_CORNER_PX;
 use synthcam::detect::{find_chessboard, ChessboardParams, ImageF32};
+use synthcam::scene::file::parse_scene;
 use synthcam::scene::truth::truth_labels;
 
 use crate::common::{camera, chessboard_scene, renderer};
@@ -152,4 +154,33 @@ fn steep_blurred_small_and_unevenly_lit_boards() {
     // Measured 2026-11-24 (see the closing note); regression bounds:
     assert!(found * 10 >= n * 8, "{found}/{n}");
     assert!(rms(&errs) <= 0.05, "RMS {}", rms(&errs));
+}
+
+/// Boards the random stress suite (`benches/stress_chessboard.py`) found missed, kept as scenes
+/// (`tests/data/stress/*.toml`, each saying its seed, class and index) and rendered again: each is
+/// found whole, and every corner its own fit trusts (`ChessboardCorners::untrusted` at
+/// `TRUSTED_CORNER_PX`) lies within that tolerance of the truth.
+#[test]
+fn stress_suite_misses_stay_found() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/stress");
+    let mut files: Vec<_> =
+        std::fs::read_dir(&dir).expect("tests/data/stress").flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|e| e == "toml")).collect();
+    files.sort();
+    assert!(files.len() >= 3, "the kept cases: {files:?}");
+    for path in files {
+        let scene = parse_scene(&std::fs::read_to_string(&path).expect("read")).expect("scene");
+        let truth = truth_labels(&scene);
+        let [cols, rows] = truth.grid.map(|n| n as usize);
+        let img = renderer().render(&scene).expect("render");
+        let (w, h) = (scene.camera.size.width as usize, scene.camera.size.height as usize);
+        let img = ImageF32::new(w, h, img.to_u8().iter().map(|v| f32::from(*v)).collect()).expect("image");
+        let b = find_chessboard(&img, &ChessboardParams::new(cols, rows)).expect("valid image").unwrap_or_else(|| panic!("{}: not found", path.display()));
+        let untrusted = b.untrusted(TRUSTED_CORNER_PX);
+        let truth_px: Vec<Point2<f64>> = truth.features.iter().map(|f| Point2::from(f.pixel_px)).collect();
+        // each found corner against its nearest truth corner (every truth corner is found: a whole board)
+        let errs: Vec<(usize, f64)> = b.points_px.iter().enumerate().map(|(k, p)| (k, nn_errors(&truth_px, &[*p])[0])).collect();
+        let worst = errs.iter().filter(|(k, _)| !untrusted.contains(k)).map(|e| e.1).fold(0.0, f64::max);
+        eprintln!("{}: found, {} of {} corners untrusted, worst trusted error {worst:.4} px", path.display(), untrusted.len(), b.points_px.len());
+        assert!(worst <= TRUSTED_CORNER_PX, "{}: a trusted corner {worst:.4} px from the truth", path.display());
+    }
 }

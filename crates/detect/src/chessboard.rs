@@ -21,7 +21,7 @@ use super::grid::{grow_grid, Grid, GrowParams};
 use super::response::{find_candidates, local_peak, saddle_response, Candidate};
 use super::saddle_fit::SaddleFitParams;
 use super::{DetectError, GreyWindow, ImageF32, ImageU8};
-use complete::complete;
+use complete::recovered;
 pub use complete::CompleteParams;
 use erosion::{min_filter, EROSION_RADII_PX};
 use order::{orient, polygon_area, to_rows};
@@ -32,7 +32,10 @@ pub use trust::{corners_to_leave_out, MAX_STEP_RATIO, OUTLIER_SIGMA_FACTOR, TRUS
 
 mod complete;
 mod erosion;
+mod grid_lens;
+mod junction;
 mod order;
+mod quad_pair;
 mod refine;
 mod trust;
 
@@ -254,16 +257,7 @@ fn find_direct<'a, I: GreyWindow>(
         cells.sort();
         log::trace!("partial grid: {}", cells.join(" "));
     }
-    let g = complete(img, &full(), &g, (params.cols, params.rows), &params.refine, &params.complete)?;
-    let blind = complete::blind_points(&g);
-    let grid = orient(to_rows(&g, params.cols, params.rows)?, params.cols, params.rows);
-    let placed: Vec<Point2<f64>> = grid.iter().flatten().copied().collect();
-    let mut corners = refine_all(img, grid, params, 0, 0);
-    // Blind corners stay at their predictions, untrusted (complete's module doc).
-    for (k, q) in placed.iter().enumerate().filter(|(_, q)| blind.contains(q)) {
-        (corners.points_px[k], corners.refined[k], corners.position_sigma_px[k]) = (*q, false, f64::INFINITY);
-    }
-    even_steps(corners)
+    recovered(img, &full(), &g, params).and_then(even_steps)
 }
 
 /// A corner found at pyramid `level` carried to full resolution: doubled at each level, snapped

@@ -8,9 +8,14 @@
 //! Here the best partial grid grown at any pyramid level is carried to full resolution and
 //! completed by the board's known size, each missing corner validated by what the image says
 //! at it, not by how strong it is relative to others: a full-resolution saddle-model fit
-//! ([`refine_saddle`]) from the grid's prediction must converge near it, explain the window
-//! (small residual against the light/dark amplitude), have its two edge lines along the grid's
-//! two directions, and give the X-junction the polarity the checkerboard parity demands. Holes
+//! ([`refine_saddle`]) must converge near the prediction, explain the window (small residual
+//! against the light/dark amplitude), have its two edge lines along the grid's two directions,
+//! give the X-junction the polarity the checkerboard parity demands, and cut the window into
+//! four sectors that alternate light and dark (module `junction`: an L-junction at a board's
+//! outer corner passes the rest). The fit starts from the grid's local extrapolations, then from
+//! the saddle-response peak near them, then from the whole partial grid's homography through a
+//! one-term lens (module `grid_lens`) and the peak near that: towards a fisheye's fold the
+//! squares shrink so fast from row to row that the local extrapolations overshoot. Holes
 //! inside the grid are filled first; then whole lines are added, one side at a time, a line
 //! only when every corner on it validates. A completed grid that could be grown by one more
 //! valid line on any side is part of a larger pattern and is rejected, as is any grid that
@@ -33,10 +38,24 @@ use std::sync::OnceLock;
 use nalgebra::{Point2, Vector2};
 
 use super::super::grid::Grid;
-use super::super::markers::quads::{candidates, Quad};
-use super::super::markers::MarkerParams;
-use super::super::saddle_fit::{refine_saddle, SaddleFit, SaddleFitParams};
+use super::super::markers::quads::Quad;
+use super::super::response::local_peak;
+use super::super::saddle_fit::{refine_saddle, SaddleFitParams};
 use super::super::{GreyWindow, ImageF32};
+use super::grid_lens::GridLens;
+use super::junction::{fit_is_corner, quadrant_contrast};
+use super::order::{orient, to_rows};
+use super::quad_pair::{dark_quads, quad_pair_corner};
+use super::refine::refine_all;
+use super::{ChessboardCorners, ChessboardParams};
+
+/// Smoothing of the saddle response whose peak is a completed corner's last guess (the fast
+/// path's default, `ChessboardParams::smoothing_sigma_px`).
+const RESPONSE_SIGMA_PX: f64 = 1.0;
+
+/// The response peak a completed corner's fit may start from lies within this many fit
+/// half-windows of the prediction.
+const PEAK_WINDOWS: usize = 3;
 
 /// Fit window of a completed corner: this fraction of the local step, as the refinement of
 /// found grids (`ChessboardParams::window_frac`'s default).
@@ -58,25 +77,60 @@ pub struct CompleteParams {
     /// A corner whose local step is below this many pixels cannot be validated (the fit window
     /// would reach the neighbouring corners).
     pub min_step_px: f64,
+    /// The fitted lines' four sectors must alternate: the darker light sector's mean grey above
+    /// the lighter dark sector's by at least this fraction of the fitted contrast (Geiger et
+    /// al.'s corner test, `quadrant_contrast`: about 1 at an X-junction, at most 0 at the
+    /// L-junction of a board's outer corner, which the saddle fit alone can pass).
+    pub min_quadrant_contrast: f64,
 }
 
 impl Default for CompleteParams {
     fn default() -> Self {
-        Self { max_shift_frac: 0.35, max_residual_frac: 0.6, max_angle_deg: 30.0, min_amplitude: 4.0, min_step_px: 5.0 }
+        Self { max_shift_frac: 0.35, max_residual_frac: 0.6, max_angle_deg: 30.0, min_amplitude: 4.0, min_step_px: 5.0, min_quadrant_contrast: 0.25 }
     }
 }
 
+/// The board completed from the partial grid `g` ([`complete`]), oriented and refined
+/// ([`refine_all`]); its blind corners stay at their predictions, untrusted. Corners whose final
+/// fit fails otherwise, or cannot place them within a pixel at two sigma ([`UNPLACED_SIGMA_PX`]),
+/// came from the partial grid unvalidated (found at a coarser level, where
+/// squares compressed to a pixel or two can put a corner on the wrong junction): their cells are
+/// emptied and the grid completed once more, so that each is validated at full resolution like
+/// any other completed corner, or the board is not reported.
+pub(super) fn recovered<I: GreyWindow>(img: &I, full: &ImageF32, g: &Grid, params: &ChessboardParams) -> Option<ChessboardCorners> {
+    let (dims, (refine, p)) = ((params.cols, params.rows), (&params.refine, &params.complete));
+    let mut g = complete(img, full, g, dims, refine, p)?;
+    for again in [true, false] {
+        let blind = blind_points(&g);
+        let grid = orient(to_rows(&g, params.cols, params.rows)?, params.cols, params.rows);
+        let placed: Vec<Point2<f64>> = grid.iter().flatten().copied().collect();
+        let mut corners = refine_all(img, grid, params, 0, 0);
+        let unplaced = |k: usize| !corners.refined[k] || !(corners.position_sigma_px[k] <= UNPLACED_SIGMA_PX);
+        let failed: Vec<Point2<f64>> = (0..placed.len()).filter(|&k| unplaced(k) && !blind.contains(&placed[k])).map(|k| placed[k]).collect();
+        if again && !failed.is_empty() {
+            log::debug!("completion: {} corners whose fit failed are placed again", failed.len());
+            g.cells.retain(|_, q| !failed.contains(q));
+            let Grid { cells, strength, .. } = &mut g;
+            strength.retain(|k, _| cells.contains_key(k));
+            g = complete(img, full, &g, dims, refine, p)?;
+            continue;
+        }
+        for (k, q) in placed.iter().enumerate().filter(|(_, q)| blind.contains(q)) {
+            (corners.points_px[k], corners.refined[k], corners.position_sigma_px[k]) = (*q, false, f64::INFINITY);
+        }
+        return Some(corners);
+    }
+    None
+}
+
+/// A corner whose final fit gives a larger position sigma, pixels, has not been found there
+/// ([`recovered`]).
+const UNPLACED_SIGMA_PX: f64 = 0.5;
+
 /// Complete `g` (full-resolution positions) to `cols` x `rows` corners in either orientation.
 /// Returns the completed grid, or `None` when it cannot be completed unambiguously.
-pub(super) fn complete<I: GreyWindow>(
-    img: &I,
-    full: &ImageF32,
-    g: &Grid,
-    (cols, rows): (usize, usize),
-    refine: &SaddleFitParams,
-    p: &CompleteParams,
-) -> Option<Grid> {
-    let cx = Ctx { img, full, refine, p, steps: steps(g), quads: OnceLock::new(), max: OnceLock::new() };
+fn complete<I: GreyWindow>(img: &I, full: &ImageF32, g: &Grid, (cols, rows): (usize, usize), refine: &SaddleFitParams, p: &CompleteParams) -> Option<Grid> {
+    let cx = Ctx { img, full, refine, p, start: g, steps: steps(g), quads: OnceLock::new(), max: OnceLock::new(), lens: OnceLock::new() };
     let (i0, i1, j0, j1) = g.bounds()?;
     let (ni, nj) = (i1 - i0 + 1, j1 - j0 + 1);
     if ni < 3 || nj < 3 {
@@ -243,11 +297,15 @@ struct Ctx<'a, I> {
     full: &'a ImageF32,
     refine: &'a SaddleFitParams,
     p: &'a CompleteParams,
+    /// The partial grid completion started from.
+    start: &'a Grid,
     /// Shortest and longest step between 4-neighbours of the partial grid, pixels.
     steps: (f64, f64),
     quads: OnceLock<Vec<Quad>>,
     /// The image's largest value (clipped pixels reach it), found when first needed.
     max: OnceLock<f32>,
+    /// The partial grid's homography and lens ([`GridLens`]), fitted when first needed.
+    lens: OnceLock<Option<GridLens>>,
 }
 
 /// Shortest and longest distance between 4-neighbours of `g`.
@@ -284,6 +342,28 @@ fn validated<I: GreyWindow>(cx: &Ctx<'_, I>, g: &Grid, i: i32, j: i32) -> Option
             return Some(q);
         }
     }
+    // then the saddle-response peak near the prediction (a fit started a few pixels off a
+    // corner whose squares are compressed can settle on the wrong lines), and the whole grid's
+    // prediction through the lens, with the peak near it (the local extrapolations overshoot
+    // where the squares shrink fast). The peak is searched within a few fit windows (enough to
+    // bring the fit's start onto the junction, in a patch that fits beside the image border),
+    // then as far as the fit may move.
+    let hw = super::fit_half_window(cx.img, pred, step, WINDOW_FRAC, cx.refine.half_window);
+    let far = ((p.max_shift_frac * step).floor() as usize).max(1);
+    let peak_near = |q: Point2<f64>, radius: usize| local_peak(cx.full, q, radius, RESPONSE_SIGMA_PX);
+    let peaks_near = |q: Point2<f64>| [peak_near(q, far.min(PEAK_WINDOWS * hw)), peak_near(q, far)];
+    let centre = Point2::new((cx.full.width as f64 - 1.0) / 2.0, (cx.full.height as f64 - 1.0) / 2.0);
+    let lens = cx.lens.get_or_init(|| GridLens::fit(cx.start, centre)).and_then(|m| m.predict(i, j));
+    let lens_peaks = lens.map_or([None, None], peaks_near);
+    for guess in peaks_near(pred).into_iter().chain([lens]).chain(lens_peaks).flatten() {
+        if tried.iter().any(|t| (t - guess).norm() <= 1.0) {
+            continue;
+        }
+        tried.push(guess);
+        if let Some(q) = validated_at(cx, guess, step, (si, sj), expect) {
+            return Some(q);
+        }
+    }
     log::trace!("completion: cell ({i}, {j}) at ({:.1}, {:.1}), step {step:.1}: no corner at {} guesses", pred.x, pred.y, tried.len());
     None
 }
@@ -294,100 +374,11 @@ fn validated_at<I: GreyWindow>(cx: &Ctx<'_, I>, pred: Point2<f64>, step: f64, (s
     let half_window = super::fit_half_window(cx.img, pred, step, WINDOW_FRAC, cx.refine.half_window);
     let fp = SaddleFitParams { half_window, max_shift_px: p.max_shift_frac * step, ..*cx.refine };
     if let Ok(fit) = refine_saddle(cx.img, pred, si, sj, &fp) {
-        if fit_is_corner(&fit, si, sj, expect, p) {
+        if fit_is_corner(&fit, si, sj, expect, p) && quadrant_contrast(cx.full, &fit, half_window).is_none_or(|c| c >= p.min_quadrant_contrast) {
             return Some(fit.point);
         }
     }
     // the squares along the dark diagonal
     let dark = if expect > 0 { si - sj } else { si + sj };
-    quad_pair_corner(cx.quads.get_or_init(|| dark_quads(cx.full, cx.steps)), pred, step, dark, (si, sj), p)
-}
-
-/// The dark squares of the image as quads (the marker detector's candidate search, 4-connected
-/// and eroded so that squares touching at a corner come apart), with adaptive-threshold windows
-/// from the grid's step range: twice the longest step (the mean of a window holding light and
-/// dark squares), and a window of the shortest step for the compressed squares.
-fn dark_quads(img: &ImageF32, (short, long): (f64, f64)) -> Vec<Quad> {
-    let odd = |x: f64| ((x.clamp(5.0, 401.0) as usize) / 2) * 2 + 1;
-    let params = MarkerParams {
-        threshold_windows_px: [odd(2.0 * long), odd(short), 0],
-        min_marker_perimeter_px: (2.0 * short).max(12.0),
-        polygon_accuracy_rate: QUAD_ACCURACY_RATE,
-        ..MarkerParams::default()
-    };
-    candidates(img, 1.0, &params, true)
-}
-
-/// Largest distance of a dark square's outline from its quadrilateral, as a fraction of the
-/// perimeter: a square under strong distortion has bowed sides (the marker search's 0.03 is for
-/// markers, small and nearly straight-sided); the pairing below checks the geometry that matters.
-const QUAD_ACCURACY_RATE: f64 = 0.08;
-
-/// OpenCV's classic corner (Vezhnevets; `findChessboardCorners`): two dark quads on the dark
-/// diagonal `dark` whose nearest corners lie within the search radius of the prediction `pred`;
-/// the corner is the midpoint of those two quad corners. This holds where the light squares
-/// bloom over the junction and the dark squares no longer touch (over-exposure), where no
-/// saddle is left to fit. The quads must be about the size of a grid cell (`si x sj`).
-fn quad_pair_corner(
-    quads: &[Quad],
-    pred: Point2<f64>,
-    step: f64,
-    dark: Vector2<f64>,
-    (si, sj): (Vector2<f64>, Vector2<f64>),
-    p: &CompleteParams,
-) -> Option<Point2<f64>> {
-    let radius = p.max_shift_frac * step;
-    let cell = (si.x * sj.y - si.y * sj.x).abs();
-    let light = dark.norm() * Vector2::new(-dark.y, dark.x).normalize();
-    let near: Vec<(Point2<f64>, Point2<f64>)> = quads
-        .iter()
-        .filter(|q| {
-            let a = super::super::markers::quads::signed_area(q).abs();
-            a >= 0.1 * cell && a <= 4.0 * cell
-        })
-        .flat_map(|q| {
-            let centre = Point2::from((q[0].coords + q[1].coords + q[2].coords + q[3].coords) * 0.25);
-            q.iter().filter(move |c| (*c - pred).norm() <= radius).map(move |c| (*c, centre))
-        })
-        .collect();
-    log::trace!("quads: {} in the image, {} corners near ({:.1}, {:.1}): {near:?}", quads.len(), near.len(), pred.x, pred.y);
-    let mut best: Option<(f64, Point2<f64>)> = None;
-    for (k, &(a, ca)) in near.iter().enumerate() {
-        for &(b, cb) in &near[k + 1..] {
-            let m = Point2::from((a.coords + b.coords) * 0.5);
-            let (da, db) = (ca - m, cb - m);
-            // on opposite sides of the junction, both nearer the dark diagonal than the light one
-            let on_dark = |d: Vector2<f64>| d.dot(&dark).abs() > d.dot(&light).abs();
-            if (ca - cb).norm() < 1e-9 || da.dot(&db) >= 0.0 || !on_dark(da) || !on_dark(db) || (a - b).norm() > 0.5 * step {
-                continue;
-            }
-            let cost = (a - b).norm() + (m - pred).norm();
-            if best.is_none_or(|bst| cost < bst.0) {
-                best = Some((cost, m));
-            }
-        }
-    }
-    best.map(|b| b.1)
-}
-
-/// The fit shows an X-junction along the grid directions `si`, `sj` with polarity `expect` (+1:
-/// the squares along +-(si + sj) are light).
-fn fit_is_corner(fit: &SaddleFit, si: Vector2<f64>, sj: Vector2<f64>, expect: i8, p: &CompleteParams) -> bool {
-    let a = fit.amplitude;
-    if !(a.abs() >= p.min_amplitude && fit.rms_residual <= p.max_residual_frac * a.abs()) {
-        return false;
-    }
-    let line_dir = |t: f64| Vector2::new(t.cos(), t.sin());
-    let (l1, l2) = (line_dir(fit.angles[0]), line_dir(fit.angles[1]));
-    let cos_max = p.max_angle_deg.to_radians().cos();
-    let along = |l: Vector2<f64>, s: Vector2<f64>| (l.dot(&s) / s.norm()).abs() >= cos_max;
-    if !((along(l1, si) && along(l2, sj)) || (along(l1, sj) && along(l2, si))) {
-        return false;
-    }
-    // the model is m + a S(d1) S(d2) with d_k the signed distance to line k (normal (-sin, cos));
-    // its sign along the diagonal si + sj says whether that square is light
-    let d = si + sj;
-    let side = |l: Vector2<f64>| (-l.y * d.x + l.x * d.y).signum();
-    let light = a * side(l1) * side(l2) > 0.0;
-    light == (expect > 0)
+    quad_pair_corner(cx.full, cx.quads.get_or_init(|| dark_quads(cx.full, cx.steps)), pred, step, dark, (si, sj), p)
 }

@@ -25,6 +25,7 @@
 //! 2nd ed., 7.1 (the normalised DLT).
 
 use nalgebra::{Point2, Point3};
+use synthcam_core::math::golden::golden_section_min;
 
 use super::assign::{shifted_rivals, Assignment};
 use super::dlt::Dlt;
@@ -82,8 +83,7 @@ impl Division {
 
 /// The division model about `centre` whose DLT fits the correspondences best, and its RMS (image
 /// pixels): a grid over lambda r_max^2 ([`KAPPA_REACH`], r_max the farthest point's distance from
-/// the centre), then golden-section search in the best cell. Hand-written: a bounded scalar
-/// minimisation of 30 evaluations does not warrant an optimisation crate.
+/// the centre), then golden-section search in the best cell ([`golden_section_min`]).
 pub(super) fn fit(world: &[Point3<f64>], image: &[Point2<f64>], centre: Point2<f64>) -> Option<(f64, Division)> {
     let r2_max = image.iter().map(|p| (p - centre).norm_squared()).fold(0.0, f64::max);
     if !(r2_max > 0.0 && r2_max.is_finite()) {
@@ -93,28 +93,9 @@ pub(super) fn fit(world: &[Point3<f64>], image: &[Point2<f64>], centre: Point2<f
     let cost = |kappa: f64| at(kappa).rms(world, image).unwrap_or(f64::INFINITY);
     let step = KAPPA_REACH / KAPPA_STEPS as f64;
     let (best, _) = (-KAPPA_STEPS..=KAPPA_STEPS).map(|k| k as f64 * step).map(|k| (k, cost(k))).min_by(|a, b| a.1.total_cmp(&b.1))?;
-    let kappa = golden_min(cost, best - step, best + step);
+    let kappa = golden_section_min(cost, best - step, best + step, GOLDEN_STEPS);
     let (rms, division) = [(cost(kappa), at(kappa)), (cost(best), at(best))].into_iter().min_by(|a, b| a.0.total_cmp(&b.0))?;
     rms.is_finite().then_some((rms, division))
-}
-
-/// The minimiser of a unimodal `f` on `[a, b]` by golden-section search ([`GOLDEN_STEPS`]).
-fn golden_min(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..GOLDEN_STEPS {
-        if fc < fd {
-            (b, d, fd) = (d, c, fc);
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            (a, c, fc) = (c, d, fd);
-            d = a + g * (b - a);
-            fd = f(d);
-        }
-    }
-    (a + b) / 2.0
 }
 
 /// [`fit`] to labelled dots.
