@@ -37,7 +37,7 @@ pub(super) fn fit_is_corner(fit: &SaddleFit, si: Vector2<f64>, sj: Vector2<f64>,
 
 /// Geiger et al.'s corner test on the fitted junction: the mean grey of each of the four sectors
 /// the fitted lines cut from the fit window (pixels within 1 px of a line left out), and the
-/// least light sector's mean minus the darkest... the most dark sector's, over the fitted contrast
+/// darker light sector's mean minus the lighter dark sector's, over the fitted contrast
 /// `2 |amplitude|`: about 1 at an X-junction, at most 0 at an L-junction (one dark square's
 /// corner against three light quadrants, as at a board's outer corners). `None` when a sector
 /// holds no pixel (a window the image border cuts to a few pixels): no evidence either way.
