@@ -27,6 +27,7 @@
 pub mod aprilgrid;
 pub mod charuco;
 pub mod chessboard;
+pub(crate) mod division;
 pub mod dots;
 pub(crate) mod edge_surround;
 pub(crate) mod filters;

@@ -6,8 +6,7 @@
 //! squares shrink from one row to the next by a third or more, and those extrapolations overshoot
 //! by more than the validating fit can walk back (a third of a step). A board is a plane, so its
 //! image is a homography of the grid followed by the lens; Fitzgibbon's one-parameter division
-//! model about the image centre (undistorted = c + d / (1 + lambda |d|^2), d the offset from c)
-//! stands for the lens. For each lambda the homography is linear in the undistorted corners; lambda
+//! model about the image centre ([`Division`]) stands for the lens. For each lambda the homography is linear in the undistorted corners; lambda
 //! is found by a one-dimensional search on the reprojection RMS in the image. Its prediction is
 //! one more guess for a corner the local ones miss: only what the image shows there validates it.
 //!
@@ -16,8 +15,9 @@
 //! Geometry*, 2nd ed., Algorithm 4.2 (the normalised DLT).
 
 use nalgebra::{Matrix3, Point2};
-use synthcam_core::math::golden::golden_section_min;
+use synthcam_core::math::golden::grid_then_golden_min;
 
+use super::super::division::Division;
 use super::super::grid::Grid;
 use super::super::markers::corners::homography;
 
@@ -35,8 +35,7 @@ const MIN_CORNERS: usize = 9;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct GridLens {
     h: Matrix3<f64>,
-    centre: Point2<f64>,
-    lambda: f64,
+    lens: Division,
 }
 
 impl GridLens {
@@ -58,16 +57,19 @@ impl GridLens {
         let cost = |kappa: f64| at(kappa).map_or(f64::INFINITY, |m| m.rms(&grid, &image));
         let step = (KAPPA_RANGE.1 - KAPPA_RANGE.0) / KAPPA_STEPS as f64;
         let kappas = (0..=KAPPA_STEPS).map(|k| KAPPA_RANGE.0 + k as f64 * step);
-        let (best, best_cost) = kappas.map(|k| (k, cost(k))).min_by(|a, b| a.1.total_cmp(&b.1))?;
-        let refined = golden_section_min(cost, best - step, best + step, GOLDEN_STEPS);
-        let kappa = if cost(refined) < best_cost { refined } else { best };
-        at(kappa).filter(|m| m.rms(&grid, &image).is_finite())
+        let (kappa, rms) = grid_then_golden_min(cost, kappas, step, GOLDEN_STEPS)?;
+        if rms.is_finite() {
+            at(kappa)
+        } else {
+            None
+        }
     }
 
     /// The homography for a given `lambda`, fitted to the undistorted corners.
     fn with_lambda(grid: &[Point2<f64>], image: &[Point2<f64>], centre: Point2<f64>, lambda: f64) -> Option<Self> {
-        let ideal: Vec<Point2<f64>> = image.iter().map(|p| undistort(p, centre, lambda)).collect();
-        Some(Self { h: homography(grid, &ideal)?, centre, lambda })
+        let lens = Division { centre, lambda };
+        let ideal: Vec<Point2<f64>> = image.iter().map(|p| lens.undistort(p)).collect();
+        Some(Self { h: homography(grid, &ideal)?, lens })
     }
 
     /// Reprojection RMS in the image, pixels.
@@ -82,7 +84,7 @@ impl GridLens {
         if !(v.z.abs() > 1e-12) {
             return None;
         }
-        distort(&Point2::new(v.x / v.z, v.y / v.z), self.centre, self.lambda)
+        self.lens.distort(&Point2::new(v.x / v.z, v.y / v.z))
     }
 
     /// The predicted pixel of cell (i, j).
@@ -91,45 +93,9 @@ impl GridLens {
     }
 }
 
-/// The division model's undistorted point of `p`.
-fn undistort(p: &Point2<f64>, centre: Point2<f64>, lambda: f64) -> Point2<f64> {
-    let d = p - centre;
-    centre + d / (1.0 + lambda * d.norm_squared())
-}
-
-/// The image point whose undistorted point is `u` (the inverse of [`undistort`]): the smaller
-/// root r of `lambda r_u r^2 - r + r_u = 0`; `None` where there is none (pincushion beyond its
-/// reach) or the point would have to lie beyond the model's horizon (`1 + lambda r^2 <= 0`).
-fn distort(u: &Point2<f64>, centre: Point2<f64>, lambda: f64) -> Option<Point2<f64>> {
-    let d = u - centre;
-    let ru = d.norm();
-    if ru < 1e-12 || lambda.abs() < 1e-18 {
-        return Some(*u);
-    }
-    let disc = 1.0 - 4.0 * lambda * ru * ru;
-    if !(disc >= 0.0) {
-        return None;
-    }
-    // r = (1 - sqrt(disc)) / (2 lambda ru), written without the cancellation at small lambda
-    let r = 2.0 * ru / (1.0 + disc.sqrt());
-    (1.0 + lambda * r * r > 0.0).then(|| centre + d * (r / ru))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn distort_inverts_undistort() {
-        let c = Point2::new(640.0, 512.0);
-        for lambda in [-1.5e-6, -4e-7, 0.0, 3e-7] {
-            for p in [Point2::new(10.0, 20.0), Point2::new(900.0, 700.0), Point2::new(640.5, 512.0)] {
-                let u = undistort(&p, c, lambda);
-                let back = distort(&u, c, lambda).expect("inside the model's reach");
-                assert!((back - p).norm() < 1e-9, "lambda {lambda}, {p}: {back}");
-            }
-        }
-    }
 
     /// A grid seen through a known homography and an equidistant fisheye (r = f theta, which the
     /// division model only approximates): the outer ring, left out of the fit, is predicted

@@ -25,12 +25,13 @@
 //! 2nd ed., 7.1 (the normalised DLT).
 
 use nalgebra::{Point2, Point3};
-use synthcam_core::math::golden::golden_section_min;
+use synthcam_core::math::golden::grid_then_golden_min;
 
 use super::assign::{shifted_rivals, Assignment};
 use super::dlt::Dlt;
 use super::grow::trimmed_count;
 use super::{correspondences, Labels};
+pub(super) use crate::division::Division;
 use crate::dots::Dot;
 use synthcam_core::target::SPath;
 
@@ -42,20 +43,7 @@ const KAPPA_STEPS: i32 = 6;
 /// Golden-section steps refining the best grid cell (each shrinks it by 0.618).
 const GOLDEN_STEPS: usize = 16;
 
-/// The division model about `centre`: undistorted = centre + d / (1 + lambda |d|^2).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Division {
-    pub(super) centre: Point2<f64>,
-    pub(super) lambda: f64,
-}
-
 impl Division {
-    /// The undistorted pixel of `p`.
-    pub(super) fn undistort(&self, p: &Point2<f64>) -> Point2<f64> {
-        let d = p - self.centre;
-        self.centre + d / (1.0 + self.lambda * d.norm_squared())
-    }
-
     /// The DLT fitted to the undistorted points; `None` where they are degenerate.
     fn camera(&self, world: &[Point3<f64>], image: &[Point2<f64>]) -> Option<Dlt> {
         let ideal: Vec<Point2<f64>> = image.iter().map(|p| self.undistort(p)).collect();
@@ -83,7 +71,7 @@ impl Division {
 
 /// The division model about `centre` whose DLT fits the correspondences best, and its RMS (image
 /// pixels): a grid over lambda r_max^2 ([`KAPPA_REACH`], r_max the farthest point's distance from
-/// the centre), then golden-section search in the best cell ([`golden_section_min`]).
+/// the centre), then golden-section search in the best cell ([`grid_then_golden_min`]).
 pub(super) fn fit(world: &[Point3<f64>], image: &[Point2<f64>], centre: Point2<f64>) -> Option<(f64, Division)> {
     let r2_max = image.iter().map(|p| (p - centre).norm_squared()).fold(0.0, f64::max);
     if !(r2_max > 0.0 && r2_max.is_finite()) {
@@ -92,10 +80,8 @@ pub(super) fn fit(world: &[Point3<f64>], image: &[Point2<f64>], centre: Point2<f
     let at = |kappa: f64| Division { centre, lambda: kappa / r2_max };
     let cost = |kappa: f64| at(kappa).rms(world, image).unwrap_or(f64::INFINITY);
     let step = KAPPA_REACH / KAPPA_STEPS as f64;
-    let (best, _) = (-KAPPA_STEPS..=KAPPA_STEPS).map(|k| k as f64 * step).map(|k| (k, cost(k))).min_by(|a, b| a.1.total_cmp(&b.1))?;
-    let kappa = golden_section_min(cost, best - step, best + step, GOLDEN_STEPS);
-    let (rms, division) = [(cost(kappa), at(kappa)), (cost(best), at(best))].into_iter().min_by(|a, b| a.0.total_cmp(&b.0))?;
-    rms.is_finite().then_some((rms, division))
+    let (kappa, rms) = grid_then_golden_min(cost, (-KAPPA_STEPS..=KAPPA_STEPS).map(|k| k as f64 * step), step, GOLDEN_STEPS)?;
+    rms.is_finite().then_some((rms, at(kappa)))
 }
 
 /// [`fit`] to labelled dots.
